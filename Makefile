@@ -1,0 +1,36 @@
+# casewatch developer entry points. Every target creates the local .venv on first use.
+PYTHON ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed-test
+EXTRAS ?= test
+
+.PHONY: test demo bench data lint clean venv
+
+$(STAMP): pyproject.toml
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e ".[$(EXTRAS)]"
+	touch $(STAMP)
+
+venv: $(STAMP)
+
+test: $(STAMP)
+	$(BIN)/python -m pytest
+	$(BIN)/ruff check .
+
+lint: $(STAMP)
+	$(BIN)/ruff check .
+
+demo: $(STAMP)
+	$(BIN)/python -m casewatch.demo
+
+bench: $(STAMP)
+	$(BIN)/python -m casewatch.bench
+
+data: $(STAMP)
+	$(BIN)/python -m pip install --quiet -e ".[test,sim]"
+	$(BIN)/python -m examples.sim.build_data
+
+clean:
+	rm -rf $(VENV) out bench/results.json .pytest_cache .ruff_cache

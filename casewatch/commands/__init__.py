@@ -1,0 +1,1 @@
+"""One module per `casewatch` subcommand. Each exposes `register(subparsers)` and `main(args)`."""

@@ -1,0 +1,1 @@
+"""Judging: rtamt online monitors, episodes, hazard events, data gaps, node status and scores."""

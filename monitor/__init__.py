@@ -1,0 +1,1 @@
+"""The observation side: channel frames, stream readers and the built-in SPI metrics."""

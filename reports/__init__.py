@@ -1,0 +1,1 @@
+"""Rendering results (from result.json alone) as HTML, Markdown and JUnit XML."""

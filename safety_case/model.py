@@ -1,0 +1,140 @@
+"""The typed safety case: the value `safety_case.load_case` returns and every later stage reads.
+
+These models are the contract between packages. They hold what the YAML says, already
+validated and normalised (durations in seconds, thresholds split into operator and value), plus
+the source positions (`Mark`) that later stages need to point errors back into the YAML.
+"""
+
+from __future__ import annotations
+
+from enum import Enum
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+
+class Mark(BaseModel):
+    """A 1-based line and column in the YAML source."""
+
+    model_config = ConfigDict(frozen=True)
+    line: int = 0
+    col: int = 0
+
+
+class NodeType(str, Enum):
+    """GSN node types, keyed by the id prefix gsn2x uses."""
+
+    GOAL = "G"
+    STRATEGY = "S"
+    SOLUTION = "Sn"
+    CONTEXT = "C"
+    ASSUMPTION = "A"
+    JUSTIFICATION = "J"
+    COUNTER_GOAL = "CG"
+    COUNTER_SOLUTION = "CSn"
+
+
+class MetricParams(BaseModel):
+    """Parameters of the built-in metrics; defaults are those of `docs/spi-reference.md`."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    pairing_gate: float = Field(3.0, gt=0, description="max centre distance to pair objects [m]")
+    trajectory_decay: float = Field(0.95, gt=0, le=1, description="k in w_n = k^(n-1)")
+    comfort_steepness: float = Field(0.2, gt=0, description="w in NV(s)")
+    els_window: int = Field(5, ge=2, description="ticks in the ELS moving variance")
+    plan_history: int = Field(10, ge=1, description="stored plans for chpps")
+    prediction_tolerance: float = Field(1.0, gt=0, description="ompv hit radius [m]")
+    comfort_window: int = Field(10, ge=4, description="ego positions for hcs")
+    pet_ref: float = Field(2.0, gt=0, description="post-encroachment time reference [s]")
+    max_gap: float = Field(0.5, gt=0, description="gap [s] after which history restarts")
+
+
+class Threshold(BaseModel):
+    """`">= 0.6"` parsed: the SPI holds while `signal OP value`."""
+
+    model_config = ConfigDict(frozen=True)
+    op: Literal[">=", "<=", ">", "<"]
+    value: float
+
+    def __str__(self) -> str:
+        return f"{self.op} {self.value:g}"
+
+
+class SpiBinding(BaseModel):
+    """`spi:` on a solution: either `signal` + `threshold` (+ optional `for`) or a raw `stl`."""
+
+    model_config = ConfigDict(frozen=True)
+    signal: str | None = None
+    threshold: Threshold | None = None
+    for_seconds: float | None = None  # the YAML key is `for`
+    stl: str | None = None
+    merge_gap: float | None = None  # seconds; None = the case default
+    min_duration: float | None = None  # seconds; None = the case default
+    mark: Mark = Mark()  # position of the `spi:` key
+    formula_mark: Mark = Mark()  # position of the `stl` / `signal` value (formula text start)
+
+
+class HazardBinding(BaseModel):
+    """`hazard:` on a counter-solution: while `when` holds, the challenged claims are in doubt."""
+
+    model_config = ConfigDict(frozen=True)
+    when: str
+    merge_gap: float | None = None
+    min_duration: float | None = None
+    mark: Mark = Mark()
+    formula_mark: Mark = Mark()  # position of the `when` value
+
+
+class Node(BaseModel):
+    """One GSN node."""
+
+    model_config = ConfigDict(frozen=True)
+    id: str
+    type: NodeType
+    text: str
+    supported_by: list[str] = []
+    in_context_of: list[str] = []
+    challenges: list[str] = []
+    undeveloped: bool = False
+    url: str | None = None
+    spi: SpiBinding | None = None
+    hazard: HazardBinding | None = None
+    mark: Mark = Mark()  # position of the node id key
+
+
+class Module(BaseModel):
+    model_config = ConfigDict(frozen=True)
+    name: str
+    brief: str = ""
+
+
+class MonitorConfig(BaseModel):
+    """The `monitor:` block: what is observed and how often."""
+
+    model_config = ConfigDict(frozen=True)
+    channels: list[str]
+    period: float = 0.1  # seconds
+    signals: dict[str, str] = {}  # declared stream signals: name -> description
+    metrics: MetricParams = MetricParams()
+    merge_gap: float = 1.0  # seconds; episodes closer than this merge
+    min_duration: float = 0.0  # seconds; shorter episodes are dropped (and counted)
+    mark: Mark = Mark()
+
+
+class Case(BaseModel):
+    """A loaded safety case. `nodes` keeps the YAML order."""
+
+    model_config = ConfigDict(frozen=True)
+    path: str
+    digest: str  # sha256 of the file bytes
+    module: Module
+    monitor: MonitorConfig
+    nodes: dict[str, Node]
+
+    def root_id(self) -> str:
+        """The single root goal (checks guarantee there is exactly one in a loaded case)."""
+        supported = {c for n in self.nodes.values() for c in n.supported_by}
+        roots = [
+            n.id for n in self.nodes.values() if n.type is NodeType.GOAL and n.id not in supported
+        ]
+        return roots[0]

@@ -1,0 +1,116 @@
+"""The catalogue of signal names a safety case may use in its formulas.
+
+The built-in metrics are defined normatively in `docs/spi-reference.md`. This module only knows
+their names and shapes (cross-channel pair, per channel, ordered pair for the safety score), so
+that `spec/` can resolve names and `monitor/` can emit exactly the same set.
+
+Naming convention:
+- unsuffixed `els`: the worst value over pairs (or channels);
+- per unordered pair `els__lav__tfuse`, channels in the order declared in `monitor.channels`;
+- per channel `ppcs__lav`;
+- safety score per ordered pair `ss__lav__tfuse` (plan of lav against the world model of tfuse,
+  including `ss__lav__lav`) and per channel `ss__lav` (the worst world model for lav's plan).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from itertools import combinations, product
+from typing import Literal
+
+SignalShape = Literal["pair", "channel", "ordered_pair", "global", "declared"]
+
+#: Cross-channel similarity metrics, one value per unordered channel pair.
+PAIR_METRICS: dict[str, str] = {
+    "els": "Ego Location Similarity",
+    "els_var": "moving variance of ELS",
+    "eos": "Ego Orientation Similarity",
+    "ocs": "Object Count Similarity",
+    "ols": "Object Location Similarity",
+    "oos": "Object Orientation Similarity",
+    "oas": "Object Area Similarity",
+    "ots": "Object Trajectory Similarity",
+    "ets": "Ego Trajectory Similarity",
+    "crpps": "Cross-Channel Planned Path Similarity",
+}
+
+#: Per-channel metrics, one value per channel.
+CHANNEL_METRICS: dict[str, str] = {
+    "chpps": "Channel Planned Path Similarity",
+    "ompv": "Object Motion Prediction Validation",
+    "hcs": "History Comfort Score",
+    "ppcs": "Planned Path Comfort Score",
+}
+
+#: Signals with only an unsuffixed form.
+GLOBAL_METRICS: dict[str, str] = {
+    "crpps_mean": "Cross-Channel Planned Path Similarity from the mean Frechet distance",
+}
+
+SAFETY_SCORE = "ss"
+SAFETY_SCORE_NAME = "Safety score (time to collision and post-encroachment time)"
+
+#: For these the unsuffixed signal is the maximum over pairs; for every other metric the minimum.
+WORST_IS_MAX: frozenset[str] = frozenset({"els_var"})
+
+SEP = "__"
+
+
+@dataclass(frozen=True)
+class SignalInfo:
+    """What a resolvable signal name means."""
+
+    name: str
+    metric: str  # the catalogue entry it derives from, or the declared name itself
+    shape: SignalShape
+    channels: tuple[str, ...]  # the channels it depends on (empty for declared signals)
+    description: str
+
+
+def pair_name(metric: str, a: str, b: str) -> str:
+    return f"{metric}{SEP}{a}{SEP}{b}"
+
+
+def channel_name(metric: str, channel: str) -> str:
+    return f"{metric}{SEP}{channel}"
+
+
+def builtin_signals(channels: list[str] | tuple[str, ...]) -> dict[str, SignalInfo]:
+    """Every built-in signal name for this channel set, in a stable order."""
+    chans = tuple(channels)
+    out: dict[str, SignalInfo] = {}
+    for metric, desc in PAIR_METRICS.items():
+        out[metric] = SignalInfo(metric, metric, "pair", chans, f"{desc}, worst pair")
+        for a, b in combinations(chans, 2):
+            name = pair_name(metric, a, b)
+            out[name] = SignalInfo(name, metric, "pair", (a, b), f"{desc}, {a} vs {b}")
+    for metric, desc in GLOBAL_METRICS.items():
+        out[metric] = SignalInfo(metric, metric, "global", chans, desc)
+    for metric, desc in CHANNEL_METRICS.items():
+        out[metric] = SignalInfo(metric, metric, "channel", chans, f"{desc}, worst channel")
+        for c in chans:
+            name = channel_name(metric, c)
+            out[name] = SignalInfo(name, metric, "channel", (c,), f"{desc}, channel {c}")
+    ss = SAFETY_SCORE
+    out[ss] = SignalInfo(ss, ss, "ordered_pair", chans, f"{SAFETY_SCORE_NAME}, worst pair")
+    for c in chans:
+        name = channel_name(ss, c)
+        out[name] = SignalInfo(
+            name, ss, "channel", chans, f"{SAFETY_SCORE_NAME}, plan of {c}, worst world model"
+        )
+    for a, b in product(chans, chans):
+        name = pair_name(ss, a, b)
+        out[name] = SignalInfo(
+            name, ss, "ordered_pair", (a, b), f"{SAFETY_SCORE_NAME}, plan of {a} vs objects of {b}"
+        )
+    return out
+
+
+def available_signals(
+    channels: list[str] | tuple[str, ...], declared: dict[str, str] | None = None
+) -> dict[str, SignalInfo]:
+    """Built-in signals plus the scalar signals the case declares under `monitor.signals`."""
+    out = builtin_signals(channels)
+    for name, desc in (declared or {}).items():
+        out[name] = SignalInfo(name, name, "declared", (), desc or "declared stream signal")
+    return out

@@ -1,0 +1,1 @@
+"""Compiling SPI and hazard bindings into STL formulas that rtamt evaluates correctly."""

@@ -1,0 +1,55 @@
+"""The compiled specification: the value `spec.compile_case` returns and the evaluator runs.
+
+Contract between `spec/` and `evaluator/`. Every formula is already canonical rtamt text that
+rtamt 0.4.10 evaluates correctly (see `docs/formulas.md` for the fences), and keeps the id of the
+GSN node it came from so every verdict can be traced.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict
+
+FormulaKind = Literal["spi", "hazard"]
+
+
+class TraceStep(BaseModel):
+    model_config = ConfigDict(frozen=True)
+    id: str
+    text: str
+
+
+class CompiledFormula(BaseModel):
+    """One monitored formula."""
+
+    model_config = ConfigDict(frozen=True)
+    id: str  # formula id, e.g. "Sn1" (one formula per node today)
+    node_id: str
+    node_text: str
+    kind: FormulaKind  # spi: robustness < 0 is a violation; hazard: robustness < 0 = hazard present
+    source: str  # what the user wrote (`s >= 0.6`, the raw stl, or the hazard's `when`)
+    rtamt: str  # canonical, fully parenthesised rtamt text of the monitored formula
+    signals: list[str]  # input signal names, sorted
+    signal: str | None = None  # the SPI's signal, when bound by signal + threshold
+    threshold: str | None = None  # e.g. ">= 0.6", when bound by signal + threshold
+    merge_gap: float  # seconds, resolved against the case default
+    min_duration: float  # seconds, resolved against the case default
+    horizon: float = 0.0  # seconds of past the formula looks at (for warm-up accounting)
+
+
+class CompiledSpec(BaseModel):
+    """Everything the evaluator needs, plus traces for the report."""
+
+    model_config = ConfigDict(frozen=True)
+    case_path: str
+    case_digest: str
+    module: str
+    root_id: str
+    channels: list[str]
+    period: float
+    formulas: list[CompiledFormula]
+    # node id -> every path from that node up to the root, each a list of steps (node first).
+    traces: dict[str, list[list[TraceStep]]]
+    # signal name -> ids of formulas that use it
+    signals: dict[str, list[str]]
