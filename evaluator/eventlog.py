@@ -1,0 +1,36 @@
+"""`events.jsonl`: every episode, hazard event and data gap, written the moment it closes.
+
+Each event is one complete line written with a single `write` and flushed at once, so a run
+killed at any moment (even `kill -9`) leaves every event that closed before it, and no
+truncated line: the operating system keeps what was flushed when the process dies.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from evaluator.result import DataGap, Episode
+
+
+def event_record(event: Episode | DataGap) -> dict[str, object]:
+    if isinstance(event, Episode):
+        kind = "hazard_event" if event.kind == "hazard" else "spi_episode"
+    else:
+        kind = "data_gap"
+    return {"event": kind, **event.model_dump()}
+
+
+class EventLog:
+    def __init__(self, path: Path):
+        path.parent.mkdir(parents=True, exist_ok=True)
+        # A run starts a fresh log; each event is then appended as one flushed line.
+        self._fh = open(path, "w", encoding="utf-8")  # noqa: SIM115
+
+    def write(self, event: Episode | DataGap) -> None:
+        line = json.dumps(event_record(event), separators=(",", ":"), allow_nan=False) + "\n"
+        self._fh.write(line)
+        self._fh.flush()
+
+    def close(self) -> None:
+        self._fh.close()

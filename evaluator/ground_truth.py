@@ -1,0 +1,131 @@
+"""Scoring hazard events against labelled ground truth, the way the study counted.
+
+A detected event that overlaps a label of the same hazard is a true positive; each label (and
+each event) is matched at most once, using a maximum bipartite matching so the count does not
+depend on the order events happen to be listed in. Remaining events are false positives,
+remaining labels false negatives.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import networkx as nx
+
+from evaluator.result import Episode, GroundTruth, HazardScore
+
+
+@dataclass(frozen=True)
+class Label:
+    hazard: str  # as written in the file
+    start: float
+    end: float
+    line: int
+
+
+class LabelsError(ValueError):
+    """A labels file that cannot be used; the message names the file, line and field."""
+
+
+def read_labels(path: str | Path) -> tuple[list[Label], str]:
+    """Read a labels file (JSON Lines of `{"hazard", "start", "end"}`); returns labels, sha256."""
+    path = Path(path)
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise LabelsError(f"{path}: cannot read labels file: {exc.strerror}") from None
+    labels: list[Label] = []
+    for number, raw in enumerate(data.decode("utf-8", errors="replace").splitlines(), start=1):
+        if not raw.strip():
+            continue
+        where = f"{path}:{number}"
+        try:
+            item = json.loads(raw)
+        except json.JSONDecodeError as exc:
+            raise LabelsError(
+                f"{where}: not valid JSON ({exc.msg} at column {exc.colno})"
+            ) from None
+        if not isinstance(item, dict):
+            raise LabelsError(f"{where}: expected an object like "
+                              '{"hazard": "CSn1", "start": 12.0, "end": 14.5}')
+        hazard = item.get("hazard")
+        if not isinstance(hazard, str) or not hazard:
+            raise LabelsError(f"{where}: 'hazard' must be a node id or hazard name (a string)")
+        bounds = []
+        for key in ("start", "end"):
+            value = item.get(key)
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise LabelsError(f"{where}: '{key}' must be a number of seconds, got {value!r}")
+            bounds.append(float(value))
+        if bounds[1] < bounds[0]:
+            raise LabelsError(f"{where}: 'end' ({bounds[1]}) is before 'start' ({bounds[0]})")
+        labels.append(Label(hazard, bounds[0], bounds[1], number))
+    return labels, hashlib.sha256(data).hexdigest()
+
+
+def resolve_hazard(name: str, hazard_texts: dict[str, str]) -> str | None:
+    """Map a label's hazard (node id, or node text, case-insensitive) to a hazard node id."""
+    if name in hazard_texts:
+        return name
+    wanted = name.strip().casefold()
+    for node_id, text in hazard_texts.items():
+        if node_id.casefold() == wanted or text.strip().casefold() == wanted:
+            return node_id
+    return None
+
+
+def _score(tp: int, fp: int, fn: int, hazard: str) -> HazardScore:
+    return HazardScore(
+        hazard=hazard,
+        true_positives=tp,
+        false_positives=fp,
+        false_negatives=fn,
+        precision=tp / (tp + fp) if tp + fp else None,
+        recall=tp / (tp + fn) if tp + fn else None,
+    )
+
+
+def score_events(
+    events: list[Episode],
+    labels: list[Label],
+    hazard_texts: dict[str, str],
+    labels_path: str,
+    labels_digest: str,
+) -> GroundTruth:
+    """Per-hazard and overall true/false positives and negatives, precision and recall."""
+    by_hazard: dict[str, list[Label]] = {h: [] for h in hazard_texts}
+    unmatched_names: set[str] = set()
+    for label in labels:
+        node_id = resolve_hazard(label.hazard, hazard_texts)
+        if node_id is None:
+            unmatched_names.add(label.hazard)
+        else:
+            by_hazard[node_id].append(label)
+    per_hazard: list[HazardScore] = []
+    totals = [0, 0, 0]
+    for hazard in hazard_texts:
+        detected = [e for e in events if e.node_id == hazard and e.kind == "hazard"]
+        truth = by_hazard[hazard]
+        graph = nx.Graph()
+        events_side = [("event", i) for i in range(len(detected))]
+        graph.add_nodes_from(events_side)
+        graph.add_nodes_from(("label", j) for j in range(len(truth)))
+        for i, event in enumerate(detected):
+            for j, label in enumerate(truth):
+                if event.start <= label.end and label.start <= event.end:
+                    graph.add_edge(("event", i), ("label", j))
+        matching = nx.bipartite.hopcroft_karp_matching(graph, top_nodes=events_side)
+        tp = sum(1 for node in matching if node[0] == "event")
+        fp, fn = len(detected) - tp, len(truth) - tp
+        per_hazard.append(_score(tp, fp, fn, hazard))
+        totals = [totals[0] + tp, totals[1] + fp, totals[2] + fn]
+    return GroundTruth(
+        labels_path=labels_path,
+        labels_digest=labels_digest,
+        per_hazard=per_hazard,
+        overall=_score(*totals, hazard="all"),
+        unmatched_label_names=sorted(unmatched_names),
+    )

@@ -1,0 +1,57 @@
+"""Opening a stream so that its bytes are hashed as they are read.
+
+The result records the sha256 of exactly the bytes judged (the compressed bytes of a `.gz`
+file, or what arrived on standard input), computed in the same single pass as the reading, so a
+live stream is never buffered to be hashed.
+"""
+
+from __future__ import annotations
+
+import gzip
+import hashlib
+import io
+import sys
+from pathlib import Path
+from typing import IO
+
+
+class HashingReader(io.RawIOBase):
+    """A raw binary stream that feeds every byte it returns into a sha256."""
+
+    def __init__(self, raw: IO[bytes]):
+        self._raw = raw
+        self.sha256 = hashlib.sha256()
+
+    def readable(self) -> bool:
+        return True
+
+    def readinto(self, buffer) -> int:  # type: ignore[override]
+        read1 = getattr(self._raw, "read1", None)
+        data = read1(len(buffer)) if read1 else self._raw.read(len(buffer))
+        n = len(data)
+        buffer[:n] = data
+        self.sha256.update(data)
+        return n
+
+    def close(self) -> None:
+        if self._raw is not sys.stdin.buffer:
+            self._raw.close()
+        super().close()
+
+
+def open_hashed(source: str | Path) -> tuple[IO[bytes], HashingReader, str]:
+    """Open a path (gzip detected by its magic bytes) or `-` (stdin) for reading frames.
+
+    Returns the binary stream to parse, the hashing layer (read `.sha256` at the end) and the
+    name to show in messages. Raises OSError when the file cannot be opened.
+    """
+    if str(source) == "-":
+        hashing = HashingReader(sys.stdin.buffer)
+        return io.BufferedReader(hashing, buffer_size=1 << 16), hashing, "<stdin>"
+    path = Path(source)
+    raw = open(path, "rb")  # noqa: SIM115 - closed through the returned stream
+    hashing = HashingReader(raw)
+    buffered = io.BufferedReader(hashing, buffer_size=1 << 16)
+    if buffered.peek(2)[:2] == b"\x1f\x8b":
+        return gzip.GzipFile(fileobj=buffered, mode="rb"), hashing, str(path)  # type: ignore[return-value]
+    return buffered, hashing, str(path)

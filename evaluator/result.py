@@ -1,0 +1,209 @@
+"""`result.json`: the canonical, versioned record of one run.
+
+Reports are rendered from this value alone, so it carries everything a report shows: the case
+structure (for the diagram), per-formula statistics, every episode with its trace, data gaps,
+node status timelines, decimated signal series for plots, ground-truth scores and timings.
+The schema is documented in `docs/results.md`; bump `RESULT_VERSION` on any incompatible change.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict
+
+RESULT_FORMAT = "casewatch-result"
+RESULT_VERSION = 1
+
+Status = Literal[
+    "satisfied", "violated", "undermined", "in-doubt", "no-data", "undeveloped", "external"
+]
+
+#: Worst first. `external` (evidence or context outside the monitor) never outranks a verdict.
+STATUS_SEVERITY: dict[str, int] = {
+    "violated": 6,
+    "undermined": 5,
+    "in-doubt": 4,
+    "no-data": 3,
+    "undeveloped": 2,
+    "satisfied": 1,
+    "external": 0,
+}
+
+
+class _Record(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class TraceStep(_Record):
+    id: str
+    text: str
+
+
+class CaseNode(_Record):
+    """A node of the safety case as the report needs it (structure, texts, bindings)."""
+
+    id: str
+    type: str  # G, S, Sn, C, A, J, CG, CSn
+    text: str
+    supported_by: list[str] = []
+    in_context_of: list[str] = []
+    challenges: list[str] = []
+    undeveloped: bool = False
+    url: str | None = None
+    formula_id: str | None = None  # the monitored formula bound to this node, if any
+
+
+class CaseInfo(_Record):
+    path: str
+    digest: str  # sha256 of the YAML bytes
+    module: str
+    brief: str = ""
+    root_id: str
+    channels: list[str]
+    period: float
+    nodes: list[CaseNode]
+
+
+class StreamDefect(_Record):
+    line: int
+    kind: str
+    message: str
+
+
+class StreamInfo(_Record):
+    path: str  # "-" for standard input
+    digest: str | None  # sha256 of the bytes read (None when the input could not be hashed)
+    meta: dict[str, object] = {}  # the header's meta, verbatim
+    frames_read: int = 0
+    t_start: float | None = None
+    t_end: float | None = None
+    duration: float = 0.0  # seconds covered by frames
+    defects: list[StreamDefect] = []
+    defect_count: int = 0  # defects may be truncated in `defects`; this is the full count
+    dropouts: dict[str, int] = {}  # channel -> frames in which it was absent
+
+
+class Episode(_Record):
+    """Consecutive violating ticks of one formula, merged across gaps shorter than merge_gap."""
+
+    formula_id: str
+    node_id: str
+    kind: Literal["spi", "hazard"]
+    start: float  # time of the first violating tick
+    end: float  # time of the last violating tick
+    ticks: int  # violating ticks inside [start, end]
+    worst_robustness: float
+    t_worst: float
+    trace: list[list[TraceStep]]  # every path from node_id up to the root goal
+
+
+class DataGap(_Record):
+    """Ticks where a formula could not be evaluated because an input had no value."""
+
+    formula_id: str
+    node_id: str
+    start: float
+    end: float
+    ticks: int
+    missing: list[str]  # the input signals that had no value (union over the gap)
+
+
+class FormulaStats(_Record):
+    id: str
+    node_id: str
+    node_text: str
+    kind: Literal["spi", "hazard"]
+    source: str
+    rtamt: str
+    signal: str | None = None
+    threshold: str | None = None
+    signals: list[str] = []
+    ticks_evaluated: int = 0
+    ticks_violated: int = 0
+    ticks_no_data: int = 0
+    episodes: int = 0
+    episodes_dropped: int = 0  # shorter than min_duration
+    worst_robustness: float | None = None
+    t_worst: float | None = None
+    merge_gap: float = 1.0
+    min_duration: float = 0.0
+
+
+class StatusInterval(_Record):
+    status: Status
+    start: float  # first tick time with this status
+    end: float  # last tick time with this status
+    ticks: int
+
+
+class NodeStatus(_Record):
+    node_id: str
+    worst: Status
+    timeline: list[StatusInterval]
+    ticks: dict[str, int] = {}  # status -> ticks
+
+
+class Series(_Record):
+    """A decimated series for plotting: per bucket the min and max of the value."""
+
+    formula_id: str
+    quantity: Literal["signal", "robustness"]
+    name: str  # signal name, or "robustness"
+    bucket: float  # seconds per bucket
+    t: list[float]  # bucket start times
+    lo: list[float | None]  # None: no value in the bucket
+    hi: list[float | None]
+    reference: float | None = None  # the threshold line (or 0.0 for robustness)
+
+
+class HazardScore(_Record):
+    hazard: str  # node id
+    true_positives: int
+    false_positives: int
+    false_negatives: int
+    precision: float | None  # None when undefined (no events)
+    recall: float | None  # None when undefined (no labels)
+
+
+class GroundTruth(_Record):
+    labels_path: str
+    labels_digest: str
+    per_hazard: list[HazardScore]
+    overall: HazardScore
+    unmatched_label_names: list[str] = []  # labels naming no hazard of the case
+
+
+class ArbitrationInterval(_Record):
+    channel: str | None
+    start: float
+    end: float
+    ticks: int
+
+
+class Timings(_Record):
+    total_s: float = 0.0
+    read_s: float = 0.0
+    metrics_s: float = 0.0
+    stl_s: float = 0.0
+    episodes_status_s: float = 0.0
+    frames_per_s: float = 0.0
+
+
+class RunResult(_Record):
+    format: str = RESULT_FORMAT
+    version: int = RESULT_VERSION
+    casewatch_version: str
+    created: str  # ISO 8601 UTC
+    case: CaseInfo
+    stream: StreamInfo
+    verdict: Status  # the root goal's worst status over the run
+    formulas: list[FormulaStats]
+    episodes: list[Episode]  # every SPI episode and hazard event, by start time
+    data_gaps: list[DataGap]
+    status: list[NodeStatus]
+    series: list[Series]
+    arbitration: list[ArbitrationInterval] = []
+    ground_truth: GroundTruth | None = None
+    timings: Timings = Timings()
+    complete: bool = True  # False when the run stopped early (interrupted, strict-mode defect)

@@ -1,0 +1,232 @@
+"""One run: read frames, compute metrics, judge them, and assemble the `RunResult`.
+
+This is the composition the CLI and the Python API call. It streams: frames are read, scored
+and dropped one at a time, so memory does not grow with run length beyond the result records
+(episodes, gaps, status intervals and the bounded plot series).
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import io
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from casewatch import __version__
+from evaluator.core import Evaluator
+from evaluator.eventlog import EventLog
+from evaluator.ground_truth import read_labels, score_events
+from evaluator.inputs import open_hashed
+from evaluator.intervals import RunLength
+from evaluator.result import (
+    ArbitrationInterval,
+    CaseInfo,
+    CaseNode,
+    DataGap,
+    Episode,
+    RunResult,
+    StreamDefect,
+    StreamInfo,
+    Timings,
+)
+from monitor.engine import MetricEngine
+from monitor.reader import StreamError, read_stream
+from safety_case.model import Case, NodeType
+from spec.model import CompiledSpec
+
+#: How many defects result.json lists in full (the count is always exact).
+MAX_LISTED_DEFECTS = 1000
+
+
+class InputError(Exception):
+    """Input the run cannot use (unreadable stream, period mismatch, strict-mode defect)."""
+
+
+@dataclass
+class RunOptions:
+    strict: bool = False
+    labels: Path | None = None
+    events_path: Path | None = None  # events.jsonl, appended and flushed as events close
+    on_event: Callable[[Episode | DataGap], None] | None = None
+    progress: Callable[[int, float], None] | None = None  # (frames, stream time) every ~1 s
+    series_points: int = 1000
+
+
+@dataclass
+class _Clock:
+    read: float = 0.0
+    metrics: float = 0.0
+    judge: float = 0.0
+    started: float = field(default_factory=time.perf_counter)
+
+
+def case_info(case: Case, spec: CompiledSpec) -> CaseInfo:
+    formula_of = {f.node_id: f.id for f in spec.formulas}
+    return CaseInfo(
+        path=case.path,
+        digest=case.digest,
+        module=case.module.name,
+        brief=case.module.brief,
+        root_id=spec.root_id,
+        channels=list(case.monitor.channels),
+        period=case.monitor.period,
+        nodes=[
+            CaseNode(
+                id=n.id,
+                type=n.type.value,
+                text=n.text,
+                supported_by=list(n.supported_by),
+                in_context_of=list(n.in_context_of),
+                challenges=list(n.challenges),
+                undeveloped=n.undeveloped,
+                url=n.url,
+                formula_id=formula_of.get(n.id),
+            )
+            for n in case.nodes.values()
+        ],
+    )
+
+
+def evaluate_stream(
+    case: Case, spec: CompiledSpec, source: str | Path, options: RunOptions | None = None
+) -> RunResult:
+    """Judge one stream (a path, or `-` for standard input) against a compiled case.
+
+    Raises `InputError` for input that cannot be judged; labels are read before the stream so
+    a bad labels file fails fast.
+    """
+    options = options or RunOptions()
+    labels = None
+    if options.labels is not None:
+        labels = read_labels(options.labels)
+    try:
+        binary, hashing, name = open_hashed(source)
+    except OSError as exc:
+        raise InputError(f"{source}: cannot read stream: {exc.strerror or exc}") from None
+    log = EventLog(options.events_path) if options.events_path else None
+
+    def emit(event: Episode | DataGap) -> None:
+        if log is not None:
+            log.write(event)
+        if options.on_event is not None:
+            options.on_event(event)
+
+    evaluator = Evaluator(case, spec, on_event=emit, series_points=options.series_points)
+    engine = MetricEngine(case.monitor.metrics, list(case.monitor.channels))
+    text = io.TextIOWrapper(binary, encoding="utf-8", errors="strict")
+    reader = read_stream(text, strict=options.strict, channels=list(case.monitor.channels))
+    reader.name = name
+    arbitration = RunLength()
+    clock = _Clock()
+    complete = True
+    t_first: float | None = None
+    t_last: float | None = None
+    next_progress = time.perf_counter() + 1.0
+    period_checked = False
+    try:
+        frames = iter(reader)
+        while True:
+            t0 = time.perf_counter()
+            try:
+                frame = next(frames)
+            except StopIteration:
+                break
+            t1 = time.perf_counter()
+            if not period_checked:
+                period_checked = True
+                _check_period(reader, case, name)
+            values = engine.step(frame)
+            t2 = time.perf_counter()
+            evaluator.step(frame.t, values)
+            t3 = time.perf_counter()
+            arbitration.add(frame.t, engine.arbitration)
+            clock.read += t1 - t0
+            clock.metrics += t2 - t1
+            clock.judge += t3 - t2
+            if t_first is None:
+                t_first = frame.t
+            t_last = frame.t
+            if options.progress is not None and t3 >= next_progress:
+                options.progress(reader.frames_read, frame.t)
+                next_progress = t3 + 1.0
+    except StreamError as exc:
+        complete = False
+        evaluator.finish()
+        if log is not None:
+            log.close()
+        raise InputError(f"{exc} (--strict stops at the first defect)") from None
+    except UnicodeDecodeError as exc:
+        complete = False
+        raise InputError(f"{name}: stream is not UTF-8 text ({exc.reason})") from None
+    except KeyboardInterrupt:
+        complete = False
+    finally:
+        binary.close()
+        hashing.close()
+    if complete or t_last is not None:
+        evaluator.finish()
+    if log is not None:
+        log.close()
+    total = time.perf_counter() - clock.started
+    stream = StreamInfo(
+        path=str(source),
+        digest=hashing.sha256.hexdigest(),
+        meta=dict(reader.header.meta) if reader.header is not None else {},
+        frames_read=reader.frames_read,
+        t_start=t_first,
+        t_end=t_last,
+        duration=0.0 if t_first is None else round(t_last - t_first + case.monitor.period, 6),
+        defects=[
+            StreamDefect(line=d.line, kind=d.kind, message=d.message)
+            for d in reader.defects[:MAX_LISTED_DEFECTS]
+        ],
+        defect_count=len(reader.defects),
+        dropouts=dict(reader.dropouts),
+    )
+    statuses = evaluator.node_statuses()
+    root = next(s for s in statuses if s.node_id == spec.root_id)
+    ground_truth = None
+    if labels is not None:
+        hazards = {n.id: n.text for n in case.nodes.values()
+                   if n.type is NodeType.COUNTER_SOLUTION and n.hazard is not None}
+        ground_truth = score_events(evaluator.episodes, labels[0], hazards,
+                                    str(options.labels), labels[1])
+    return RunResult(
+        casewatch_version=__version__,
+        created=dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
+        case=case_info(case, spec),
+        stream=stream,
+        verdict=root.worst if root.timeline else "no-data",
+        formulas=evaluator.formula_stats(),
+        episodes=evaluator.episodes,
+        data_gaps=evaluator.data_gaps,
+        status=statuses,
+        series=evaluator.series(),
+        arbitration=[
+            ArbitrationInterval(channel=r.value, start=round(r.start, 6), end=round(r.end, 6),
+                                ticks=r.ticks)
+            for r in arbitration.runs
+        ],
+        ground_truth=ground_truth,
+        timings=Timings(
+            total_s=round(total, 6),
+            read_s=round(clock.read, 6),
+            metrics_s=round(clock.metrics, 6),
+            stl_s=round(evaluator.stl_seconds, 6),
+            episodes_status_s=round(clock.judge - evaluator.stl_seconds, 6),
+            frames_per_s=round(reader.frames_read / total, 1) if total > 0 else 0.0,
+        ),
+        complete=complete,
+    )
+
+
+def _check_period(reader, case: Case, name: str) -> None:
+    header = reader.header
+    if header is not None and abs(header.period - case.monitor.period) > 1e-9:
+        raise InputError(
+            f"{name}:1: the stream's period is {header.period:g} s but the case's "
+            f"monitor.period is {case.monitor.period:g} s; STL windows would be wrong "
+            "(resample the stream or set monitor.period to match)"
+        )

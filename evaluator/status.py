@@ -1,0 +1,115 @@
+"""Node status at each tick, propagated up the argument.
+
+Statuses (architecture.md, "Verdicts and status"), worst first:
+- `violated`: a monitored evidence node whose formula is violated at this tick; for a hazard
+  node (CSn, or a CG above one) it means the hazard condition holds;
+- `undermined`: a goal or strategy with violated or undermined support below it;
+- `in-doubt`: challenged by an active hazard, or supported by an in-doubt node;
+- `no-data`: its formula (or support below it) could not be evaluated at this tick;
+- `undeveloped`: marked undeveloped, or supported by an undeveloped node;
+- `satisfied`: everything below it holds;
+- `external` (casewatch's addition): evidence or context the monitor does not observe (an Sn
+  without `spi:`, C/A/J nodes). It is neutral in propagation: it neither supports nor undermines.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Literal
+
+import networkx as nx
+
+from evaluator.result import STATUS_SEVERITY
+from safety_case.model import Case, NodeType
+
+Verdict = Literal["ok", "violated", "no-data"]
+
+_COUNTER = (NodeType.COUNTER_GOAL, NodeType.COUNTER_SOLUTION)
+_ARGUMENT = (NodeType.GOAL, NodeType.STRATEGY)
+
+
+class StatusPropagator:
+    """Computes every node's status from the formulas' verdicts at one tick.
+
+    The same verdict combination always gives the same statuses, and runs repeat combinations
+    for long stretches, so results are memoised by the verdict tuple.
+    """
+
+    def __init__(self, case: Case, formula_of_node: Mapping[str, str]):
+        self.case = case
+        self.formula_of_node = dict(formula_of_node)
+        self.formula_ids = sorted(set(self.formula_of_node.values()))
+        self.order = self._evaluation_order(case)
+        self.challengers: dict[str, list[str]] = {}
+        for node in case.nodes.values():
+            for target in node.challenges:
+                self.challengers.setdefault(target, []).append(node.id)
+        self._memo: dict[tuple[Verdict, ...], dict[str, str]] = {}
+
+    @staticmethod
+    def _evaluation_order(case: Case) -> list[str]:
+        """Children before parents; a challenged node after the counter nodes challenging it."""
+        deps = nx.DiGraph()
+        deps.add_nodes_from(case.nodes)
+        for node in case.nodes.values():
+            for child in node.supported_by:
+                if child in case.nodes:
+                    deps.add_edge(child, node.id)
+            for target in node.challenges:
+                if target in case.nodes:
+                    deps.add_edge(node.id, target)
+        return list(nx.lexicographical_topological_sort(deps))
+
+    def statuses(self, verdicts: Mapping[str, Verdict]) -> dict[str, str]:
+        """Status of every node given each formula's verdict (`ok`, `violated`, `no-data`)."""
+        key = tuple(verdicts.get(f, "no-data") for f in self.formula_ids)
+        cached = self._memo.get(key)
+        if cached is not None:
+            return cached
+        out: dict[str, str] = {}
+        for node_id in self.order:
+            out[node_id] = self._status_of(node_id, verdicts, out)
+        if len(self._memo) < 4096:
+            self._memo[key] = out
+        return out
+
+    def _status_of(
+        self, node_id: str, verdicts: Mapping[str, Verdict], known: Mapping[str, str]
+    ) -> str:
+        node = self.case.nodes[node_id]
+        formula = self.formula_of_node.get(node_id)
+        own = "external"
+        if formula is not None:
+            own = {"ok": "satisfied", "violated": "violated", "no-data": "no-data"}[
+                verdicts.get(formula, "no-data")
+            ]
+        elif node.type in _COUNTER:
+            # A counter-goal holds while any counter-evidence below it holds.
+            below = [known[c] for c in node.supported_by if c in known]
+            own = _worst(below) if below else "external"
+            if own not in ("violated", "no-data", "satisfied"):
+                own = "external"
+        elif node.type in _ARGUMENT:
+            below = [known[c] for c in node.supported_by if c in known]
+            worst = _worst(below) if below else "undeveloped"
+            if worst in ("violated", "undermined"):
+                own = "undermined"
+            elif worst == "external":
+                own = "undeveloped" if node.undeveloped else "external"
+            else:
+                own = worst
+            if node.undeveloped and own in ("satisfied", "external"):
+                own = "undeveloped"
+        challenged = any(known.get(c) == "violated" for c in self.challengers.get(node_id, ()))
+        if challenged and STATUS_SEVERITY[own] < STATUS_SEVERITY["in-doubt"]:
+            own = "in-doubt"
+        return own
+
+
+def _worst(statuses: list[str]) -> str:
+    return max(statuses, key=STATUS_SEVERITY.__getitem__)
+
+
+def worst_status(statuses: list[str]) -> str:
+    """The worst of several statuses (`external` when empty)."""
+    return _worst(statuses) if statuses else "external"
