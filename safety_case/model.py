@@ -21,7 +21,7 @@ class Mark(BaseModel):
     col: int = 0
 
 
-class NodeType(str, Enum):
+class NodeType(str, Enum):  # noqa: UP042 - keep str() and format() as they are
     """GSN node types, keyed by the id prefix gsn2x uses."""
 
     GOAL = "G"
@@ -100,6 +100,11 @@ class Node(BaseModel):
     spi: SpiBinding | None = None
     hazard: HazardBinding | None = None
     mark: Mark = Mark()  # position of the node id key
+    # YAML key (`supportedBy`, `undeveloped`, ...) -> position of that key in this node.
+    key_marks: dict[str, Mark] = {}
+    # relation (`supportedBy`, `inContextOf`, `challenges`) -> target id -> position of the
+    # reference, so structural checks point at the exact list item.
+    ref_marks: dict[str, dict[str, Mark]] = {}
 
 
 class Module(BaseModel):

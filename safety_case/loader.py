@@ -1,0 +1,502 @@
+"""Loading a safety case: bytes -> positioned YAML tree -> validated `Case`, with findings.
+
+Nothing here raises on bad input. Every problem becomes a `Finding` with a stable code and the
+line and column of the offending key or value; `require_case` is the one entry point that raises
+(`CaseError`), for callers that must not proceed with a broken case.
+
+Positions: `Node.mark` is the node id key; `SpiBinding.mark` / `HazardBinding.mark` the `spi:` /
+`hazard:` key. `SpiBinding.formula_mark` / `HazardBinding.formula_mark` point at the first
+character of the formula *text* (the `stl` value, or the `signal` value when bound by signal +
+threshold, or the `when` value): for a plain scalar that is the value's own start; for a quoted
+scalar the first character inside the quote (so column offsets into the formula add up); for a
+block scalar (`|`, `>`) the first character of its first content line. The spec compiler adds
+its parse-error offsets to this mark.
+"""
+
+from __future__ import annotations
+
+import difflib
+import hashlib
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from pydantic import BaseModel, ValidationError
+
+from safety_case.codes import finding
+from safety_case.findings import CaseError, Finding, has_errors
+from safety_case.model import (
+    Case,
+    HazardBinding,
+    Mark,
+    Module,
+    MonitorConfig,
+    Node,
+    NodeType,
+    SpiBinding,
+)
+from safety_case.schema import (
+    HAZARD_KEYS,
+    METRIC_KEYS,
+    MODULE_KEYS,
+    MONITOR_KEYS,
+    NODE_KEYS,
+    SPI_KEYS,
+    RawModule,
+    RawMonitor,
+    RawNode,
+    describe_value,
+)
+from safety_case.yamltree import YNode, compose, to_plain
+
+#: A node id is a type prefix followed by a digit, e.g. G1, Sn3, CSn2, G1.2 (gsn2x style).
+NODE_ID_RE = re.compile(r"^(CSn|CG|Sn|G|S|C|A|J)([0-9][A-Za-z0-9_.\-]*)$")
+RESERVED_KEYS: tuple[str, ...] = ("module", "monitor")
+RELATIONS: tuple[str, ...] = ("supportedBy", "inContextOf", "challenges")
+COUNTER_TYPES = frozenset({NodeType.COUNTER_GOAL, NodeType.COUNTER_SOLUTION})
+
+_CODE_BY_ERROR = {
+    "extra_forbidden": "CW013",
+    "missing": "CW014",
+    "malformed_threshold": "CW016",
+    "malformed_duration": "CW017",
+    "spi_shape": "CW018",
+    "channels": "CW019",
+    "declared_signal": "CW025",
+}
+
+_EXPECTED = {
+    "string_type": "text",
+    "string_too_short": "non-empty text",
+    "bool_type": "true or false",
+    "bool_parsing": "true or false",
+    "list_type": "a list",
+    "dict_type": "a mapping",
+    "model_type": "a mapping",
+    "model_attributes_type": "a mapping",
+    "int_type": "a whole number",
+    "int_parsing": "a whole number",
+    "int_from_float": "a whole number",
+    "float_type": "a number",
+    "float_parsing": "a number",
+    "finite_number": "a finite number",
+}
+
+
+@dataclass
+class LoadResult:
+    """Everything loading found.
+
+    `case` is the validated case, or None when loading found errors. `partial` is a best-effort
+    case built even when some nodes are invalid, so the structural checks can still report
+    everything in one run; never hand `partial` to a later stage. `skipped` names top-level keys
+    that could not become nodes (unknown type), so references to them are not also reported as
+    dangling.
+    """
+
+    case: Case | None
+    partial: Case | None
+    findings: list[Finding]
+    skipped: dict[str, Mark] = field(default_factory=dict)
+
+
+def node_type_of(node_id: str) -> NodeType | None:
+    """The GSN type a node id's prefix names, or None when it names none."""
+    match = NODE_ID_RE.match(node_id)
+    return NodeType(match.group(1)) if match else None
+
+
+def did_you_mean(word: str, choices: tuple[str, ...] | list[str]) -> str:
+    """`"; did you mean 'x'?"` for the closest choice, or an empty string."""
+    lowered = {c.lower(): c for c in choices}
+    if word.lower() in lowered:
+        return f"; did you mean {lowered[word.lower()]!r}?"
+    close = difflib.get_close_matches(word, list(choices), n=1, cutoff=0.6)
+    return f"; did you mean {close[0]!r}?" if close else ""
+
+
+def load_case(path: str | Path) -> tuple[Case | None, list[Finding]]:
+    """Load and validate the safety case at `path`; the case is None when there are errors."""
+    result = load_file(path)
+    return result.case, result.findings
+
+
+def load_case_text(text: str, path: str = "<input>") -> tuple[Case | None, list[Finding]]:
+    """Like `load_case`, from text already in memory (`path` is only used in findings)."""
+    result = load_text(text, path)
+    return result.case, result.findings
+
+
+def require_case(path: str | Path) -> Case:
+    """Load a case and run the structural checks; raise `CaseError` on any error finding."""
+    from safety_case.checks import check_case  # checks import the loader's helpers
+
+    result = load_file(path)
+    findings = list(result.findings)
+    if result.partial is not None:
+        findings += check_case(result.partial, skipped=result.skipped)
+    if result.case is None or has_errors(findings):
+        raise CaseError([f for f in findings if f.severity == "error"])
+    return result.case
+
+
+def load_file(path: str | Path) -> LoadResult:
+    """Read bytes from disk; an unreadable file is a CW001 finding, not an exception."""
+    shown = str(path)
+    try:
+        data = Path(path).read_bytes()
+    except OSError as exc:
+        reason = exc.strerror or type(exc).__name__
+        return LoadResult(None, None, [finding("CW001", f"cannot read file: {reason}", shown)])
+    return load_bytes(data, shown)
+
+
+def load_bytes(data: bytes, path: str = "<input>") -> LoadResult:
+    """Decode UTF-8 (a leading BOM is allowed) and load."""
+    try:
+        text = data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        before = data[: exc.start]
+        line = before.count(b"\n") + 1
+        col = len(before) - (before.rfind(b"\n") + 1) + 1
+        return LoadResult(
+            None,
+            None,
+            [
+                finding(
+                    "CW002",
+                    f"file is not valid UTF-8: byte 0x{data[exc.start]:02x} at offset {exc.start}",
+                    path,
+                    Mark(line=line, col=col),
+                    "save the file as UTF-8",
+                )
+            ],
+        )
+    return load_text(text, path, hashlib.sha256(data).hexdigest())
+
+
+def load_text(text: str, path: str = "<input>", digest: str | None = None) -> LoadResult:
+    """Compose, validate and build the case from `text`."""
+    if digest is None:
+        digest = hashlib.sha256(text.encode("utf-8", "surrogatepass")).hexdigest()
+    tree, findings = compose(text, path)
+    if tree is None:
+        if not findings:
+            findings = [
+                finding("CW004", "the file is empty; expected a safety case", path, Mark(1, 1))
+            ]
+        return LoadResult(None, None, findings)
+    if tree.kind != "map":
+        kind = "a list" if tree.kind == "seq" else f"a single value ({describe_value(tree.value)})"
+        findings.append(
+            finding(
+                "CW004",
+                f"the top level must be a mapping of node ids, got {kind}",
+                path,
+                tree.mark,
+                "start with `module:`, `monitor:` and nodes such as `G1: {text: ...}`",
+            )
+        )
+        return LoadResult(None, None, findings)
+    return _Builder(path, digest, findings).build(tree)
+
+
+class _Builder:
+    def __init__(self, path: str, digest: str, findings: list[Finding]) -> None:
+        self.path = path
+        self.digest = digest
+        self.findings = findings
+        self.valid = True
+
+    def add(self, code: str, message: str, mark: Mark, hint: str = "") -> None:
+        self.findings.append(finding(code, message, self.path, mark, hint))
+
+    def build(self, tree: YNode) -> LoadResult:
+        entries = tree.entries()
+        module = self.module(entries.get("module"))
+        monitor = self.monitor(entries.get("monitor"))
+        nodes: dict[str, Node] = {}
+        skipped: dict[str, Mark] = {}
+        for key, entry in entries.items():
+            if key in RESERVED_KEYS:
+                continue
+            node_type = node_type_of(key)
+            if node_type is None:
+                skipped[key] = entry.key_mark
+                self.add(
+                    "CW020",
+                    f"{key!r} is not a node id: ids start with a type prefix (G, S, Sn, C, A, J, "
+                    f"CG, CSn) followed by a digit{did_you_mean(key, RESERVED_KEYS)}",
+                    entry.key_mark,
+                    "e.g. G1 (goal), S1 (strategy), Sn1 (solution), C1 (context), CSn1",
+                )
+                continue
+            nodes[key] = self.node(key, node_type, entry.key_mark, entry.value)
+        partial = Case(
+            path=self.path,
+            digest=self.digest,
+            module=module or Module(name=""),
+            monitor=monitor or MonitorConfig(channels=[]),
+            nodes=nodes,
+        )
+        errors = has_errors(self.findings)
+        case = partial if (not errors and module is not None and monitor is not None) else None
+        return LoadResult(case, partial, self.findings, skipped)
+
+    # -- reserved blocks -------------------------------------------------------------------
+
+    def module(self, entry: object) -> Module | None:
+        if entry is None:
+            self.add(
+                "CW010",
+                "missing `module` block",
+                Mark(1, 1),
+                "add e.g. `module: {name: ego-a-to-b, brief: what this case argues}`",
+            )
+            return None
+        raw = self.validate(RawModule, entry.value, entry.key_mark, "`module`", {(): MODULE_KEYS})
+        return Module(name=raw.name, brief=raw.brief) if isinstance(raw, RawModule) else None
+
+    def monitor(self, entry: object) -> MonitorConfig | None:
+        if entry is None:
+            self.add(
+                "CW011",
+                "missing `monitor` block",
+                Mark(1, 1),
+                "add e.g. `monitor: {channels: [lav, tfuse], period: 0.1s}`",
+            )
+            return None
+        levels = {(): MONITOR_KEYS, ("metrics",): METRIC_KEYS}
+        raw = self.validate(RawMonitor, entry.value, entry.key_mark, "`monitor`", levels)
+        if not isinstance(raw, RawMonitor):
+            return None
+        return MonitorConfig(
+            channels=raw.channels,
+            period=raw.period,
+            signals=raw.signals,
+            metrics=raw.metrics,
+            merge_gap=raw.merge_gap,
+            min_duration=raw.min_duration,
+            mark=entry.key_mark,
+        )
+
+    # -- nodes -----------------------------------------------------------------------------
+
+    def node(self, node_id: str, node_type: NodeType, mark: Mark, value: YNode) -> Node:
+        where = f"node {node_id}"
+        plain = to_plain(value)
+        entries = value.entries() if value.kind == "map" else {}
+        if isinstance(plain, dict):
+            misplaced = (
+                (
+                    "spi",
+                    node_type is not NodeType.SOLUTION,
+                    "CW021",
+                    "`spi` binds evidence to an SPI and belongs on a solution (Sn) node",
+                ),
+                (
+                    "hazard",
+                    node_type is not NodeType.COUNTER_SOLUTION,
+                    "CW022",
+                    "`hazard` belongs on a counter-solution (CSn) node",
+                ),
+                (
+                    "challenges",
+                    node_type not in COUNTER_TYPES,
+                    "CW023",
+                    "only counter nodes (CG, CSn) challenge a claim",
+                ),
+            )
+            for key, wrong, code, why in misplaced:
+                if key in plain and wrong:
+                    self.add(
+                        code, f"{where} is a {_type_name(node_type)}: {why}", entries[key].key_mark
+                    )
+                    del plain[key]
+        levels = {(): NODE_KEYS, ("spi",): SPI_KEYS, ("hazard",): HAZARD_KEYS}
+        raw = self.validate(RawNode, value, mark, where, levels, plain=plain)
+        key_marks = {k: e.key_mark for k, e in entries.items()}
+        ref_marks = {rel: _ref_marks(entries[rel].value) for rel in RELATIONS if rel in entries}
+        if isinstance(raw, RawNode):
+            return Node(
+                id=node_id,
+                type=node_type,
+                text=raw.text,
+                supported_by=raw.supportedBy,
+                in_context_of=raw.inContextOf,
+                challenges=raw.challenges,
+                undeveloped=raw.undeveloped,
+                url=raw.url,
+                spi=self.spi(raw, entries),
+                hazard=self.hazard(raw, entries),
+                mark=mark,
+                key_marks=key_marks,
+                ref_marks=ref_marks,
+            )
+        # Best effort, so the graph checks can still run; the case is already marked invalid.
+        lenient = plain if isinstance(plain, dict) else {}
+        text = lenient.get("text")
+        return Node(
+            id=node_id,
+            type=node_type,
+            text=text if isinstance(text, str) else "",
+            supported_by=_lenient_ids(lenient.get("supportedBy")),
+            in_context_of=_lenient_ids(lenient.get("inContextOf")),
+            challenges=_lenient_ids(lenient.get("challenges")),
+            undeveloped=lenient.get("undeveloped") is True,
+            mark=mark,
+            key_marks=key_marks,
+            ref_marks=ref_marks,
+        )
+
+    def spi(self, raw: RawNode, entries: dict) -> SpiBinding | None:
+        if raw.spi is None:
+            return None
+        spi_entries = entries["spi"].value.entries()
+        formula_key = "stl" if raw.spi.stl is not None else "signal"
+        return SpiBinding(
+            signal=raw.spi.signal,
+            threshold=raw.spi.threshold,
+            for_seconds=raw.spi.for_,
+            stl=raw.spi.stl,
+            merge_gap=raw.spi.merge_gap,
+            min_duration=raw.spi.min_duration,
+            mark=entries["spi"].key_mark,
+            formula_mark=spi_entries[formula_key].value.content_mark,
+        )
+
+    def hazard(self, raw: RawNode, entries: dict) -> HazardBinding | None:
+        if raw.hazard is None:
+            return None
+        hazard_entries = entries["hazard"].value.entries()
+        return HazardBinding(
+            when=raw.hazard.when,
+            merge_gap=raw.hazard.merge_gap,
+            min_duration=raw.hazard.min_duration,
+            mark=entries["hazard"].key_mark,
+            formula_mark=hazard_entries["when"].value.content_mark,
+        )
+
+    # -- pydantic errors -> findings -------------------------------------------------------
+
+    def validate(
+        self,
+        model: type[BaseModel],
+        tree: YNode,
+        key_mark: Mark,
+        where: str,
+        levels: dict[tuple[str, ...], tuple[str, ...]],
+        plain: object = None,
+    ) -> BaseModel | None:
+        data = to_plain(tree) if plain is None else plain
+        try:
+            return model.model_validate(data)
+        except ValidationError as exc:
+            for error in exc.errors(include_url=False):
+                self.findings.append(self.error_finding(error, tree, key_mark, where, levels))
+            return None
+
+    def error_finding(
+        self,
+        error: dict,
+        tree: YNode,
+        container_mark: Mark,
+        where: str,
+        levels: dict[tuple[str, ...], tuple[str, ...]],
+    ) -> Finding:
+        kind = error["type"]
+        ctx = error.get("ctx") or {}
+        loc = list(error["loc"])
+        if "key" in ctx:
+            loc.append(ctx["key"])
+        elif "index" in ctx:
+            loc.append(ctx["index"])
+        key_mark, value_mark, names, found = _locate(tree, container_mark, loc)
+        keypath = _join(names)
+        code = _CODE_BY_ERROR.get(kind, "CW012")
+        if kind == "extra_forbidden":
+            key = names[-1]
+            allowed = levels.get(tuple(n for n in names[:-1] if not n.startswith("[")), ())
+            parent = _join(names[:-1])
+            under = f" under `{parent}`" if parent else ""
+            message = f"unknown key {key!r} in {where}{under}{did_you_mean(key, allowed)}"
+            hint = f"allowed keys: {', '.join(allowed)}" if allowed else ""
+            return finding(code, message, self.path, key_mark, hint)
+        if kind == "missing":
+            return finding(
+                code,
+                f"{where} is missing the required key `{keypath}`",
+                self.path,
+                key_mark if not found else value_mark,
+            )
+        mark = value_mark if found else key_mark
+        subject = f"{where}, `{keypath}`" if keypath else where
+        if code != "CW012":
+            return finding(code, f"{subject}: {error['msg']}", self.path, mark)
+        got = describe_value(error.get("input"))
+        if kind in _EXPECTED:
+            message = f"{subject} must be {_EXPECTED[kind]}, got {got}"
+        else:
+            reason = str(error.get("msg", "invalid value"))
+            reason = reason.replace("Input should be", "should be").replace("Value error, ", "")
+            message = f"{subject} {reason}, got {got}"
+        return finding(code, message, self.path, mark)
+
+
+def _locate(
+    tree: YNode, container_mark: Mark, loc: list[object]
+) -> tuple[Mark, Mark, list[str], bool]:
+    """Follow a pydantic error location through the positioned tree.
+
+    Returns (mark of the last key reached, mark of the last value reached, readable key path,
+    whether the whole location exists in the YAML)."""
+    node = tree
+    key_mark = container_mark
+    value_mark = tree.mark
+    names: list[str] = []
+    for part in loc:
+        if node.kind == "map" and isinstance(part, str) and part in node.entries():
+            entry = node.entries()[part]
+            key_mark, node = entry.key_mark, entry.value
+            value_mark = node.mark
+            names.append(part)
+        elif node.kind == "seq" and isinstance(part, int) and 0 <= part < len(node.items()):
+            node = node.items()[part]
+            key_mark = value_mark = node.mark
+            names.append(f"[{part}]")
+        else:
+            if isinstance(part, str) and not part.startswith("function-"):
+                names.append(part)
+            return key_mark, value_mark, names, False
+    return key_mark, value_mark, names, True
+
+
+def _join(names: list[str]) -> str:
+    """`["spi", "threshold"]` -> `spi.threshold`; `["channels", "[1]"]` -> `channels[1]`."""
+    out = ""
+    for name in names:
+        out += name if (name.startswith("[") or not out) else "." + name
+    return out
+
+
+def _ref_marks(value: YNode) -> dict[str, Mark]:
+    if value.kind == "scalar" and isinstance(value.value, str):
+        return {value.value: value.mark}
+    out: dict[str, Mark] = {}
+    if value.kind == "seq":
+        for item in value.items():
+            if item.kind == "scalar" and isinstance(item.value, str):
+                out.setdefault(item.value, item.mark)
+    return out
+
+
+def _lenient_ids(raw: object) -> list[str]:
+    if isinstance(raw, str):
+        return [raw]
+    if isinstance(raw, list):
+        return [x for x in raw if isinstance(x, str)]
+    return []
+
+
+def _type_name(node_type: NodeType) -> str:
+    return node_type.name.lower().replace("_", "-")

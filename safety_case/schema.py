@@ -1,0 +1,285 @@
+"""pydantic models of the raw YAML shapes, and the parsers for thresholds and durations.
+
+These validate what the user wrote, key by key, before `loader.py` turns it into the contract
+models of `model.py`. Domain errors are raised as `PydanticCustomError` with our own error types
+(`malformed_threshold`, `malformed_duration`, ...) so the loader can map each one to its stable
+check code and to the line of the offending key, instead of showing a pydantic dump.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from typing import Annotated
+
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    StrictBool,
+    StrictStr,
+    model_validator,
+)
+from pydantic_core import PydanticCustomError
+
+from safety_case.model import MetricParams, Threshold
+from safety_case.signals import SEP, builtin_signals
+
+_NUMBER = r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?"
+_THRESHOLD_RE = re.compile(rf"^\s*(>=|<=|>|<)\s*({_NUMBER})\s*$")
+_DURATION_RE = re.compile(rf"^\s*({_NUMBER})\s*(ms|s|min|h)?\s*$")
+_UNIT_SECONDS = {"ms": 0.001, "s": 1.0, "min": 60.0, "h": 3600.0, None: 1.0}
+CHANNEL_RE = re.compile(r"^[a-z][a-z0-9_]*$")
+DECLARED_SIGNAL_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+
+
+def parse_threshold(raw: object) -> Threshold:
+    """`">= 0.6"` -> Threshold(op=">=", value=0.6); anything else raises `malformed_threshold`."""
+    if isinstance(raw, str):
+        match = _THRESHOLD_RE.match(raw)
+        if match:
+            value = float(match.group(2))
+            if math.isfinite(value):
+                return Threshold(op=match.group(1), value=value)  # type: ignore[arg-type]
+        hint = ""
+        if re.match(r"^\s*(=>|=<|==|=|!=)", raw):
+            hint = "; comparisons are >=, <=, > or <"
+        raise PydanticCustomError(
+            "malformed_threshold",
+            "expected an operator and a number such as '>= 0.6' or '< 0.05', got {got}{hint}",
+            {"got": repr(raw), "hint": hint},
+        )
+    raise PydanticCustomError(
+        "malformed_threshold",
+        'expected a quoted operator and number such as ">= 0.6", got {got}',
+        {"got": _describe(raw)},
+    )
+
+
+def parse_duration(raw: object) -> float:
+    """`0.5s`, `300ms`, `1min`, `2h` or a plain number of seconds -> seconds (>= 0)."""
+    seconds: float | None = None
+    if isinstance(raw, bool):
+        seconds = None
+    elif isinstance(raw, int | float):
+        seconds = float(raw)
+    elif isinstance(raw, str):
+        match = _DURATION_RE.match(raw)
+        if match:
+            seconds = float(match.group(1)) * _UNIT_SECONDS[match.group(2)]
+    if seconds is None or not math.isfinite(seconds):
+        raise PydanticCustomError(
+            "malformed_duration",
+            "expected a duration such as 0.5s, 300ms, 1min or a number of seconds, got {got}",
+            {"got": _describe(raw)},
+        )
+    if seconds < 0:
+        raise PydanticCustomError(
+            "malformed_duration", "a duration cannot be negative, got {got}", {"got": repr(raw)}
+        )
+    return seconds
+
+
+def _optional_duration(raw: object) -> float | None:
+    return None if raw is None else parse_duration(raw)
+
+
+def _positive_duration(raw: object) -> float:
+    seconds = parse_duration(raw)
+    if seconds <= 0:
+        raise PydanticCustomError(
+            "malformed_duration",
+            "the period must be longer than zero, got {got}",
+            {"got": repr(raw)},
+        )
+    return seconds
+
+
+def _optional_threshold(raw: object) -> Threshold | None:
+    return None if raw is None else parse_threshold(raw)
+
+
+def _as_list(raw: object) -> object:
+    """`supportedBy: G2` and `supportedBy: [G2]` mean the same; null means none."""
+    if raw is None:
+        return []
+    if isinstance(raw, str):
+        return [raw]
+    return raw
+
+
+def _describe(value: object) -> str:
+    if value is None:
+        return "nothing (null)"
+    if isinstance(value, bool):
+        return f"the boolean {str(value).lower()}"
+    if isinstance(value, int | float):
+        return f"the number {value!r}"
+    if isinstance(value, str):
+        return f"the text {value!r}"
+    if isinstance(value, list):
+        return "a list"
+    if isinstance(value, dict):
+        return "a mapping"
+    return type(value).__name__
+
+
+describe_value = _describe
+
+Duration = Annotated[float, BeforeValidator(parse_duration)]
+OptionalDuration = Annotated[float | None, BeforeValidator(_optional_duration)]
+PositiveDuration = Annotated[float, BeforeValidator(_positive_duration)]
+OptionalThreshold = Annotated[Threshold | None, BeforeValidator(_optional_threshold)]
+IdList = Annotated[list[StrictStr], BeforeValidator(_as_list)]
+Text = Annotated[StrictStr, Field(min_length=1)]
+
+
+class RawSpi(BaseModel):
+    """`spi:` as written: `signal` + `threshold` (+ `for`) XOR `stl`."""
+
+    model_config = ConfigDict(extra="forbid")
+    signal: Text | None = None
+    threshold: OptionalThreshold = None
+    for_: OptionalDuration = Field(None, alias="for")
+    stl: Text | None = None
+    merge_gap: OptionalDuration = None
+    min_duration: OptionalDuration = None
+
+    @model_validator(mode="after")
+    def _one_binding(self) -> RawSpi:
+        bound = self.signal is not None or self.threshold is not None
+        if self.stl is not None and bound:
+            raise PydanticCustomError(
+                "spi_shape", "use either `signal` + `threshold` or `stl`, not both"
+            )
+        if self.stl is not None and self.for_ is not None:
+            raise PydanticCustomError(
+                "spi_shape",
+                "`for` applies to `signal` + `threshold`; write the persistence into "
+                "the `stl` formula instead",
+            )
+        if self.stl is None and (self.signal is None or self.threshold is None):
+            missing = "threshold" if self.signal is not None else "signal"
+            if not bound:
+                raise PydanticCustomError(
+                    "spi_shape", "an SPI needs `signal` + `threshold` or a raw `stl` formula"
+                )
+            raise PydanticCustomError(
+                "spi_shape",
+                "`signal` and `threshold` go together; `{missing}` is missing",
+                {"missing": missing},
+            )
+        return self
+
+
+class RawHazard(BaseModel):
+    """`hazard:` as written."""
+
+    model_config = ConfigDict(extra="forbid")
+    when: Text
+    merge_gap: OptionalDuration = None
+    min_duration: OptionalDuration = None
+
+
+class RawNode(BaseModel):
+    """One node as written (keys in gsn2x spelling)."""
+
+    model_config = ConfigDict(extra="forbid")
+    text: Text
+    supportedBy: IdList = []  # gsn2x spelling
+    inContextOf: IdList = []  # gsn2x spelling
+    challenges: IdList = []
+    undeveloped: StrictBool = False
+    url: StrictStr | None = None
+    spi: RawSpi | None = None
+    hazard: RawHazard | None = None
+
+
+class RawModule(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    name: Text
+    brief: StrictStr = ""
+
+
+def _check_channels(channels: list[str]) -> list[str]:
+    seen: set[str] = set()
+    for index, name in enumerate(channels):
+        if not CHANNEL_RE.match(name) or SEP in name:
+            raise PydanticCustomError(
+                "channels",
+                "channel name '{name}' must match [a-z][a-z0-9_]* without '__'",
+                {"name": name, "index": index},
+            )
+        if name in seen:
+            raise PydanticCustomError(
+                "channels", "channel '{name}' is listed twice", {"name": name, "index": index}
+            )
+        seen.add(name)
+    if len(channels) < 2:
+        raise PydanticCustomError(
+            "channels",
+            "a cross-channel monitor needs at least two channels, got {count}",
+            {"count": len(channels)},
+        )
+    return channels
+
+
+def _signals_to_dict(raw: object) -> object:
+    """`signals: [speed, lane_offset]` is shorthand for a mapping with empty descriptions."""
+    if raw is None:
+        return {}
+    if isinstance(raw, list):
+        out: dict[str, object] = {}
+        for index, item in enumerate(raw):
+            if not isinstance(item, str):
+                raise PydanticCustomError(
+                    "declared_signal",
+                    "a declared signal name must be text, got {got}",
+                    {"got": _describe(item), "index": index},
+                )
+            out[item] = ""
+        return out
+    if isinstance(raw, dict):
+        return {k: ("" if v is None else v) for k, v in raw.items()}
+    return raw
+
+
+class RawMonitor(BaseModel):
+    """`monitor:` as written."""
+
+    model_config = ConfigDict(extra="forbid")
+    channels: Annotated[list[StrictStr], AfterValidator(_check_channels)]
+    period: PositiveDuration = 0.1
+    signals: Annotated[dict[str, StrictStr], BeforeValidator(_signals_to_dict)] = {}
+    metrics: MetricParams = MetricParams()
+    merge_gap: Duration = 1.0
+    min_duration: Duration = 0.0
+
+    @model_validator(mode="after")
+    def _declared_names(self) -> RawMonitor:
+        builtin = builtin_signals(self.channels)
+        for index, name in enumerate(self.signals):
+            if not DECLARED_SIGNAL_RE.match(name):
+                raise PydanticCustomError(
+                    "declared_signal",
+                    "declared signal name '{name}' must be an identifier ([A-Za-z_][A-Za-z0-9_]*)",
+                    {"name": name, "key": name, "index": index},
+                )
+            if name in builtin:
+                raise PydanticCustomError(
+                    "declared_signal",
+                    "declared signal '{name}' has the name of a built-in metric signal",
+                    {"name": name, "key": name, "index": index},
+                )
+        return self
+
+
+#: Allowed keys per nesting level, for "did you mean" hints.
+NODE_KEYS: tuple[str, ...] = tuple(f.alias or name for name, f in RawNode.model_fields.items())
+SPI_KEYS: tuple[str, ...] = tuple(f.alias or name for name, f in RawSpi.model_fields.items())
+HAZARD_KEYS: tuple[str, ...] = tuple(RawHazard.model_fields)
+MODULE_KEYS: tuple[str, ...] = tuple(RawModule.model_fields)
+MONITOR_KEYS: tuple[str, ...] = tuple(RawMonitor.model_fields)
+METRIC_KEYS: tuple[str, ...] = tuple(MetricParams.model_fields)
