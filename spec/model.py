@@ -36,6 +36,8 @@ class CompiledFormula(BaseModel):
     merge_gap: float  # seconds, resolved against the case default
     min_duration: float  # seconds, resolved against the case default
     horizon: float = 0.0  # seconds of past the formula looks at (for warm-up accounting)
+    # seconds the formula looks ahead (0 online; offline, a verdict at t needs data to t + this)
+    future_horizon: float = 0.0
 
 
 class CompiledSpec(BaseModel):

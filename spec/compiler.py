@@ -1,0 +1,302 @@
+"""Compiling a safety case's SPI and hazard bindings into monitored STL formulas.
+
+- SPI `signal: s, threshold: ">= 0.6"` -> `s >= 0.6`;
+- with `for: d` -> `once[0:d](s >= 0.6)`: negative (violated) only once the threshold failed at
+  every sample of the last `d` seconds;
+- SPI `stl: f` -> `f`, parsed, resolved and re-emitted canonically;
+- hazard `when: c` -> `not (c)`: negative robustness means "hazard present".
+
+Every check on the way (parse, signal names, bounds vs. sampling period, online causality) is a
+`Finding` with a CW04x code pointing into the YAML, never an exception.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from fractions import Fraction
+from typing import Literal
+
+from safety_case.findings import Finding, has_errors
+from safety_case.model import Case, HazardBinding, Mark, Node, SpiBinding
+from spec.ast import (
+    Arith,
+    Compare,
+    Formula,
+    Interval,
+    Not,
+    Num,
+    Signal,
+    Window,
+    future_operators,
+    walk,
+)
+from spec.codes import formula_finding
+from spec.emit import interval_text, number_text, period_fraction, to_rtamt, to_text
+from spec.model import CompiledFormula, CompiledSpec, FormulaKind
+from spec.parser import FormulaError, parse_formula, yaml_position
+from spec.signals import resolve_signals
+from spec.timing import bound_ticks, delay, future_depth, intervals_of, past_horizon
+from spec.trace import traces_for
+
+Mode = Literal["online", "offline"]
+
+
+@dataclass(frozen=True)
+class _Source:
+    """A formula to compile, with what is needed to point back into the YAML."""
+
+    node: Node
+    kind: FormulaKind
+    text: str  # what the user wrote (or the text built from signal + threshold)
+    formula: Formula | None  # set when built directly (signal + threshold), else parsed
+    mark: Mark  # where column 1 of `text` sits in the YAML
+    binding_mark: Mark  # the `spi:` / `hazard:` key
+    merge_gap: float | None
+    min_duration: float | None
+
+
+def _period_ok(case: Case) -> tuple[Fraction | None, list[Finding]]:
+    period = case.monitor.period
+    exact = period_fraction(period) if period > 0 else Fraction(0)
+    if exact <= 0 or (exact * 10**9).denominator != 1:
+        mark = case.monitor.mark
+        return None, [
+            formula_finding(
+                "CW046",
+                f"sampling period {period!r}s is not a positive whole number of nanoseconds",
+                case.path,
+                mark.line,
+                mark.col,
+                hint="write e.g. 'period: 0.1s' or 'period: 50ms'",
+            )
+        ]
+    return exact, []
+
+
+def _sources(case: Case) -> tuple[list[_Source], list[Finding]]:
+    out: list[_Source] = []
+    findings: list[Finding] = []
+    for node in case.nodes.values():
+        if node.spi is not None:
+            src = _spi_source(case, node, node.spi)
+            if isinstance(src, Finding):
+                findings.append(src)
+            else:
+                out.append(src)
+        if node.hazard is not None:
+            out.append(_hazard_source(node, node.hazard))
+    return out, findings
+
+
+def _spi_source(case: Case, node: Node, spi: SpiBinding) -> _Source | Finding:
+    common = {
+        "node": node,
+        "kind": "spi",
+        "mark": spi.formula_mark,
+        "binding_mark": spi.mark,
+        "merge_gap": spi.merge_gap,
+        "min_duration": spi.min_duration,
+    }
+    if spi.stl is not None and spi.signal is None:
+        return _Source(text=spi.stl, formula=None, **common)  # type: ignore[arg-type]
+    if spi.signal is not None and spi.threshold is not None and spi.stl is None:
+        threshold = spi.threshold
+        text = f"{spi.signal} {threshold.op} {number_text(threshold.value)}"
+        formula: Formula = Compare(threshold.op, Signal(spi.signal, col=1), Num(threshold.value))
+        if spi.for_seconds is not None and spi.for_seconds > 0:
+            interval = Interval(Fraction(0), Fraction(repr(float(spi.for_seconds))))
+            formula = Window("once", interval, formula)
+            text = f"once{interval_text(interval)} ({text})"
+        return _Source(text=text, formula=formula, **common)  # type: ignore[arg-type]
+    # The loader reports the shape (CW018); this keeps a hand-built case from compiling silently.
+    return formula_finding(
+        "CW044",
+        f"node {node.id}: `spi` needs `signal` + `threshold` or `stl` (exactly one)",
+        case.path,
+        spi.mark.line,
+        spi.mark.col,
+        hint="e.g. spi: {signal: els, threshold: '>= 0.6'}",
+    )
+
+
+def _hazard_source(node: Node, hazard: HazardBinding) -> _Source:
+    return _Source(
+        node=node,
+        kind="hazard",
+        text=hazard.when,
+        formula=None,
+        mark=hazard.formula_mark,
+        binding_mark=hazard.mark,
+        merge_gap=hazard.merge_gap,
+        min_duration=hazard.min_duration,
+    )
+
+
+def _at(case: Case, src: _Source, col: int, line: int = 1) -> tuple[int, int]:
+    if src.formula is not None and col <= 0:
+        return src.mark.line, src.mark.col
+    return yaml_position(src.mark, line, max(col, 1))
+
+
+def _check(
+    case: Case, src: _Source, formula: Formula, period: Fraction, mode: Mode
+) -> list[Finding]:
+    findings: list[Finding] = []
+    path = case.path
+    _known, unknown = resolve_signals(formula, case.monitor.channels, case.monitor.signals)
+    for miss in unknown:
+        line, col = _at(case, src, miss.col)
+        findings.append(
+            formula_finding(
+                "CW041",
+                f"{miss.message()} (node {src.node.id})",
+                path,
+                line,
+                col,
+                hint=miss.hint(case.monitor.channels),
+            )
+        )
+    for interval in intervals_of(formula):
+        for bound in (interval.lo, interval.hi):
+            if bound_ticks(bound, period) is None:
+                line, col = _at(case, src, interval.col)
+                if src.formula is not None:  # `for:` duration: point at the binding
+                    line, col = src.binding_mark.line, src.binding_mark.col
+                findings.append(
+                    formula_finding(
+                        "CW043",
+                        f"time bound {float(bound):g}s is not a whole number of sampling periods "
+                        f"({float(period):g}s) in node {src.node.id}",
+                        path,
+                        line,
+                        col,
+                        hint="rtamt counts samples; use a multiple of monitor.period",
+                    )
+                )
+    for node in walk(formula):
+        if isinstance(node, Arith) and node.op == "/" and node.right == Num(0.0):
+            findings.append(
+                formula_finding(
+                    "CW045",
+                    f"division by the constant 0 in node {src.node.id}",
+                    path,
+                    src.mark.line,
+                    src.mark.col,
+                )
+            )
+    if mode == "online" and not any(f.code == "CW043" for f in findings):
+        findings.extend(_causality(case, src, formula, period))
+    return findings
+
+
+def _causality(case: Case, src: _Source, formula: Formula, period: Fraction) -> list[Finding]:
+    """Online monitoring is causal: a verdict at `t` may only read samples up to `t`."""
+    future = future_operators(formula)
+    if not future:
+        return []
+    depth = future_depth(formula, period)
+    past = delay(formula, depth, period)
+    if past is not None:
+        hint = (
+            f"the same judgement, delivered {float(depth * period):g}s late, is the past-time "
+            f"formula: {to_text(past)}"
+        )
+    else:
+        hint = "rewrite 'a until[x:y] b' with 'since' over past samples"
+    first = future[0]
+    line, col = _at(case, src, getattr(first, "col", 0))
+    names = sorted({type(n).__name__.lower() if not hasattr(n, "op") else n.op for n in future})
+    return [
+        formula_finding(
+            "CW042",
+            f"future operator ({', '.join(names)}) in node {src.node.id}: online monitoring "
+            "judges each sample when it arrives and cannot look ahead",
+            case.path,
+            line,
+            col,
+            hint=hint,
+        )
+    ]
+
+
+def _compile_one(
+    case: Case, src: _Source, period: Fraction, mode: Mode
+) -> tuple[CompiledFormula | None, list[Finding]]:
+    formula = src.formula
+    if formula is None:
+        try:
+            formula = parse_formula(src.text)
+        except FormulaError as err:
+            line, col = yaml_position(src.mark, err.line, err.col)
+            return None, [
+                formula_finding(
+                    "CW040",
+                    f"formula of node {src.node.id} does not parse: {err.message}",
+                    case.path,
+                    line,
+                    col,
+                    hint=f"{src.text}\n{' ' * (err.col - 1)}^",
+                )
+            ]
+    findings = _check(case, src, formula, period, mode)
+    if has_errors(findings):
+        return None, findings
+    monitored = Not(formula) if src.kind == "hazard" else formula
+    known, _ = resolve_signals(formula, case.monitor.channels, case.monitor.signals)
+    spi = src.node.spi if src.kind == "spi" else None
+    compiled = CompiledFormula(
+        id=src.node.id,
+        node_id=src.node.id,
+        node_text=src.node.text,
+        kind=src.kind,
+        source=src.text,
+        rtamt=to_rtamt(monitored),
+        signals=known,
+        signal=spi.signal if spi and spi.stl is None else None,
+        threshold=str(spi.threshold) if spi and spi.threshold and spi.stl is None else None,
+        merge_gap=src.merge_gap if src.merge_gap is not None else case.monitor.merge_gap,
+        min_duration=(
+            src.min_duration if src.min_duration is not None else case.monitor.min_duration
+        ),
+        horizon=float(past_horizon(monitored, period) * period),
+        future_horizon=float(future_depth(monitored, period) * period),
+    )
+    return compiled, findings
+
+
+def compile_case(case: Case, mode: Mode = "online") -> tuple[CompiledSpec | None, list[Finding]]:
+    """Compile every SPI and hazard of `case`. Returns (None, findings) when any is an error."""
+    period, findings = _period_ok(case)
+    if period is None:
+        return None, findings
+    sources, shape_findings = _sources(case)
+    findings.extend(shape_findings)
+    formulas: list[CompiledFormula] = []
+    for src in sources:
+        compiled, found = _compile_one(case, src, period, mode)
+        findings.extend(found)
+        if compiled is not None:
+            formulas.append(compiled)
+    if has_errors(findings):
+        return None, findings
+    signals: dict[str, list[str]] = {name: [] for name in case.monitor.signals}
+    for f in formulas:
+        for name in f.signals:
+            signals.setdefault(name, []).append(f.id)
+    spec = CompiledSpec(
+        case_path=case.path,
+        case_digest=case.digest,
+        module=case.module.name,
+        root_id=case.root_id(),
+        channels=list(case.monitor.channels),
+        period=case.monitor.period,
+        formulas=formulas,
+        traces={f.node_id: traces_for(case, f.node_id) for f in formulas},
+        signals={name: sorted(ids) for name, ids in sorted(signals.items())},
+    )
+    return spec, findings
+
+
+def check_formulas(case: Case, mode: Mode = "online") -> list[Finding]:
+    """Only the findings of `compile_case` (what `casewatch check` adds for formulas)."""
+    return compile_case(case, mode)[1]

@@ -1,0 +1,179 @@
+"""Emitting formulas as text: our canonical syntax, and rtamt 0.4.10 text with its fences.
+
+rtamt 0.4.10 gives wrong answers or rejects valid text in a few reproducible ways (see
+`docs/formulas.md`, "rtamt fences", and `tests/spec/test_emit.py` which shows each one). The
+rtamt emitter therefore never relies on rtamt's precedence or associativity:
+
+- every binary operation is parenthesised: rtamt parses `x / 2 * 4` as `x / (2 * 4)`,
+  `x - y + z` as `x - (y + z)` and `a implies b implies c` left-associatively;
+- a number right of a binary minus is wrapped, `(x - (1.0))`: rtamt rejects `x - 1`
+  ("Attempting full context" ambiguity error), `abs(x) - 1` and `x - 1 + 1` alike;
+- unary minus on anything but a number is `(0.0 - e)`: rtamt has no unary minus, only signed
+  literals;
+- `!=` is rtamt's `!==`;
+- bounds are emitted as exact decimal seconds, a whole number of sampling periods, and the
+  monitor's period is set as an exact fraction, so rtamt's own "multiple of the sampling period"
+  test (done in exact fractions) cannot trip on binary rounding;
+- `pastify()` is never called (it shifts a predicate twice beside a bounded future operator).
+"""
+
+from __future__ import annotations
+
+import math
+from decimal import Decimal, localcontext
+from fractions import Fraction
+from typing import Any
+
+from spec.ast import (
+    Abs,
+    Arith,
+    BoolOp,
+    Compare,
+    Interval,
+    Neg,
+    Next,
+    Node,
+    Not,
+    Num,
+    Prev,
+    Signal,
+    Span,
+    Window,
+)
+from spec.model import CompiledFormula
+
+#: Name of the output variable every built monitor declares.
+OUTPUT_VAR = "robustness"
+
+
+def period_fraction(period: float) -> Fraction:
+    """The sampling period as the exact decimal the user wrote (0.1 is 1/10, not 0x3FB999...)."""
+    return Fraction(repr(float(period)))
+
+
+def decimal_text(value: Fraction) -> str:
+    """Exact decimal text of a fraction whose denominator is 2^a 5^b (every bound here is)."""
+    with localcontext() as ctx:
+        ctx.prec = 60
+        dec = (Decimal(value.numerator) / Decimal(value.denominator)).normalize()
+    text = format(dec, "f")
+    return text
+
+
+def number_text(value: float) -> str:
+    """Shortest text that reads back as the same float."""
+    if not math.isfinite(value):
+        raise ValueError(f"not a finite number: {value}")
+    return repr(float(value))
+
+
+def _seconds_text(value: Fraction) -> str:
+    return decimal_text(value) + "s"
+
+
+def interval_text(interval: Interval) -> str:
+    return f"[{_seconds_text(interval.lo)}:{_seconds_text(interval.hi)}]"
+
+
+# ---- our canonical syntax ---------------------------------------------------------------
+
+
+def to_text(node: Node) -> str:
+    """Fully parenthesised text in casewatch's own syntax; `parse_formula` reads it back equal."""
+    if isinstance(node, Num):
+        return number_text(node.value)
+    if isinstance(node, Signal):
+        return node.name
+    if isinstance(node, Neg):
+        return f"(-{to_text(node.operand)})"
+    if isinstance(node, Abs):
+        return f"abs({to_text(node.operand)})"
+    if isinstance(node, Arith | Compare):
+        return f"({to_text(node.left)} {node.op} {to_text(node.right)})"
+    if isinstance(node, Not):
+        return f"(not {to_text(node.operand)})"
+    if isinstance(node, BoolOp):
+        return f"({to_text(node.left)} {node.op} {to_text(node.right)})"
+    if isinstance(node, Prev | Next):
+        word = "prev" if isinstance(node, Prev) else "next"
+        return f"({word} {to_text(node.operand)})"
+    if isinstance(node, Window):
+        bounds = interval_text(node.interval) if node.interval else ""
+        return f"({node.op}{bounds} {to_text(node.operand)})"
+    if isinstance(node, Span):
+        bounds = interval_text(node.interval) if node.interval else ""
+        return f"({to_text(node.left)} {node.op}{bounds} {to_text(node.right)})"
+    raise TypeError(f"not a formula node: {node!r}")
+
+
+# ---- rtamt 0.4.10 text -------------------------------------------------------------------
+
+
+def to_rtamt(node: Node) -> str:
+    """Canonical rtamt text with every fence applied (see the module docstring)."""
+    if isinstance(node, Num):
+        return number_text(node.value)
+    if isinstance(node, Signal):
+        return node.name
+    if isinstance(node, Neg):
+        if isinstance(node.operand, Num):
+            # fence: rtamt only knows signed literals; the parentheses keep `x - (-1.0)` legal
+            return f"(-{number_text(node.operand.value)})"
+        return f"(0.0 - {to_rtamt(node.operand)})"
+    if isinstance(node, Abs):
+        return f"abs({to_rtamt(node.operand)})"
+    if isinstance(node, Arith):
+        right = to_rtamt(node.right)
+        if node.op == "-" and isinstance(node.right, Num):
+            right = f"({right})"  # fence: `x - 1` does not parse in rtamt 0.4.10
+        return f"({to_rtamt(node.left)} {node.op} {right})"
+    if isinstance(node, Compare):
+        op = "!==" if node.op == "!=" else node.op
+        return f"({to_rtamt(node.left)} {op} {to_rtamt(node.right)})"
+    if isinstance(node, Not):
+        return f"(not {to_rtamt(node.operand)})"
+    if isinstance(node, BoolOp):
+        return f"({to_rtamt(node.left)} {node.op} {to_rtamt(node.right)})"
+    if isinstance(node, Prev | Next):
+        word = "prev" if isinstance(node, Prev) else "next"
+        return f"({word} {to_rtamt(node.operand)})"
+    if isinstance(node, Window):
+        bounds = interval_text(node.interval) if node.interval else ""
+        return f"({node.op}{bounds} {to_rtamt(node.operand)})"
+    if isinstance(node, Span):
+        bounds = interval_text(node.interval) if node.interval else ""
+        return f"({to_rtamt(node.left)} {node.op}{bounds} {to_rtamt(node.right)})"
+    raise TypeError(f"not a formula node: {node!r}")
+
+
+def new_rtamt_spec(text: str, variables: list[str], period: float) -> Any:
+    """A parsed rtamt discrete-time specification `robustness = text` over float `variables`.
+
+    The sampling period is passed as an exact fraction of seconds so bounds written as exact
+    decimals divide evenly (rtamt checks this in fractions). rtamt's discrete-time monitors
+    count samples; the timestamps given to `update` only feed its sampling-violation counter.
+    """
+    import warnings
+
+    import rtamt
+
+    spec = rtamt.StlDiscreteTimeSpecification()
+    for name in variables:
+        spec.declare_var(name, "float")
+    spec.declare_var(OUTPUT_VAR, "float")
+    spec.set_var_io_type(OUTPUT_VAR, "output")
+    spec.set_sampling_period(period_fraction(period), "s", 0.1)
+    spec.spec = f"{OUTPUT_VAR} = {text}"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # rtamt warns about undeclared io types; not ours
+        spec.parse()
+    return spec
+
+
+def build_rtamt_monitor(formula: CompiledFormula, period: float) -> Any:
+    """A ready rtamt online monitor for one compiled formula (call `update(t, [(name, v)...])`).
+
+    `period` must be the compiled spec's period: bounds in `formula.rtamt` are whole multiples
+    of it. Inputs are the formula's signals, declared as floats; the output is `robustness`.
+    """
+    return new_rtamt_spec(formula.rtamt, list(formula.signals), period)

@@ -1,0 +1,293 @@
+"""Parsing formula text into the typed AST of `spec/ast.py`, with errors that point at a column.
+
+The grammar (`grammar.lark`, LALR) fixes precedence and associativity; this module then builds
+typed nodes and checks sorts (a condition where a condition is needed, a number where a number
+is needed), because a sort error is a user error that deserves a column, not a traceback.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from decimal import Decimal
+from fractions import Fraction
+from functools import cache
+from importlib import resources
+from typing import cast
+
+from lark import Lark, Token, Tree
+from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
+
+from safety_case.model import Mark
+from spec.ast import (
+    FORMULA_TYPES,
+    TERM_TYPES,
+    Abs,
+    Arith,
+    BoolOp,
+    Compare,
+    Formula,
+    Interval,
+    Neg,
+    Next,
+    Node,
+    Not,
+    Num,
+    Prev,
+    Signal,
+    Span,
+    Term,
+    Window,
+)
+
+#: What the user sees for each grammar terminal in "expected ..." lists.
+_TERMINAL_WORDS: dict[str, str] = {
+    "NUMBER": "a number",
+    "NAME": "a signal name",
+    "CMP": "a comparison (< <= > >= == !=)",
+    "PLUS": "'+'",
+    "MINUS": "'-'",
+    "STAR": "'*'",
+    "SLASH": "'/'",
+    "LPAR": "'('",
+    "RPAR": "')'",
+    "LSQB": "'['",
+    "RSQB": "']'",
+    "COLON": "':'",
+    "UNIT": "a unit (s or ms)",
+    "AND": "'and'",
+    "OR": "'or'",
+    "IMPLIES": "'implies'",
+    "NOT": "'not'",
+    "SINCE": "'since'",
+    "UNTIL": "'until'",
+    "PREV": "'prev'",
+    "NEXT": "'next'",
+    "ONCE": "'once'",
+    "HISTORICALLY": "'historically'",
+    "EVENTUALLY": "'eventually'",
+    "ALWAYS": "'always'",
+    "ABS": "'abs'",
+    "$END": "the end of the formula",
+}
+
+
+@dataclass
+class FormulaError(Exception):
+    """A formula that cannot be parsed or has the wrong sort; `col` is 1-based in the text."""
+
+    message: str
+    col: int
+    text: str = ""
+    line: int = 1  # 1-based line inside the formula text (multi-line YAML values)
+
+    def __str__(self) -> str:
+        return f"column {self.col}: {self.message}"
+
+
+@cache
+def _parser() -> Lark:
+    grammar = resources.files("spec").joinpath("grammar.lark").read_text(encoding="utf-8")
+    return Lark(grammar, parser="lalr", propagate_positions=True, maybe_placeholders=False)
+
+
+def _expected(names: set[str] | frozenset[str]) -> str:
+    words = sorted({_TERMINAL_WORDS.get(n, n.lower()) for n in names})
+    return ", ".join(words)
+
+
+def _line_col(text: str, pos: int) -> tuple[int, int]:
+    """1-based line and column of character offset `pos`."""
+    line = text.count("\n", 0, pos) + 1
+    start = text.rfind("\n", 0, pos) + 1
+    return line, pos - start + 1
+
+
+def _syntax_error(text: str, exc: UnexpectedInput) -> FormulaError:
+    if isinstance(exc, UnexpectedEOF) or (
+        isinstance(exc, UnexpectedToken) and exc.token.type == "$END"
+    ):
+        expected = getattr(exc, "expected", None) or getattr(exc, "accepts", set())
+        line, col = _line_col(text, len(text.rstrip()))
+        return FormulaError(
+            f"formula ends too early; expected {_expected(set(expected))}", col, text, line
+        )
+    if isinstance(exc, UnexpectedCharacters):
+        line, col = _line_col(text, exc.pos_in_stream)
+        char = text[exc.pos_in_stream]
+        return FormulaError(f"unexpected character {char!r}", col, text, line)
+    if isinstance(exc, UnexpectedToken):
+        token = exc.token
+        pos = token.start_pos if token.start_pos is not None else 0
+        line, col = _line_col(text, pos)
+        expected = exc.accepts or exc.expected
+        return FormulaError(
+            f"unexpected {str(token)!r}; expected {_expected(set(expected))}", col, text, line
+        )
+    return FormulaError(str(exc), 1, text)  # pragma: no cover - lark has no other kinds
+
+
+def parse_formula(text: str) -> Formula:
+    """Parse a condition (a formula whose robustness is judged). Raises `FormulaError`."""
+    if not text.strip():
+        raise FormulaError("empty formula; expected a condition such as 'els >= 0.6'", 1, text)
+    try:
+        tree = _parser().parse(text)
+    except UnexpectedInput as exc:
+        raise _syntax_error(text, exc) from None
+    node = _Builder(text).build(tree)
+    return _need_formula(node, tree, text)
+
+
+def parse_term(text: str) -> Term:
+    """Parse a numeric expression (used for SPI signals written as expressions)."""
+    try:
+        tree = _parser().parse(text)
+    except UnexpectedInput as exc:
+        raise _syntax_error(text, exc) from None
+    node = _Builder(text).build(tree)
+    return _need_term(node, tree, text)
+
+
+def _col_of(tree: Tree | Token, text: str) -> tuple[int, int]:
+    if isinstance(tree, Token):
+        pos = tree.start_pos or 0
+    else:
+        pos = getattr(tree.meta, "start_pos", 0) if not tree.meta.empty else 0
+    return _line_col(text, pos)
+
+
+def _need_formula(node: Node, tree: Tree | Token, text: str) -> Formula:
+    if isinstance(node, FORMULA_TYPES):
+        return cast(Formula, node)
+    line, col = _col_of(tree, text)
+    raise FormulaError(
+        "expected a condition here (a comparison such as 'x >= 0.6', or a formula built from "
+        "comparisons), found a numeric expression",
+        col,
+        text,
+        line,
+    )
+
+
+def _need_term(node: Node, tree: Tree | Token, text: str) -> Term:
+    if isinstance(node, TERM_TYPES):
+        return cast(Term, node)
+    line, col = _col_of(tree, text)
+    raise FormulaError(
+        "expected a number or signal here, found a condition; conditions combine with "
+        "'and', 'or', 'not', not with arithmetic or comparisons",
+        col,
+        text,
+        line,
+    )
+
+
+def _seconds(bound: Tree) -> Fraction:
+    number = cast(Token, bound.children[0])
+    value = Fraction(Decimal(str(number)))
+    if len(bound.children) > 1 and str(bound.children[1]) == "ms":
+        value /= 1000
+    return value
+
+
+class _Builder:
+    """Turns the lark tree into typed nodes, checking sorts on the way."""
+
+    def __init__(self, text: str):
+        self.text = text
+
+    def build(self, tree: Tree | Token) -> Node:
+        if isinstance(tree, Token):  # pragma: no cover - every token sits under a rule
+            raise FormulaError(f"unexpected {str(tree)!r}", _col_of(tree, self.text)[1], self.text)
+        kids = tree.children
+        rule = str(tree.data)
+        if rule == "number":
+            value = float(str(kids[0]))
+            if not math.isfinite(value):
+                line, col = _col_of(kids[0], self.text)
+                raise FormulaError(f"number {str(kids[0])!r} is too large", col, self.text, line)
+            return Num(value)
+        if rule == "signal":
+            token = cast(Token, kids[0])
+            return Signal(str(token), col=_col_of(token, self.text)[1])
+        if rule == "neg":
+            return Neg(self.term(kids[1]))
+        if rule == "abs_":
+            return Abs(self.term(kids[0]))
+        if rule == "arith":
+            op = str(kids[1])
+            return Arith(op, self.term(kids[0]), self.term(kids[2]))  # type: ignore[arg-type]
+        if rule == "compare":
+            op = str(kids[1])
+            return Compare(op, self.term(kids[0]), self.term(kids[2]))  # type: ignore[arg-type]
+        if rule == "not_":
+            return Not(self.formula(kids[0]))
+        if rule in ("and_", "or_", "implies"):
+            name = rule.rstrip("_")
+            return BoolOp(name, self.formula(kids[0]), self.formula(kids[1]))  # type: ignore[arg-type]
+        if rule == "prev":
+            return Prev(self.formula(kids[1]), col=_col_of(kids[0], self.text)[1])
+        if rule == "next_":
+            return Next(self.formula(kids[1]), col=_col_of(kids[0], self.text)[1])
+        if rule == "window":
+            op = str(kids[0])
+            interval = self.interval(kids[1]) if len(kids) == 3 else None
+            if interval is None and op in ("eventually", "always"):
+                line, col = _col_of(kids[0], self.text)
+                raise FormulaError(
+                    f"'{op}' needs a bound, e.g. '{op}[0:1s]': casewatch monitors only bounded "
+                    "future operators",
+                    col,
+                    self.text,
+                    line,
+                )
+            col = _col_of(kids[0], self.text)[1]
+            return Window(op, interval, self.formula(kids[-1]), col)  # type: ignore[arg-type]
+        if rule == "span":
+            op = str(kids[1])
+            interval = self.interval(kids[2]) if len(kids) == 4 else None
+            if interval is None and op == "until":
+                line, col = _col_of(kids[1], self.text)
+                raise FormulaError(
+                    "'until' needs a bound, e.g. 'until[0:1s]': casewatch monitors only bounded "
+                    "future operators",
+                    col,
+                    self.text,
+                    line,
+                )
+            col = _col_of(kids[1], self.text)[1]
+            left, right = self.formula(kids[0]), self.formula(kids[-1])
+            return Span(op, interval, left, right, col)  # type: ignore[arg-type]
+        raise FormulaError(f"unsupported construct {rule!r}", 1, self.text)  # pragma: no cover
+
+    def term(self, tree: Tree | Token) -> Term:
+        return _need_term(self.build(tree), tree, self.text)
+
+    def formula(self, tree: Tree | Token) -> Formula:
+        return _need_formula(self.build(tree), tree, self.text)
+
+    def interval(self, tree: Tree | Token) -> Interval:
+        tree = cast(Tree, tree)
+        lo, hi = (_seconds(cast(Tree, b)) for b in tree.children)
+        line, col = _col_of(tree, self.text)
+        if lo > hi:
+            raise FormulaError(
+                f"empty interval: lower bound {float(lo):g}s is above upper bound {float(hi):g}s",
+                col,
+                self.text,
+                line,
+            )
+        return Interval(lo, hi, col=col)
+
+
+def yaml_position(mark: Mark, error_line: int, error_col: int) -> tuple[int, int]:
+    """Map a 1-based (line, col) inside a formula to the YAML file, given the value's mark.
+
+    Exact for single-line values (the usual `when: "..."` or `stl: ...`): line is the mark's
+    line and the column is offset from where the value's text starts. For a block scalar the
+    line is offset too and the column is the column within that line of the formula text.
+    """
+    if error_line <= 1:
+        return mark.line, mark.col + error_col - 1
+    return mark.line + error_line - 1, error_col
