@@ -1,0 +1,86 @@
+"""The small public Python API: the same jobs as the CLI, composed from the five packages.
+
+    from casewatch import api
+    case, spec = api.prepare("examples/reference-case.yaml")
+    result = api.run("examples/reference-case.yaml", "examples/data/highway-tailgating.jsonl.gz",
+                     out_dir="out/demo")
+
+Everything here only composes: loading and checks live in `safety_case`, compilation in `spec`,
+metrics in `monitor`, judging in `evaluator`, rendering in `reports`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+from evaluator.result import RunResult
+from evaluator.session import RunOptions, evaluate_stream
+from safety_case.checks import check_file
+from safety_case.findings import CaseError, Finding, has_errors
+from safety_case.model import Case
+from spec.compiler import check_formulas, compile_case
+from spec.model import CompiledSpec
+
+
+def check(path: str | Path, mode: str = "online") -> tuple[Case | None, list[Finding]]:
+    """Every finding for a case file: loading, structure, then formulas (when it loaded)."""
+    case, findings = check_file(path)
+    if case is not None and not has_errors(findings):
+        findings = findings + check_formulas(case, mode=mode)
+    return case, findings
+
+
+def prepare(path: str | Path, mode: str = "online") -> tuple[Case, CompiledSpec]:
+    """Load, check and compile a case; raises `CaseError` (with every finding) on errors."""
+    case, findings = check(path, mode)
+    if case is None or has_errors(findings):
+        raise CaseError([f for f in findings if f.severity == "error"])
+    spec, more = compile_case(case, mode=mode)
+    if spec is None or has_errors(more):
+        raise CaseError([f for f in more if f.severity == "error"])
+    return case, spec
+
+
+def run(
+    case_path: str | Path,
+    stream: str | Path,
+    out_dir: str | Path | None = None,
+    labels: str | Path | None = None,
+    strict: bool = False,
+    formats: Sequence[str] = ("html", "md", "junit"),
+) -> RunResult:
+    """Judge one stream; with `out_dir`, write events.jsonl, result.json and the reports."""
+    case, spec = prepare(case_path)
+    out = Path(out_dir) if out_dir is not None else None
+    options = RunOptions(
+        strict=strict,
+        labels=Path(labels) if labels is not None else None,
+        events_path=out / "events.jsonl" if out is not None else None,
+    )
+    result = evaluate_stream(case, spec, stream, options)
+    if out is not None:
+        write_result(result, out)
+        if formats:
+            render(out, formats)
+    return result
+
+
+def write_result(result: RunResult, out_dir: Path) -> Path:
+    """Write result.json atomically (a reader never sees a half-written record)."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    target = out_dir / "result.json"
+    partial = out_dir / "result.json.partial"
+    partial.write_text(result.model_dump_json(indent=1), encoding="utf-8")
+    partial.replace(target)
+    return target
+
+
+def render(
+    out_dir: str | Path, formats: Sequence[str] = ("html", "md", "junit")
+) -> dict[str, Path]:
+    """Re-render the reports of a run folder from its result.json alone."""
+    from reports.render import load_result, render_reports
+
+    out = Path(out_dir)
+    return render_reports(load_result(out / "result.json"), out, formats)

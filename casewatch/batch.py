@@ -1,0 +1,138 @@
+"""Many logs at once: find them, judge each in a worker process, write summary.json.
+
+Composition only: each worker does what `casewatch run` does for one stream (prepare, evaluate,
+write, render); `evaluator.summary` does the adding up.
+"""
+
+from __future__ import annotations
+
+import glob
+import json
+import time
+from collections.abc import Callable, Sequence
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+
+from evaluator.ground_truth import LabelsError
+from evaluator.session import InputError, RunOptions, evaluate_stream
+from evaluator.summary import LogSummary, summarise, summarise_result
+from safety_case.findings import CaseError
+
+STREAM_SUFFIXES = (".jsonl", ".jsonl.gz", ".ndjson", ".ndjson.gz")
+LABEL_SUFFIXES = (".labels.jsonl", "-labels.jsonl")
+
+
+class NoStreams(ValueError):
+    """The pattern or folder matched no stream file."""
+
+
+def is_stream_file(path: Path) -> bool:
+    name = path.name
+    return name.endswith(STREAM_SUFFIXES) and not name.endswith(LABEL_SUFFIXES)
+
+
+def find_streams(pattern: str) -> list[Path]:
+    """A folder (its stream files, sorted), a glob, or a single file."""
+    path = Path(pattern)
+    if path.is_dir():
+        found = sorted(p for p in path.iterdir() if p.is_file() and is_stream_file(p))
+        if not found:
+            raise NoStreams(
+                f"{pattern}: no stream files in this folder "
+                f"(looked for {', '.join(STREAM_SUFFIXES)}; labels files are not streams)"
+            )
+        return found
+    if any(ch in pattern for ch in "*?["):
+        found = sorted(Path(p) for p in glob.glob(pattern) if is_stream_file(Path(p)))
+        if not found:
+            raise NoStreams(f"{pattern}: the pattern matches no stream file")
+        return found
+    return [path]
+
+
+def stream_stem(path: Path) -> str:
+    name = path.name
+    for suffix in sorted(STREAM_SUFFIXES, key=len, reverse=True):
+        if name.endswith(suffix):
+            return name[: -len(suffix)]
+    return path.stem
+
+
+def sibling_labels(path: Path) -> Path | None:
+    candidate = path.with_name(stream_stem(path) + ".labels.jsonl")
+    return candidate if candidate.is_file() else None
+
+
+@dataclass(frozen=True)
+class Job:
+    case_path: str
+    stream: str
+    out_dir: str
+    labels: str | None
+    strict: bool
+    formats: tuple[str, ...]
+
+
+def run_job(job: Job) -> LogSummary:
+    """Judge one log; never raises for bad input (the summary says what went wrong)."""
+    from casewatch import api
+
+    started = time.perf_counter()
+    out = Path(job.out_dir)
+    try:
+        case, spec = api.prepare(job.case_path)
+        options = RunOptions(
+            strict=job.strict,
+            labels=Path(job.labels) if job.labels else None,
+            events_path=out / "events.jsonl",
+        )
+        result = evaluate_stream(case, spec, job.stream, options)
+        api.write_result(result, out)
+        if job.formats:
+            api.render(out, job.formats)
+    except (InputError, LabelsError, CaseError, OSError) as exc:
+        return LogSummary(stream=job.stream, out_dir=str(out), ok=False, error=str(exc),
+                          seconds=round(time.perf_counter() - started, 3))
+    return summarise_result(result, str(out), time.perf_counter() - started)
+
+
+def run_many(
+    case_path: str,
+    case_digest: str,
+    streams: Sequence[Path],
+    out_dir: Path,
+    jobs: int,
+    labels: str | None,
+    strict: bool,
+    formats: Sequence[str],
+    on_done: Callable[[LogSummary], None] | None = None,
+) -> dict[str, object]:
+    """Judge every stream (in `jobs` processes) and write `out_dir/summary.json`."""
+    used: set[str] = set()
+    work: list[Job] = []
+    for stream in streams:
+        stem = stream_stem(stream)
+        name, n = stem, 2
+        while name in used:
+            name, n = f"{stem}-{n}", n + 1
+        used.add(name)
+        label_file = str(sibling_labels(stream) or "") if labels == "auto" else labels
+        work.append(Job(case_path, str(stream), str(out_dir / name), label_file or None,
+                        strict, tuple(formats)))
+    results: list[LogSummary] = []
+    if jobs <= 1:
+        for job in work:
+            results.append(run_job(job))
+            if on_done:
+                on_done(results[-1])
+    else:
+        with ProcessPoolExecutor(max_workers=jobs) as pool:
+            for summary in pool.map(run_job, work):
+                results.append(summary)
+                if on_done:
+                    on_done(summary)
+    summary = summarise(results, case_path, case_digest)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    (out_dir / "summary.json").write_text(json.dumps(summary, indent=1), encoding="utf-8")
+    return summary

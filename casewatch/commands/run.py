@@ -1,0 +1,188 @@
+"""`casewatch run CASE STREAM... -o OUTDIR`: judge streams and write results and reports.
+
+One stream (a file, or `-` for standard input, judged live as frames arrive) writes
+`OUTDIR/events.jsonl`, `OUTDIR/result.json` and the reports. Several streams (a folder, a glob
+or several paths) write one such folder per log under OUTDIR plus `OUTDIR/summary.json`, in
+`--jobs` parallel processes.
+
+Exit codes: 0 nothing violated, 1 any SPI episode or hazard event, 2 invalid input.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from casewatch import api, batch
+from evaluator.ground_truth import LabelsError
+from evaluator.result import DataGap, Episode, RunResult
+from evaluator.session import InputError, RunOptions, evaluate_stream
+from evaluator.summary import LogSummary
+from safety_case.findings import CaseError
+
+FORMATS = ("html", "md", "junit")
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser(
+        "run",
+        help="judge one or more streams against a safety case",
+        description="Judge streams against a safety case; write results and reports.",
+    )
+    p.add_argument("case", help="the safety case (YAML)")
+    p.add_argument("streams", nargs="+", metavar="STREAM",
+                   help="a JSON Lines stream (.jsonl or .jsonl.gz), '-' for standard input, "
+                        "a folder of streams, or a glob such as 'logs/*.jsonl.gz'")
+    p.add_argument("-o", "--out", required=True, type=Path, help="output folder")
+    p.add_argument("--labels", help="ground-truth labels (JSON Lines); 'auto' uses "
+                                    "NAME.labels.jsonl next to each stream when present")
+    p.add_argument("--strict", action="store_true",
+                   help="stop at the first stream defect instead of skipping the frame")
+    p.add_argument("--jobs", type=int, default=1, help="parallel processes for several logs")
+    p.add_argument("--format", default=",".join(FORMATS),
+                   help="reports to write: any of html,md,junit, or 'none' (default: all)")
+    p.add_argument("--quiet", action="store_true", help="no progress or event lines")
+
+
+def _formats(text: str) -> tuple[str, ...]:
+    if text.strip().lower() == "none":
+        return ()
+    chosen = tuple(f.strip() for f in text.split(",") if f.strip())
+    unknown = [f for f in chosen if f not in FORMATS]
+    if unknown:
+        raise ValueError(f"unknown report format(s) {', '.join(unknown)}; "
+                         f"choose from {', '.join(FORMATS)} or 'none'")
+    return chosen
+
+
+def event_line(event: Episode | DataGap) -> str:
+    """One line per closed event: node, span, worst robustness and the root-ward trace."""
+    if isinstance(event, DataGap):
+        return (f"NO DATA  {event.node_id}  {event.start:.1f}-{event.end:.1f} s  "
+                f"({event.ticks} ticks; missing {', '.join(event.missing)})")
+    label = "HAZARD " if event.kind == "hazard" else "VIOLATED"
+    trace = " | ".join(" -> ".join(step.id for step in path) for path in event.trace)
+    return (f"{label} {event.node_id}  {event.start:.1f}-{event.end:.1f} s  "
+            f"worst {event.worst_robustness:+.3f} at {event.t_worst:.1f} s  trace {trace}")
+
+
+def main(args: argparse.Namespace) -> int:
+    try:
+        formats = _formats(args.format)
+    except ValueError as exc:
+        print(f"casewatch run: {exc}", file=sys.stderr)
+        return 2
+    if args.jobs < 1:
+        print("casewatch run: --jobs must be at least 1", file=sys.stderr)
+        return 2
+    try:
+        case, spec = api.prepare(args.case)
+    except CaseError as exc:
+        for finding in exc.findings:
+            print(finding.format(), file=sys.stderr)
+        print(f"casewatch run: {args.case} has errors; fix them first "
+              f"(casewatch check {args.case})", file=sys.stderr)
+        return 2
+    single = len(args.streams) == 1 and (
+        args.streams[0] == "-" or not (Path(args.streams[0]).is_dir()
+                                       or any(c in args.streams[0] for c in "*?["))
+    )
+    if single:
+        return _run_single(args, case, spec, formats)
+    return _run_many(args, case, formats)
+
+
+def _run_single(args, case, spec, formats: tuple[str, ...]) -> int:
+    stream = args.streams[0]
+    live = stream == "-"
+    labels = args.labels
+    if labels == "auto":
+        found = None if live else batch.sibling_labels(Path(stream))
+        labels = str(found) if found else None
+
+    def on_event(event: Episode | DataGap) -> None:
+        if live and not args.quiet and isinstance(event, Episode):
+            print(event_line(event), flush=True)
+
+    def progress(frames: int, t: float) -> None:
+        if not args.quiet:
+            print(f"\r  {frames} frames, t = {t:.1f} s", end="", file=sys.stderr, flush=True)
+
+    options = RunOptions(
+        strict=args.strict,
+        labels=Path(labels) if labels else None,
+        events_path=args.out / "events.jsonl",
+        on_event=on_event,
+        progress=None if live else progress,
+    )
+    try:
+        result = evaluate_stream(case, spec, stream, options)
+    except (InputError, LabelsError) as exc:
+        print(f"\ncasewatch run: {exc}", file=sys.stderr)
+        return 2
+    if not live and not args.quiet:
+        print("\r", end="", file=sys.stderr)
+    path = api.write_result(result, args.out)
+    written = api.render(args.out, formats) if formats else {}
+    if not args.quiet:
+        _print_summary(result, path, written)
+    if result.stream.frames_read == 0:
+        print(f"casewatch run: {stream}: no frames could be read "
+              f"({result.stream.defect_count} defects); nothing was judged", file=sys.stderr)
+        return 2
+    return 1 if result.episodes else 0
+
+
+def _print_summary(result: RunResult, path: Path, written: dict[str, Path]) -> None:
+    s = result.stream
+    spi = sum(1 for e in result.episodes if e.kind == "spi")
+    hazards = len(result.episodes) - spi
+    gaps = sum(f.ticks_no_data for f in result.formulas)
+    print(f"{result.case.module}: {s.frames_read} frames, {s.duration:.1f} s, "
+          f"{s.defect_count} defects; root goal {result.case.root_id}: {result.verdict.upper()}")
+    print(f"  {spi} SPI episodes, {hazards} hazard events, {gaps} formula-ticks without data")
+    if result.ground_truth is not None:
+        o = result.ground_truth.overall
+        p = "n/a" if o.precision is None else f"{o.precision:.1%}"
+        r = "n/a" if o.recall is None else f"{o.recall:.1%}"
+        print(f"  ground truth: {o.true_positives} TP, {o.false_positives} FP, "
+              f"{o.false_negatives} FN; precision {p}, recall {r}")
+    print(f"  result: {path}")
+    for fmt, report in written.items():
+        print(f"  {fmt}: {report}")
+
+
+def _run_many(args, case, formats: tuple[str, ...]) -> int:
+    streams: list[Path] = []
+    try:
+        for pattern in args.streams:
+            if pattern == "-":
+                raise batch.NoStreams("'-' (standard input) cannot be combined with other streams")
+            streams.extend(batch.find_streams(pattern))
+    except batch.NoStreams as exc:
+        print(f"casewatch run: {exc}", file=sys.stderr)
+        return 2
+    if args.labels not in (None, "auto"):
+        print("casewatch run: with several streams use --labels auto "
+              "(NAME.labels.jsonl next to each stream)", file=sys.stderr)
+        return 2
+
+    def on_done(log: LogSummary) -> None:
+        if args.quiet:
+            return
+        if log.ok:
+            print(f"  {log.stream}: {log.frames} frames, {log.verdict} ({log.seconds:.1f} s)",
+                  file=sys.stderr)
+        else:
+            print(f"  {log.stream}: FAILED: {log.error}", file=sys.stderr)
+
+    summary = batch.run_many(args.case, case.digest, streams, args.out, args.jobs,
+                             args.labels, args.strict, formats, on_done)
+    if not args.quiet:
+        print(f"{summary['logs']} logs, {summary['hours']:.3f} h judged, "
+              f"{summary['logs_failed']} failed; summary: {args.out / 'summary.json'}")
+    if summary["logs_failed"]:
+        return 2
+    episodes = sum(int(f["episodes"]) for f in summary["formulas"])
+    return 1 if episodes else 0

@@ -1,0 +1,106 @@
+"""Aggregating many runs (a fleet's logs) into `summary.json`.
+
+Each run is first reduced to a `LogSummary` (small, picklable, sent back from worker
+processes); `summarise` then adds them up per SPI and per hazard, with rates per hour of
+monitored driving so logs of different lengths compare.
+"""
+
+from __future__ import annotations
+
+from pydantic import BaseModel, ConfigDict
+
+from evaluator.result import RunResult
+
+SUMMARY_FORMAT = "casewatch-summary"
+SUMMARY_VERSION = 1
+
+
+class FormulaCount(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    formula_id: str
+    node_id: str
+    kind: str
+    episodes: int
+    ticks_violated: int
+    ticks_evaluated: int
+    ticks_no_data: int
+
+
+class LogSummary(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    stream: str
+    out_dir: str
+    ok: bool  # False when the log could not be judged (then `error` says why)
+    error: str = ""
+    verdict: str = ""
+    frames: int = 0
+    duration_s: float = 0.0
+    defects: int = 0
+    seconds: float = 0.0  # wall time spent on this log
+    formulas: list[FormulaCount] = []
+
+
+def summarise_result(result: RunResult, out_dir: str, seconds: float) -> LogSummary:
+    return LogSummary(
+        stream=result.stream.path,
+        out_dir=out_dir,
+        ok=result.complete,
+        verdict=result.verdict,
+        frames=result.stream.frames_read,
+        duration_s=result.stream.duration,
+        defects=result.stream.defect_count,
+        seconds=round(seconds, 3),
+        formulas=[
+            FormulaCount(
+                formula_id=f.id,
+                node_id=f.node_id,
+                kind=f.kind,
+                episodes=f.episodes,
+                ticks_violated=f.ticks_violated,
+                ticks_evaluated=f.ticks_evaluated,
+                ticks_no_data=f.ticks_no_data,
+            )
+            for f in result.formulas
+        ],
+    )
+
+
+def summarise(logs: list[LogSummary], case_path: str, case_digest: str) -> dict[str, object]:
+    """The aggregate record written as summary.json."""
+    judged = [log for log in logs if log.ok]
+    hours = sum(log.duration_s for log in judged) / 3600.0
+    per_formula: dict[str, dict[str, object]] = {}
+    for log in judged:
+        for f in log.formulas:
+            entry = per_formula.setdefault(
+                f.formula_id,
+                {"formula_id": f.formula_id, "node_id": f.node_id, "kind": f.kind,
+                 "episodes": 0, "ticks_violated": 0, "ticks_evaluated": 0, "ticks_no_data": 0,
+                 "logs_with_episodes": 0},
+            )
+            entry["episodes"] += f.episodes
+            entry["ticks_violated"] += f.ticks_violated
+            entry["ticks_evaluated"] += f.ticks_evaluated
+            entry["ticks_no_data"] += f.ticks_no_data
+            entry["logs_with_episodes"] += 1 if f.episodes else 0
+    for entry in per_formula.values():
+        entry["episodes_per_hour"] = round(entry["episodes"] / hours, 4) if hours else None
+        evaluated = entry["ticks_evaluated"]
+        entry["violated_share"] = (
+            round(entry["ticks_violated"] / evaluated, 6) if evaluated else None
+        )
+    verdicts: dict[str, int] = {}
+    for log in judged:
+        verdicts[log.verdict] = verdicts.get(log.verdict, 0) + 1
+    return {
+        "format": SUMMARY_FORMAT,
+        "version": SUMMARY_VERSION,
+        "case": {"path": case_path, "digest": case_digest},
+        "logs": len(logs),
+        "logs_failed": len(logs) - len(judged),
+        "hours": round(hours, 6),
+        "frames": sum(log.frames for log in judged),
+        "verdicts": verdicts,
+        "formulas": sorted(per_formula.values(), key=lambda e: str(e["formula_id"])),
+        "per_log": [log.model_dump() for log in logs],
+    }
