@@ -1,0 +1,227 @@
+"""`MetricEngine`: every built-in signal, tick by tick, with the history the metrics need.
+
+The engine gathers inputs per channel / pair, calls the metric families and names the outputs
+exactly as `safety_case.signals.builtin_signals` does. It judges nothing. History (ELS window,
+stored plans, previous objects, ego positions) is kept per channel or pair and restarts when the
+time since its last sample exceeds `max_gap`, which covers both a gap between frames and a channel
+absent for too long.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from collections.abc import Callable
+from itertools import combinations
+from time import perf_counter
+
+import numpy as np
+
+from monitor.comfort import hcs, ppcs
+from monitor.frames import Frame
+from monitor.history import chpps, els_var
+from monitor.prediction import ompv
+from monitor.safety_score import arbitrate, safety_matrix
+from monitor.similarity import crpps_distance, ego_similarities, ets, object_similarities
+from safety_case.model import MetricParams
+from safety_case.signals import (
+    PAIR_METRICS,
+    SAFETY_SCORE,
+    WORST_IS_MAX,
+    builtin_signals,
+    channel_name,
+    pair_name,
+)
+
+#: Metric families, as the benchmark reports them.
+FAMILIES = ("similarity", "motion_prediction", "comfort", "safety_score")
+
+
+def _worst(values: list[float | None], use_max: bool) -> float | None:
+    """The unsuffixed signal. Decision: when any component has no value, the worst is unknown,
+    so the unsuffixed signal has no value either (missing data is never hidden by a min)."""
+    if not values or any(v is None for v in values):
+        return None
+    return max(values) if use_max else min(values)  # type: ignore[type-var]
+
+
+class _Timed:
+    """A deque of (t, value) that restarts when a sample comes more than `max_gap` after the
+    previous one."""
+
+    __slots__ = ("items", "max_gap")
+
+    def __init__(self, size: int, max_gap: float):
+        self.items: deque = deque(maxlen=size)
+        self.max_gap = max_gap
+
+    def push(self, t: float, value: object) -> None:
+        if self.items and t - self.items[-1][0] > self.max_gap + 1e-9:
+            self.items.clear()
+        self.items.append((t, value))
+
+    def recent(self, t: float) -> bool:
+        """True when the last sample is within max_gap of t."""
+        return bool(self.items) and t - self.items[-1][0] <= self.max_gap + 1e-9
+
+
+class MetricEngine:
+    """Stateful metric computation for one stream.
+
+    `step(frame)` returns a value (float, or None for "no value") for every name of
+    `builtin_signals(channels)`, plus the frame's scalar `signals` passed through. The
+    recommended channel of the tick is `last_arbitration` / `arbitration()`, kept out of the
+    float dict because the evaluator feeds that dict to STL.
+    """
+
+    def __init__(self, params: MetricParams, channels: list[str]):
+        if len(set(channels)) != len(channels) or not channels:
+            raise ValueError(f"channels must be a non-empty list of distinct names: {channels}")
+        self.params = params
+        self.channels = list(channels)
+        self.pairs = list(combinations(self.channels, 2))
+        self.signal_names = list(builtin_signals(self.channels))
+        self.last_arbitration: str | None = None
+        self.last_t: float | None = None
+        #: Seconds spent per family in the last step (the benchmark reads this).
+        self.timings: dict[str, float] = dict.fromkeys(FAMILIES, 0.0)
+        p = params
+        self._els = {pr: _Timed(p.els_window, p.max_gap) for pr in self.pairs}
+        self._plans = {c: _Timed(p.plan_history, p.max_gap) for c in self.channels}
+        self._objects = {c: _Timed(1, p.max_gap) for c in self.channels}
+        self._ego = {c: _Timed(p.comfort_window, p.max_gap) for c in self.channels}
+
+    def arbitration(self) -> str | None:
+        """The channel recommended at the last step (argmax of ss_i), or None."""
+        return self.last_arbitration
+
+    def reset(self) -> None:
+        """Forget all history (a new stream)."""
+        self.__init__(self.params, self.channels)  # type: ignore[misc]
+
+    def step(self, frame: Frame) -> dict[str, float | None]:
+        if self.last_t is not None and frame.t <= self.last_t:
+            raise ValueError(
+                f"frame t = {frame.t:g} (line {frame.line}) does not increase strictly "
+                f"(previous t = {self.last_t:g})"
+            )
+        self.last_t = frame.t
+        out: dict[str, float | None] = dict.fromkeys(self.signal_names)
+        self._timed("similarity", self._similarity, frame, out)
+        self._timed("motion_prediction", self._motion_prediction, frame, out)
+        self._timed("comfort", self._comfort, frame, out)
+        self._timed("safety_score", self._safety, frame, out)
+        for key, val in frame.signals.items():
+            if key not in out:
+                out[key] = val
+        return out
+
+    def _timed(
+        self,
+        family: str,
+        fn: Callable[[Frame, dict[str, float | None]], None],
+        frame: Frame,
+        out: dict[str, float | None],
+    ) -> None:
+        start = perf_counter()
+        fn(frame, out)
+        self.timings[family] = perf_counter() - start
+
+    # -- families -------------------------------------------------------------------------
+
+    def _similarity(self, frame: Frame, out: dict[str, float | None]) -> None:
+        p = self.params
+        st = frame.channels
+        distances: list[float | None] = []
+        per_pair: dict[str, list[float | None]] = {m: [] for m in PAIR_METRICS}
+        for a, b in self.pairs:
+            sa, sb = st.get(a), st.get(b)
+            vals: dict[str, float | None] = dict.fromkeys(PAIR_METRICS)
+            window = self._els[(a, b)]
+            if sa is not None and sb is not None:
+                vals.update(ego_similarities(sa, sb))
+                vals.update(
+                    object_similarities(sa.objects, sb.objects, p.pairing_gate, p.trajectory_decay)
+                )
+                vals["ets"] = ets(sa.plan, sb.plan, p.trajectory_decay)
+                fd = crpps_distance(sa.plan, sb.plan)
+                distances.append(fd)
+                vals["crpps"] = None if fd is None else 1.0 / (1.0 + fd)
+                window.push(frame.t, vals["els"])
+                vals["els_var"] = els_var([v for _, v in window.items], p.els_window)
+            else:
+                distances.append(None)
+            for m, v in vals.items():
+                out[pair_name(m, a, b)] = v
+                per_pair[m].append(v)
+        for m, values in per_pair.items():
+            out[m] = _worst(values, m in WORST_IS_MAX)
+        # crpps_mean = inv(mean fd); Decision: no value when any pair has none.
+        if distances and all(d is not None for d in distances):
+            out["crpps_mean"] = 1.0 / (1.0 + float(np.mean(distances)))  # type: ignore[arg-type]
+
+    def _motion_prediction(self, frame: Frame, out: dict[str, float | None]) -> None:
+        p = self.params
+        t = frame.t
+        for metric in ("chpps", "ompv"):
+            values: list[float | None] = []
+            for c in self.channels:
+                s = frame.channels.get(c)
+                v: float | None = None
+                if s is not None:
+                    if metric == "chpps":
+                        store = self._plans[c]
+                        if len(s.plan):
+                            stored = (
+                                [(t - ts, plan) for ts, plan in reversed(store.items)]
+                                if store.recent(t)
+                                else []
+                            )
+                            v = chpps(s.plan, stored, p.trajectory_decay)
+                            store.push(t, s.plan)
+                    else:
+                        prev = self._objects[c]
+                        if prev.recent(t):
+                            tp, objs = prev.items[-1]
+                            v = ompv(
+                                objs, t - tp, s.objects, p.prediction_tolerance, p.pairing_gate
+                            )
+                        prev.push(t, s.objects)
+                out[channel_name(metric, c)] = v
+                values.append(v)
+            out[metric] = _worst(values, False)
+
+    def _comfort(self, frame: Frame, out: dict[str, float | None]) -> None:
+        p = self.params
+        hv: list[float | None] = []
+        pv: list[float | None] = []
+        for c in self.channels:
+            s = frame.channels.get(c)
+            h: float | None = None
+            q: float | None = None
+            if s is not None:
+                hist = self._ego[c]
+                hist.push(frame.t, (s.ego.x, s.ego.y, s.ego.yaw))
+                if len(hist.items) >= p.comfort_window:
+                    arr = np.array([(ts, *v) for ts, v in hist.items])
+                    h = hcs(
+                        arr[:, 0], arr[:, 1:3], arr[:, 3], p.comfort_window, p.comfort_steepness
+                    )
+                q = ppcs(s.plan, p.comfort_steepness)
+            out[channel_name("hcs", c)] = h
+            out[channel_name("ppcs", c)] = q
+            hv.append(h)
+            pv.append(q)
+        out["hcs"] = _worst(hv, False)
+        out["ppcs"] = _worst(pv, False)
+
+    def _safety(self, frame: Frame, out: dict[str, float | None]) -> None:
+        matrix = safety_matrix(self.channels, frame.channels, self.params.pet_ref)
+        per_channel: list[float | None] = []
+        for (i, j), v in matrix.items():
+            out[pair_name(SAFETY_SCORE, i, j)] = v
+        for i in self.channels:
+            v = _worst([matrix[(i, j)] for j in self.channels], False)
+            out[channel_name(SAFETY_SCORE, i)] = v
+            per_channel.append(v)
+        out[SAFETY_SCORE] = _worst(list(matrix.values()), False)
+        self.last_arbitration = arbitrate(self.channels, matrix, self.last_arbitration)

@@ -1,0 +1,292 @@
+"""Validating a decoded JSON frame into a `Frame`, by hand.
+
+Hand-written checks instead of a pydantic model per object: the bench budget is about a
+millisecond per frame, and a reader must name exactly what is wrong (which channel, which
+object, which field) in the user's terms. Point lists become numpy arrays in one call each.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from typing import Any
+
+import numpy as np
+
+from monitor.frames import (
+    FORMAT_NAME,
+    FORMAT_VERSION,
+    ChannelState,
+    Ego,
+    Frame,
+    Header,
+    Objects,
+    box_footprint,
+    is_convex,
+)
+
+#: Stable defect kinds, documented in docs/streams.md.
+DEFECT_KINDS: dict[str, str] = {
+    "malformed-json": "the line is not valid JSON or not a JSON object",
+    "missing-field": "a required field is absent",
+    "wrong-type": "a field has the wrong JSON type or shape",
+    "non-finite": "a number is NaN, infinite or null where a value is required",
+    "unknown-channel": "a channel not declared (header or caller) appears",
+    "non-increasing-t": "frame time does not increase strictly",
+    "bad-trajectory": "plan or prediction dt negative or not strictly increasing",
+    "bad-footprint": "footprint missing, given twice, or degenerate",
+    "bad-header": "header malformed, of another format/version, or not on the first line",
+}
+
+
+class FrameDefect(Exception):
+    """A validation failure inside one line: `kind` is one of DEFECT_KINDS."""
+
+    def __init__(self, kind: str, message: str):
+        super().__init__(message)
+        self.kind = kind
+        self.message = message
+
+
+def _is_num(v: Any) -> bool:
+    return type(v) is float or type(v) is int
+
+
+def _number(d: dict[str, Any], key: str, where: str, default: float | None = None) -> float:
+    if key not in d:
+        if default is None:
+            raise FrameDefect("missing-field", f"{where}: missing required field '{key}'")
+        return default
+    v = d[key]
+    if not _is_num(v):
+        if v is None:
+            raise FrameDefect("non-finite", f"{where}.{key}: null where a number is required")
+        raise FrameDefect(
+            "wrong-type", f"{where}.{key}: expected a number, got {type(v).__name__} {v!r:.40}"
+        )
+    if not math.isfinite(v):
+        raise FrameDefect("non-finite", f"{where}.{key}: {v} is not a finite number")
+    return float(v)
+
+
+def _points(v: Any, where: str, ncols: int, what: str) -> np.ndarray:
+    """A list of `ncols`-number rows as an (n, ncols) float array, checked finite."""
+    if not isinstance(v, list):
+        raise FrameDefect("wrong-type", f"{where}: expected a list of {what}")
+    if not v:
+        return np.zeros((0, ncols))
+    try:
+        arr = np.array(v, dtype=float)
+    except (ValueError, TypeError):
+        raise FrameDefect(
+            "wrong-type", f"{where}: expected a list of {what} (numbers only)"
+        ) from None
+    if arr.ndim != 2 or arr.shape[1] != ncols:
+        raise FrameDefect("wrong-type", f"{where}: expected a list of {what}")
+    if not np.isfinite(arr).all():
+        row = int(np.nonzero(~np.isfinite(arr).all(axis=1))[0][0])
+        raise FrameDefect("non-finite", f"{where}[{row}]: NaN, inf or null in {v[row]!r:.60}")
+    return arr
+
+
+def _trajectory(v: Any, where: str) -> np.ndarray:
+    arr = _points(v, where, 3, "[dt, x, y] points")
+    if len(arr):
+        dt = arr[:, 0]
+        if dt[0] < 0:
+            raise FrameDefect("bad-trajectory", f"{where}[0]: dt {dt[0]:g} is negative")
+        bad = np.nonzero(np.diff(dt) <= 0)[0]
+        if len(bad):
+            i = int(bad[0]) + 1
+            raise FrameDefect(
+                "bad-trajectory",
+                f"{where}[{i}]: dt {dt[i]:g} does not increase strictly (previous {dt[i - 1]:g})",
+            )
+    return arr
+
+
+def _footprint(d: dict[str, Any], where: str) -> np.ndarray:
+    has_poly = "polygon" in d
+    has_box = "length" in d or "width" in d
+    if has_poly and has_box:
+        raise FrameDefect(
+            "bad-footprint", f"{where}: give either 'length'+'width' or 'polygon', not both"
+        )
+    if has_poly:
+        poly = _points(d["polygon"], f"{where}.polygon", 2, "[x, y] body-frame vertices")
+        if len(poly) < 3:
+            raise FrameDefect("bad-footprint", f"{where}.polygon: needs at least 3 vertices")
+        return poly
+    if not has_box:
+        raise FrameDefect(
+            "missing-field", f"{where}: missing footprint ('length'+'width' or 'polygon')"
+        )
+    length = _number(d, "length", where)
+    width = _number(d, "width", where)
+    if length <= 0 or width <= 0:
+        raise FrameDefect(
+            "bad-footprint", f"{where}: length and width must be > 0 (got {length:g}, {width:g})"
+        )
+    return box_footprint(length, width)
+
+
+def _dict(v: Any, where: str) -> dict[str, Any]:
+    if not isinstance(v, dict):
+        raise FrameDefect("wrong-type", f"{where}: expected an object, got {type(v).__name__}")
+    return v
+
+
+def _ego(v: Any, where: str) -> Ego:
+    d = _dict(v, where)
+    fp = _footprint(d, where)
+    return Ego(
+        x=_number(d, "x", where),
+        y=_number(d, "y", where),
+        yaw=_number(d, "yaw", where),
+        vx=_number(d, "vx", where, 0.0),
+        vy=_number(d, "vy", where, 0.0),
+        footprint=fp,
+        convex="polygon" not in d or is_convex(fp),
+    )
+
+
+def _objects(v: Any, where: str) -> Objects:
+    if not isinstance(v, list):
+        raise FrameDefect("wrong-type", f"{where}: expected a list of objects")
+    k = len(v)
+    if k == 0:
+        return Objects.empty()
+    ids: list[str] = []
+    cls: list[str] = []
+    num = np.empty((k, 5))
+    fps: list[np.ndarray] = []
+    preds: list[np.ndarray] = []
+    convex = np.ones(k, dtype=bool)
+    for i, o in enumerate(v):
+        w = f"{where}[{i}]"
+        o = _dict(o, w)
+        if "id" not in o:
+            raise FrameDefect("missing-field", f"{w}: missing required field 'id'")
+        oid = o["id"]
+        if type(oid) is int or type(oid) is str:
+            ids.append(str(oid))
+        else:
+            raise FrameDefect(
+                "wrong-type", f"{w}.id: expected a string or integer, got {oid!r:.40}"
+            )
+        c = o.get("cls", "unknown")
+        if not isinstance(c, str):
+            raise FrameDefect("wrong-type", f"{w}.cls: expected a string, got {c!r:.40}")
+        cls.append(c)
+        num[i, 0] = _number(o, "x", w)
+        num[i, 1] = _number(o, "y", w)
+        num[i, 2] = _number(o, "yaw", w, 0.0)
+        num[i, 3] = _number(o, "vx", w, 0.0)
+        num[i, 4] = _number(o, "vy", w, 0.0)
+        fp = _footprint(o, w)
+        if "polygon" in o:
+            convex[i] = is_convex(fp)
+        fps.append(fp)
+        p = o.get("prediction")
+        preds.append(np.zeros((0, 3)) if p is None else _trajectory(p, f"{w}.prediction"))
+    vmax = max(len(f) for f in fps)
+    if all(len(f) == vmax for f in fps):
+        footprints = np.stack(fps)
+    else:
+        footprints = np.stack(
+            [np.concatenate([f, np.repeat(f[-1:], vmax - len(f), 0)]) for f in fps]
+        )
+    lens = np.fromiter((len(p) for p in preds), dtype=int, count=k)
+    pmax = int(lens.max())
+    if bool((lens == pmax).all()):
+        pred = np.stack(preds) if pmax else np.zeros((k, 0, 3))
+    else:
+        pred = np.zeros((k, pmax, 3))
+        for i, p in enumerate(preds):
+            if len(p):
+                pred[i, : len(p)] = p
+                pred[i, len(p) :] = p[-1]
+    return Objects(
+        ids=ids,
+        cls=cls,
+        pos=num[:, 0:2].copy(),
+        yaw=num[:, 2].copy(),
+        vel=num[:, 3:5].copy(),
+        footprints=footprints,
+        pred=pred,
+        pred_len=lens,
+        convex=convex,
+    )
+
+
+def parse_channel(v: Any, where: str) -> ChannelState:
+    d = _dict(v, where)
+    if "ego" not in d:
+        raise FrameDefect("missing-field", f"{where}: missing required field 'ego'")
+    ego = _ego(d["ego"], f"{where}.ego")
+    plan = _trajectory(d.get("plan", []), f"{where}.plan")
+    objects = _objects(d.get("objects", []), f"{where}.objects")
+    return ChannelState(ego=ego, plan=plan, objects=objects)
+
+
+def parse_frame(obj: Any, known_channels: Iterable[str] | None = None, line: int = 0) -> Frame:
+    """Validate one decoded frame. Raises `FrameDefect` naming the first problem found."""
+    d = _dict(obj, "frame")
+    if "t" not in d:
+        raise FrameDefect("missing-field", "frame: missing required field 't'")
+    t = _number(d, "t", "frame")
+    if "channels" not in d:
+        raise FrameDefect("missing-field", "frame: missing required field 'channels'")
+    chans = _dict(d["channels"], "channels")
+    known = None if known_channels is None else set(known_channels)
+    channels: dict[str, ChannelState] = {}
+    for name, cv in chans.items():
+        if known is not None and name not in known:
+            raise FrameDefect(
+                "unknown-channel",
+                f"channels.{name}: channel not declared (declared: {', '.join(sorted(known))})",
+            )
+        channels[name] = parse_channel(cv, f"channels.{name}")
+    signals: dict[str, float | None] = {}
+    sv = d.get("signals")
+    if sv is not None:
+        for key, val in _dict(sv, "signals").items():
+            if val is None:
+                signals[key] = None
+            elif _is_num(val):
+                signals[key] = float(val) if math.isfinite(val) else None
+            else:
+                raise FrameDefect(
+                    "wrong-type", f"signals.{key}: expected a number or null, got {val!r:.40}"
+                )
+    return Frame(t=t, channels=channels, signals=signals, line=line)
+
+
+def parse_header(obj: Any) -> Header:
+    """Validate the `{"header": {...}}` line."""
+    h = _dict(obj.get("header"), "header")
+    fmt = h.get("format", FORMAT_NAME)
+    if fmt != FORMAT_NAME:
+        raise FrameDefect("bad-header", f"header.format: expected '{FORMAT_NAME}', got {fmt!r}")
+    version = h.get("version", FORMAT_VERSION)
+    if version != FORMAT_VERSION:
+        raise FrameDefect(
+            "bad-header",
+            f"header.version: this reader reads version {FORMAT_VERSION}, got {version!r}",
+        )
+    chans = h.get("channels", [])
+    if not isinstance(chans, list) or not all(isinstance(c, str) for c in chans):
+        raise FrameDefect("bad-header", "header.channels: expected a list of channel names")
+    if len(set(chans)) != len(chans):
+        raise FrameDefect("bad-header", f"header.channels: duplicate channel names in {chans}")
+    period = h.get("period", 0.1)
+    if not _is_num(period) or not math.isfinite(period) or period <= 0:
+        raise FrameDefect(
+            "bad-header", f"header.period: expected a positive number, got {period!r}"
+        )
+    meta = h.get("meta", {})
+    if not isinstance(meta, dict):
+        raise FrameDefect("bad-header", "header.meta: expected an object")
+    return Header(
+        format=fmt, version=version, channels=list(chans), period=float(period), meta=meta
+    )

@@ -1,0 +1,103 @@
+"""Object Motion Prediction Validation (ompv) and the track interpolation it shares with the
+safety score."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from monitor.frames import Objects
+from monitor.similarity import pair_objects
+
+
+def interpolate_tracks(
+    pos: np.ndarray, pred: np.ndarray, pred_len: np.ndarray, times: np.ndarray
+) -> np.ndarray:
+    """Object positions (K, T, 2) at `times` (T,) after the frame time.
+
+    Linear interpolation inside each prediction; before the first predicted point the object
+    moves linearly from its current position (which is where it is at dt = 0); after the last
+    point it stays there; without a prediction it stays where it is.
+    """
+    k, t = len(pos), len(times)
+    out = np.broadcast_to(pos[:, None, :], (k, t, 2)).copy()
+    if k == 0 or pred.shape[1] == 0:
+        return out
+    dt = pred[:, :, 0]
+    xy = pred[:, :, 1:3]
+    p = pred.shape[1]
+    have = pred_len > 0
+    if p == 1:
+        idx = np.zeros((k, t), dtype=int)
+        frac = np.zeros((k, t))
+    elif bool((pred_len == p).all()) and bool((dt == dt[0]).all()):
+        # Common case: every object predicted on the same time grid; one searchsorted.
+        g = dt[0]
+        i1 = np.clip(np.searchsorted(g, times, side="right") - 1, 0, p - 2)
+        f1 = np.clip((times - g[i1]) / (g[i1 + 1] - g[i1]), 0.0, 1.0)
+        idx = np.broadcast_to(i1, (k, t))
+        frac = np.broadcast_to(f1, (k, t))
+    else:
+        valid = np.arange(p)[None, :] < pred_len[:, None]
+        dtm = np.where(valid, dt, np.inf)
+        idx = (dtm[:, None, :] <= times[None, :, None]).sum(-1) - 1
+        idx = np.clip(idx, 0, np.maximum(pred_len - 2, 0)[:, None])
+        rows = np.arange(k)[:, None]
+        t0 = dt[rows, idx]
+        t1 = dt[rows, np.minimum(idx + 1, p - 1)]
+        span = t1 - t0
+        frac = np.clip(
+            np.divide(times[None, :] - t0, span, out=np.zeros_like(t0), where=span > 0), 0.0, 1.0
+        )
+    rows = np.arange(k)[:, None]
+    a = xy[rows, idx]
+    b = xy[rows, np.minimum(idx + 1, p - 1)]
+    inside = a + (b - a) * frac[..., None]
+    # Before the first predicted point: from the current position towards it.
+    first_dt = dt[:, 0]
+    before = times[None, :] < first_dt[:, None]
+    lead = np.divide(
+        times[None, :], first_dt[:, None], out=np.zeros((k, t)), where=first_dt[:, None] > 0
+    )
+    towards = pos[:, None, :] + (xy[:, None, 0, :] - pos[:, None, :]) * lead[..., None]
+    inside = np.where(before[..., None], towards, inside)
+    return np.where(have[:, None, None], inside, out)
+
+
+def ompv(prev: Objects, elapsed: float, cur: Objects, tolerance: float, gate: float) -> float:
+    """Share of objects that followed their prediction: N1 / N2 (1.0 when N2 = 0).
+
+    `prev` are the channel's objects `elapsed` seconds ago. A previous object is moved to its
+    predicted position now; one whose prediction does not reach `elapsed` is a miss (an absent
+    prediction means "stays where it is", so it always reaches). It followed when the current
+    object of the same id (or, when the channel does not track, the nearest within `gate`) is
+    within `tolerance`. N2 = previous objects + current objects that are new.
+    """
+    n_prev, n_cur = len(prev), len(cur)
+    if n_prev == 0:
+        return 1.0 if n_cur == 0 else 0.0  # every current object is new: a miss
+    reaches = (prev.pred_len == 0) | (
+        prev.pred[np.arange(n_prev), np.maximum(prev.pred_len - 1, 0), 0] >= elapsed - 1e-9
+        if prev.pred.shape[1]
+        else np.zeros(n_prev, dtype=bool)
+    )
+    predicted = interpolate_tracks(prev.pos, prev.pred, prev.pred_len, np.array([elapsed]))[:, 0]
+    index_cur = {oid: i for i, oid in enumerate(cur.ids)}
+    tracked = n_cur > 0 and any(oid in index_cur for oid in prev.ids)
+    if tracked or n_cur == 0:
+        # Decision: a channel tracks when at least one id carries over between the two ticks.
+        pi = np.array([i for i, oid in enumerate(prev.ids) if oid in index_cur], dtype=int)
+        ci = np.array([index_cur[prev.ids[i]] for i in pi], dtype=int)
+    else:
+        # No stable ids: the nearest current object to each predicted position, within the gate.
+        cand = np.nonzero(reaches)[0]
+        pa, ci, _ = pair_objects(predicted[cand], cur.pos, gate)
+        pi = cand[pa]
+    matched_cur = np.zeros(n_cur, dtype=bool)
+    matched_cur[ci] = True
+    n_new = int(n_cur - matched_cur.sum())
+    if len(pi):
+        err = np.hypot(*(predicted[pi] - cur.pos[ci]).T)
+        n1 = int(np.sum(reaches[pi] & (err <= tolerance)))
+    else:
+        n1 = 0
+    return n1 / (n_prev + n_new)

@@ -1,0 +1,169 @@
+"""Reading JSON Lines frame streams (file, `.gz` file, or `-` for standard input) lazily.
+
+A bad line never disappears: it becomes a `StreamDefect` kept on the reader (the frame is
+skipped), or, with `strict=True`, a `StreamError`. A channel missing from a frame is a dropout,
+counted per channel; the frame is still used. `docs/streams.md` lists the defect kinds.
+"""
+
+from __future__ import annotations
+
+import gzip
+import io
+import json
+import sys
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import IO
+
+from monitor.frames import Frame, Header
+from monitor.parse import FrameDefect, parse_frame, parse_header
+
+
+@dataclass(frozen=True)
+class StreamDefect:
+    """One bad line: 1-based line number, a stable kind (see DEFECT_KINDS), a message."""
+
+    line: int
+    kind: str
+    message: str
+    source: str = "<stream>"
+
+    def format(self) -> str:
+        return f"{self.source}:{self.line}: {self.kind}: {self.message}"
+
+
+class StreamError(Exception):
+    """Raised in strict mode on the first defect."""
+
+    def __init__(self, defect: StreamDefect):
+        super().__init__(defect.format())
+        self.defect = defect
+
+
+def _open_text(source: str | Path | IO) -> tuple[IO[str], str, bool]:
+    """(text stream, display name, whether we own it and must close it)."""
+    if isinstance(source, (str, Path)):
+        if str(source) == "-":
+            return sys.stdin, "<stdin>", False
+        path = Path(source)
+        with open(path, "rb") as fh:
+            magic = fh.read(2)
+        if magic == b"\x1f\x8b":
+            return io.TextIOWrapper(gzip.open(path, "rb"), encoding="utf-8"), str(path), True
+        return open(path, encoding="utf-8"), str(path), True
+    name = str(getattr(source, "name", "<stream>"))
+    if isinstance(source, io.TextIOBase) or hasattr(source, "encoding"):
+        return source, name, False  # type: ignore[return-value]
+    return io.TextIOWrapper(source, encoding="utf-8"), name, False  # type: ignore[arg-type]
+
+
+class StreamReader:
+    """Iterate to get frames, one per valid line, as they are read.
+
+    After iteration (or during it): `header` (None when the stream has none), `defects`,
+    `dropouts` (channel -> frames without it), `frames_read`, `channels` (the declared set:
+    the caller's list, else the header's, else the channels of the first valid frame).
+    """
+
+    def __init__(
+        self, source: str | Path | IO, strict: bool = False, channels: list[str] | None = None
+    ):
+        self._source = source
+        self.strict = strict
+        self.name = "<stdin>" if str(source) == "-" else str(getattr(source, "name", source))
+        self.declared: list[str] | None = list(channels) if channels is not None else None
+        self.channels: list[str] | None = self.declared
+        self.header: Header | None = None
+        self.defects: list[StreamDefect] = []
+        self.dropouts: dict[str, int] = {c: 0 for c in channels or []}
+        self.frames_read = 0
+        self._started = False
+
+    def _defect(self, line: int, kind: str, message: str) -> None:
+        d = StreamDefect(line, kind, message, self.name)
+        if self.strict:
+            raise StreamError(d)
+        self.defects.append(d)
+
+    def __iter__(self) -> Iterator[Frame]:
+        if self._started:
+            raise RuntimeError("a StreamReader can be iterated once")
+        self._started = True
+        fh, self.name, owned = _open_text(self._source)
+        try:
+            yield from self._frames(fh)
+        finally:
+            if owned:
+                fh.close()
+
+    def _frames(self, fh: IO[str]) -> Iterator[Frame]:
+        last_t: float | None = None
+        first_content = True
+        for lineno, text in enumerate(fh, start=1):
+            if not text.strip():
+                continue  # blank lines carry nothing (documented in docs/streams.md)
+            try:
+                obj = json.loads(text)
+            except ValueError as exc:
+                self._defect(lineno, "malformed-json", f"not valid JSON: {exc}")
+                first_content = False
+                continue
+            if isinstance(obj, dict) and "header" in obj:
+                if not first_content:
+                    self._defect(lineno, "bad-header", "a header is only allowed on the first line")
+                    continue
+                first_content = False
+                try:
+                    self.header = parse_header(obj)
+                except FrameDefect as d:
+                    self._defect(lineno, d.kind, d.message)
+                    continue
+                self._adopt_header(lineno)
+                continue
+            first_content = False
+            try:
+                frame = parse_frame(obj, self.channels, lineno)
+            except FrameDefect as d:
+                self._defect(lineno, d.kind, d.message)
+                continue
+            if last_t is not None and frame.t <= last_t:
+                self._defect(
+                    lineno,
+                    "non-increasing-t",
+                    f"t = {frame.t:g} does not increase strictly (previous frame t = {last_t:g})",
+                )
+                continue
+            if self.channels is None:
+                self.channels = list(frame.channels)
+                self.dropouts = {c: 0 for c in self.channels}
+            for c in self.channels:
+                if c not in frame.channels:
+                    self.dropouts[c] += 1
+            last_t = frame.t
+            self.frames_read += 1
+            yield frame
+
+    def _adopt_header(self, lineno: int) -> None:
+        assert self.header is not None
+        if self.declared is None:
+            if self.header.channels:
+                self.channels = list(self.header.channels)
+                self.dropouts = {c: 0 for c in self.channels}
+            return
+        extra = [c for c in self.header.channels if c not in self.declared]
+        if extra:
+            self._defect(
+                lineno,
+                "unknown-channel",
+                f"header lists channel(s) {', '.join(extra)} not declared "
+                f"(declared: {', '.join(self.declared)})",
+            )
+
+
+def read_stream(
+    source: str | Path | IO, strict: bool = False, channels: list[str] | None = None
+) -> StreamReader:
+    """Open a frame stream: a path (gzip detected from its magic bytes), `-` for stdin, or an
+    open text/binary file. Nothing is read until you iterate."""
+    return StreamReader(source, strict=strict, channels=channels)
