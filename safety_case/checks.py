@@ -214,7 +214,7 @@ class _Checker:
                 self.add(
                     "CW035",
                     "no root goal: every goal is supported by another node (or there is none)",
-                    next(iter(self.nodes.values())).mark if self.nodes else Mark(1, 1),
+                    next(iter(self.nodes.values())).mark if self.nodes else Mark(line=1, col=1),
                     "the top goal is the one goal no other node names in `supportedBy`",
                 )
             return []

@@ -183,7 +183,7 @@ def load_text(text: str, path: str = "<input>", digest: str | None = None) -> Lo
     if tree is None:
         if not findings:
             findings = [
-                finding("CW004", "the file is empty; expected a safety case", path, Mark(1, 1))
+                finding("CW004", "the file is empty; expected a safety case", path, Mark(line=1, col=1))
             ]
         return LoadResult(None, None, findings)
     if tree.kind != "map":
@@ -250,7 +250,7 @@ class _Builder:
             self.add(
                 "CW010",
                 "missing `module` block",
-                Mark(1, 1),
+                Mark(line=1, col=1),
                 "add e.g. `module: {name: ego-a-to-b, brief: what this case argues}`",
             )
             return None
@@ -262,7 +262,7 @@ class _Builder:
             self.add(
                 "CW011",
                 "missing `monitor` block",
-                Mark(1, 1),
+                Mark(line=1, col=1),
                 "add e.g. `monitor: {channels: [lav, tfuse], period: 0.1s}`",
             )
             return None
@@ -407,11 +407,14 @@ class _Builder:
         kind = error["type"]
         ctx = error.get("ctx") or {}
         loc = list(error["loc"])
-        if "key" in ctx:
-            loc.append(ctx["key"])
-        elif "index" in ctx:
-            loc.append(ctx["index"])
-        key_mark, value_mark, names, found = _locate(tree, container_mark, loc)
+        if "field" in ctx:
+            loc.append(ctx["field"])
+        # Our custom errors name the offending item by key (mappings) and/or index (lists).
+        candidates = [loc + [ctx[k]] for k in ("key", "index") if k in ctx] or [loc]
+        for attempt in candidates:
+            key_mark, value_mark, names, found = _locate(tree, container_mark, attempt)
+            if found:
+                break
         keypath = _join(names)
         code = _CODE_BY_ERROR.get(kind, "CW012")
         if kind == "extra_forbidden":

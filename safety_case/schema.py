@@ -265,13 +265,13 @@ class RawMonitor(BaseModel):
                 raise PydanticCustomError(
                     "declared_signal",
                     "declared signal name '{name}' must be an identifier ([A-Za-z_][A-Za-z0-9_]*)",
-                    {"name": name, "key": name, "index": index},
+                    {"name": name, "field": "signals", "key": name, "index": index},
                 )
             if name in builtin:
                 raise PydanticCustomError(
                     "declared_signal",
                     "declared signal '{name}' has the name of a built-in metric signal",
-                    {"name": name, "key": name, "index": index},
+                    {"name": name, "field": "signals", "key": name, "index": index},
                 )
         return self
 

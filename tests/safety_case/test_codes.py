@@ -1,0 +1,25 @@
+"""The code registry, the docs table and the fixtures agree."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+from safety_case.codes import CODES
+from tests.safety_case.fixtures import CHECK_FIXTURES, LOADER_FIXTURES
+
+DOCS = Path(__file__).resolve().parents[2] / "docs" / "checks.md"
+
+
+def test_every_code_has_a_failing_fixture() -> None:
+    covered = {f[0] for f in LOADER_FIXTURES + CHECK_FIXTURES} | {"CW001"}  # CW001: test_loader
+    assert covered == set(CODES)
+
+
+def test_codes_stay_in_the_structural_range() -> None:
+    assert all(re.fullmatch(r"CW0[0-3]\d", code) for code in CODES)
+
+
+def test_docs_table_lists_every_code_with_its_severity() -> None:
+    rows = dict(re.findall(r"^\| (CW\d{3}) \| (error|warning) \|", DOCS.read_text(), re.M))
+    assert {c: e.severity for c, e in CODES.items()} == {c: rows[c] for c in CODES}
