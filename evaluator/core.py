@@ -55,6 +55,7 @@ class FormulaState:
     gaps: GapTracker = field(default_factory=GapTracker)
     index: int = 0  # samples fed to the monitor since its last reset
     fresh: bool = True  # the monitor must be reset before its next update
+    used: bool = False  # the monitor has been updated at least once
     ticks_evaluated: int = 0
     ticks_violated: int = 0
     ticks_no_data: int = 0
@@ -131,9 +132,11 @@ class Evaluator:
             return "no-data"
         self._emit_gap(state, state.gaps.close())
         if state.fresh:
-            state.monitor.reset()
+            if state.used:  # rtamt 0.4.10's reset() fails on a monitor never updated
+                state.monitor.reset()
             state.index = 0
             state.fresh = False
+            state.used = True
         started = time.perf_counter()
         robustness = float(state.monitor.update(state.index, inputs))
         self.stl_seconds += time.perf_counter() - started

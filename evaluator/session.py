@@ -141,7 +141,7 @@ def evaluate_stream(
             t2 = time.perf_counter()
             evaluator.step(frame.t, values)
             t3 = time.perf_counter()
-            arbitration.add(frame.t, engine.arbitration)
+            arbitration.add(frame.t, engine.last_arbitration)
             clock.read += t1 - t0
             clock.metrics += t2 - t1
             clock.judge += t3 - t2

@@ -1,0 +1,155 @@
+"""`casewatch run`: exit codes, live mode from stdin, and crash safety of events.jsonl."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from casewatch.cli import main
+from tests.evaluator.streams import frame, write_case, write_stream
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def casewatch_process(*args: str) -> subprocess.Popen:
+    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    return subprocess.Popen(
+        [sys.executable, "-m", "casewatch", *args],
+        stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        cwd=REPO, env=env, text=True,
+    )
+
+
+def test_exit_1_with_violations_and_files_written(tmp_path, capsys):
+    case = write_case(tmp_path / "case.yaml")
+    stream = write_stream(tmp_path / "s.jsonl")
+    code = main(["run", str(case), str(stream), "-o", str(tmp_path / "out"), "--format", "none"])
+    assert code == 1
+    result = json.loads((tmp_path / "out" / "result.json").read_text())
+    assert result["verdict"] == "undermined" and result["stream"]["frames_read"] == 100
+    assert "root goal G1: UNDERMINED" in capsys.readouterr().out
+
+
+def test_exit_0_when_nothing_is_violated(tmp_path):
+    case = write_case(tmp_path / "case.yaml")
+    stream = tmp_path / "s.jsonl"
+    # frames 30..49 of the test stream: channels agree, nobody drops out
+    stream.write_text("".join(json.dumps(frame(i)) + "\n" for i in range(31, 50)))
+    assert main(["run", str(case), str(stream), "-o", str(tmp_path / "o"), "--format", "none",
+                 "--quiet"]) == 0
+
+
+def test_exit_2_on_bad_case_missing_stream_and_strict_defect(tmp_path, capsys):
+    case = write_case(tmp_path / "case.yaml")
+    bad_case = tmp_path / "bad.yaml"
+    bad_case.write_text(case.read_text().replace("signal: els", "signal: elss"))
+    stream = write_stream(tmp_path / "s.jsonl")
+    out = str(tmp_path / "o")
+    assert main(["run", str(bad_case), str(stream), "-o", out]) == 2
+    assert "unknown signal 'elss'" in capsys.readouterr().err
+    assert main(["run", str(case), str(tmp_path / "nope.jsonl"), "-o", out]) == 2
+    assert "cannot read stream" in capsys.readouterr().err
+    broken = tmp_path / "broken.jsonl"
+    broken.write_text(json.dumps(frame(0)) + "\n{not json\n" + json.dumps(frame(1)) + "\n")
+    assert main(["run", str(case), str(broken), "-o", out, "--strict", "--format", "none"]) == 2
+    assert "broken.jsonl:2: malformed-json" in capsys.readouterr().err
+
+
+def test_defects_are_kept_not_dropped_without_strict(tmp_path):
+    case = write_case(tmp_path / "case.yaml")
+    stream = tmp_path / "s.jsonl"
+    stream.write_text(json.dumps(frame(0)) + "\n{not json\n" + json.dumps(frame(1)) + "\n")
+    main(["run", str(case), str(stream), "-o", str(tmp_path / "o"), "--format", "none", "--quiet"])
+    result = json.loads((tmp_path / "o" / "result.json").read_text())
+    assert result["stream"]["defect_count"] == 1
+    assert result["stream"]["defects"][0]["line"] == 2
+
+
+def _feed_until_episode(proc: subprocess.Popen, frames: int) -> tuple[str, int]:
+    """Feed frames one by one; return the first episode line printed and frames fed so far."""
+    assert proc.stdin is not None and proc.stdout is not None
+    os.set_blocking(proc.stdout.fileno(), False)
+    printed = ""
+    for i in range(frames):
+        proc.stdin.write(json.dumps(frame(i)) + "\n")
+        proc.stdin.flush()
+        deadline = time.monotonic() + (0.2 if i > 35 else 0.0)
+        while True:
+            chunk = proc.stdout.readline()
+            if chunk:
+                printed += chunk
+            if "VIOLATED" in printed or time.monotonic() >= deadline:
+                break
+            time.sleep(0.01)
+        if "VIOLATED" in printed:
+            return printed, i + 1
+    return printed, frames
+
+
+def test_live_mode_prints_the_episode_before_the_input_ends(tmp_path):
+    case = write_case(tmp_path / "case.yaml")
+    proc = casewatch_process("run", str(case), "-", "-o", str(tmp_path / "out"),
+                             "--format", "none")
+    try:
+        printed, fed = _feed_until_episode(proc, 100)
+        # The episode (2.0-3.0 s) can close once merge_gap (1 s) of clean time has passed,
+        # at t = 4.0 s, i.e. frame 40: well before the 100 frames end.
+        assert "VIOLATED Sn1  2.0-3.0 s" in printed and "trace Sn1 -> G2 -> S1 -> G1" in printed
+        assert fed < 60
+        for i in range(fed, 100):
+            proc.stdin.write(json.dumps(frame(i)) + "\n")
+        proc.stdin.close()
+        assert proc.wait(timeout=60) == 1
+    finally:
+        proc.kill()
+
+
+def test_kill_9_keeps_every_closed_episode_and_no_truncated_line(tmp_path):
+    case = write_case(tmp_path / "case.yaml")
+    out = tmp_path / "out"
+    proc = casewatch_process("run", str(case), "-", "-o", str(out), "--format", "none")
+    try:
+        printed, fed = _feed_until_episode(proc, 100)
+        assert "VIOLATED Sn1" in printed
+        proc.send_signal(signal.SIGKILL)
+        proc.wait(timeout=30)
+    finally:
+        proc.kill()
+    assert proc.returncode == -signal.SIGKILL
+    raw = (out / "events.jsonl").read_text()
+    assert raw.endswith("\n")
+    events = [json.loads(line) for line in raw.splitlines()]
+    assert [(e["event"], e["node_id"], e["start"], e["end"]) for e in events] == [
+        ("spi_episode", "Sn1", 2.0, 3.0)
+    ]
+    assert not (out / "result.json").exists()
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_many_logs_write_one_result_each_and_a_summary(tmp_path, jobs):
+    case = write_case(tmp_path / "case.yaml")
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    write_stream(logs / "a.jsonl")
+    write_stream(logs / "b.jsonl", frames=50)
+    (logs / "a.labels.jsonl").write_text('{"hazard": "CSn1", "start": 1, "end": 2}\n')
+    out = tmp_path / "out"
+    code = main(["run", str(case), str(logs), "-o", str(out), "--jobs", str(jobs),
+                 "--labels", "auto", "--format", "none", "--quiet"])
+    assert code == 1
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["logs"] == 2 and summary["logs_failed"] == 0
+    assert (out / "a" / "result.json").exists() and (out / "b" / "result.json").exists()
+    # both logs hold the 2.0-3.0 s ELS episode; 10 s + 5 s of driving = 15 s
+    sn1 = next(f for f in summary["formulas"] if f["node_id"] == "Sn1")
+    assert sn1["episodes"] == 2
+    assert sn1["episodes_per_hour"] == pytest.approx(2 / (15 / 3600), rel=1e-6)
+    a = json.loads((out / "a" / "result.json").read_text())
+    assert a["ground_truth"]["overall"]["false_negatives"] == 1
