@@ -116,7 +116,7 @@ def test_kill_9_keeps_every_closed_episode_and_no_truncated_line(tmp_path):
     out = tmp_path / "out"
     proc = casewatch_process("run", str(case), "-", "-o", str(out), "--format", "none")
     try:
-        printed, fed = _feed_until_episode(proc, 100)
+        printed, _ = _feed_until_episode(proc, 100)
         assert "VIOLATED Sn1" in printed
         proc.send_signal(signal.SIGKILL)
         proc.wait(timeout=30)
