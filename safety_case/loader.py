@@ -54,6 +54,7 @@ NODE_ID_RE = re.compile(r"^(CSn|CG|Sn|G|S|C|A|J)([0-9][A-Za-z0-9_.\-]*)$")
 RESERVED_KEYS: tuple[str, ...] = ("module", "monitor")
 RELATIONS: tuple[str, ...] = ("supportedBy", "inContextOf", "challenges")
 COUNTER_TYPES = frozenset({NodeType.COUNTER_GOAL, NodeType.COUNTER_SOLUTION})
+_TOP = Mark(line=1, col=1)  # where file-level findings (a missing block) point
 
 _CODE_BY_ERROR = {
     "extra_forbidden": "CW013",
@@ -182,9 +183,7 @@ def load_text(text: str, path: str = "<input>", digest: str | None = None) -> Lo
     tree, findings = compose(text, path)
     if tree is None:
         if not findings:
-            findings = [
-                finding("CW004", "the file is empty; expected a safety case", path, Mark(line=1, col=1))
-            ]
+            findings = [finding("CW004", "the file is empty; expected a safety case", path, _TOP)]
         return LoadResult(None, None, findings)
     if tree.kind != "map":
         kind = "a list" if tree.kind == "seq" else f"a single value ({describe_value(tree.value)})"
@@ -410,7 +409,7 @@ class _Builder:
         if "field" in ctx:
             loc.append(ctx["field"])
         # Our custom errors name the offending item by key (mappings) and/or index (lists).
-        candidates = [loc + [ctx[k]] for k in ("key", "index") if k in ctx] or [loc]
+        candidates = [[*loc, ctx[k]] for k in ("key", "index") if k in ctx] or [loc]
         for attempt in candidates:
             key_mark, value_mark, names, found = _locate(tree, container_mark, attempt)
             if found:

@@ -28,42 +28,105 @@ LOADER_FIXTURES: list[tuple[str, str, int, int | None]] = [
     ("CW012", case("G1:\n  text: top\n  undeveloped: maybe\n"), 5, 16),
     ("CW013", case("G1:\n  text: top\n  suportedBy: [Sn1]\nSn1: {text: e}\n"), 5, 3),
     ("CW014", case("G1:\n  undeveloped: true\n"), 3, 1),
-    ("CW016", case("G1: {text: t, supportedBy: Sn1}\nSn1:\n  text: e\n"
-                   "  spi: {signal: els, threshold: '0.6'}\n"), 6, 33),
-    ("CW017", case("G1: {text: t, supportedBy: Sn1}\nSn1:\n  text: e\n"
-                   "  spi: {signal: els, threshold: '>= 0.6', for: 3 parsecs}\n"), 6, 48),
-    ("CW018", case("G1: {text: t, supportedBy: Sn1}\nSn1:\n  text: e\n  spi: {signal: els}\n"),
-     6, 8),
-    ("CW019", "module: {name: t}\nmonitor:\n  channels: [lav]\nG1: {text: a, undeveloped: true}\n",
-     3, 13),
+    (
+        "CW016",
+        case(
+            "G1: {text: t, supportedBy: Sn1}\nSn1:\n  text: e\n"
+            "  spi: {signal: els, threshold: '0.6'}\n"
+        ),
+        6,
+        33,
+    ),
+    (
+        "CW017",
+        case(
+            "G1: {text: t, supportedBy: Sn1}\nSn1:\n  text: e\n"
+            "  spi: {signal: els, threshold: '>= 0.6', for: 3 parsecs}\n"
+        ),
+        6,
+        48,
+    ),
+    (
+        "CW018",
+        case("G1: {text: t, supportedBy: Sn1}\nSn1:\n  text: e\n  spi: {signal: els}\n"),
+        6,
+        8,
+    ),
+    (
+        "CW019",
+        "module: {name: t}\nmonitor:\n  channels: [lav]\nG1: {text: a, undeveloped: true}\n",
+        3,
+        13,
+    ),
     ("CW020", case("G1: {text: t, undeveloped: true}\nGoal1: {text: x}\n"), 4, 1),
-    ("CW021", case("G1:\n  text: t\n  undeveloped: true\n  spi: {signal: els, threshold: '>1'}\n"),
-     6, 3),
-    ("CW022", case("G1: {text: t, supportedBy: Sn1}\nSn1:\n  text: e\n  hazard: {when: x > 1}\n"),
-     6, 3),
+    (
+        "CW021",
+        case("G1:\n  text: t\n  undeveloped: true\n  spi: {signal: els, threshold: '>1'}\n"),
+        6,
+        3,
+    ),
+    (
+        "CW022",
+        case("G1: {text: t, supportedBy: Sn1}\nSn1:\n  text: e\n  hazard: {when: x > 1}\n"),
+        6,
+        3,
+    ),
     ("CW023", case("G1: {text: t, supportedBy: Sn1}\nSn1:\n  text: e\n  challenges: G1\n"), 6, 3),
-    ("CW025", "module: {name: t}\nmonitor:\n  channels: [lav, tfuse]\n  signals: [speed, els]\n"
-     "G1: {text: a, undeveloped: true}\n", 4, 20),
+    (
+        "CW025",
+        "module: {name: t}\nmonitor:\n  channels: [lav, tfuse]\n  signals: [speed, els]\n"
+        "G1: {text: a, undeveloped: true}\n",
+        4,
+        20,
+    ),
 ]
 
 #: Structural check fixtures (the file loads; the graph is wrong).
 CHECK_FIXTURES: list[tuple[str, str, int, int | None]] = [
     ("CW024", BASE + "CSn1:\n  text: hazard\n  hazard: {when: 'els < 0.1'}\n", 8, 1),
-    ("CW026", BASE + "CG1:\n  text: c\n  challenges: G1\n  supportedBy: [CSn1]\n"
-     "CSn1:\n  text: d\n  challenges: [CG1]\n", 14, 16),
+    (
+        "CW026",
+        BASE + "CG1:\n  text: c\n  challenges: G1\n  supportedBy: [CSn1]\n"
+        "CSn1:\n  text: d\n  challenges: [CG1]\n",
+        14,
+        16,
+    ),
     ("CW030", case("G1:\n  text: top\n  supportedBy: [Sn1, Sn2]\nSn1: {text: e}\n"), 5, 22),
-    ("CW031", case("G1:\n  text: top\n  supportedBy: [Sn1]\n  inContextOf: [G1]\n"
-                   "Sn1: {text: e}\n"), 6, 17),
-    ("CW032", case("G1:\n  text: top\n  supportedBy: [Sn1, C1]\nSn1: {text: e}\nC1: {text: c}\n"),
-     5, 22),
-    ("CW033", case("G1:\n  text: top\n  supportedBy: [Sn1]\n  inContextOf: Sn1\n"
-                   "Sn1: {text: e}\n"), 6, 16),
-    ("CW034", case("G1: {text: top, supportedBy: [G2]}\nG2: {text: a, supportedBy: [G3]}\n"
-                   "G3: {text: b, supportedBy: [G2, Sn1]}\nSn1: {text: e}\n"), 4, 29),
+    (
+        "CW031",
+        case("G1:\n  text: top\n  supportedBy: [Sn1]\n  inContextOf: [G1]\nSn1: {text: e}\n"),
+        6,
+        17,
+    ),
+    (
+        "CW032",
+        case("G1:\n  text: top\n  supportedBy: [Sn1, C1]\nSn1: {text: e}\nC1: {text: c}\n"),
+        5,
+        22,
+    ),
+    (
+        "CW033",
+        case("G1:\n  text: top\n  supportedBy: [Sn1]\n  inContextOf: Sn1\nSn1: {text: e}\n"),
+        6,
+        16,
+    ),
+    (
+        "CW034",
+        case(
+            "G1: {text: top, supportedBy: [G2]}\nG2: {text: a, supportedBy: [G3]}\n"
+            "G3: {text: b, supportedBy: [G2, Sn1]}\nSn1: {text: e}\n"
+        ),
+        4,
+        29,
+    ),
     ("CW035", BASE + "G2:\n  text: another top\n  undeveloped: true\n", 8, 1),
     ("CW036", case("S1:\n  text: strategy on top\n  supportedBy: [Sn1]\nSn1: {text: e}\n"), 3, 1),
     ("CW037", BASE + "C1:\n  text: context nobody uses\n", 8, 1),
-    ("CW038", case("G1:\n  text: top\n  supportedBy: [Sn1]\n  undeveloped: true\n"
-                   "Sn1: {text: e}\n"), 6, 3),
+    (
+        "CW038",
+        case("G1:\n  text: top\n  supportedBy: [Sn1]\n  undeveloped: true\nSn1: {text: e}\n"),
+        6,
+        3,
+    ),
     ("CW039", case("G1:\n  text: top\n"), 3, 1),
 ]

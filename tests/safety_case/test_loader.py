@@ -80,7 +80,7 @@ def test_spi_and_hazard_bindings_are_normalised_with_formula_marks() -> None:
         "Sn2:\n"  # 9
         "  text: f\n"  # 10
         "  spi:\n"  # 11
-        "    stl: \"always(ets >= 0.6)\"\n"  # 12
+        '    stl: "always(ets >= 0.6)"\n'  # 12
         "    min_duration: 1min\n"  # 13
         "CSn1:\n"  # 14
         "  text: h\n"  # 15
@@ -94,7 +94,8 @@ def test_spi_and_hazard_bindings_are_normalised_with_formula_marks() -> None:
     assert value is not None
     sn1 = value.nodes["Sn1"].spi
     assert sn1 is not None
-    assert (sn1.signal, sn1.threshold, sn1.for_seconds) == ("els", Threshold(op=">=", value=0.6), 0.3)
+    assert (sn1.signal, sn1.for_seconds) == ("els", 0.3)
+    assert sn1.threshold == Threshold(op=">=", value=0.6)
     assert sn1.merge_gap == 2.0 and sn1.min_duration is None and sn1.stl is None
     assert sn1.mark == Mark(line=8, col=3)
     # plain scalar `els` after "  spi: {signal: " (16 characters) -> column 17
