@@ -1,0 +1,105 @@
+"""Small SUMO road networks, built by script so the data set can be regenerated anywhere.
+
+Two networks: a straight multi-lane highway (plain XML through `netconvert`) and an urban grid
+with traffic-light junctions (`netgenerate --grid`). The binaries are looked up next to the
+running Python first (the venv's `bin/`, where the `eclipse-sumo` wheel puts them), then on PATH.
+"""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+
+class NetworkBuildError(RuntimeError):
+    """A SUMO network tool is missing or failed; the message names the tool and its output."""
+
+
+@dataclass(frozen=True)
+class HighwaySpec:
+    """A straight highway running east (+x); lane 0 is the rightmost lane (SUMO convention)."""
+
+    length: float = 6000.0
+    lanes: int = 3
+    speed: float = 33.33
+
+
+@dataclass(frozen=True)
+class GridSpec:
+    """A square grid of two-lane streets; every junction is signalised (static programs)."""
+
+    junctions: int = 5
+    block: float = 150.0
+    lanes: int = 2
+    speed: float = 13.89
+    tls_cycle: int = 50  # s; short enough that a red light stops traffic for at most ~25 s
+
+
+def sumo_tool(name: str) -> str:
+    """Path of a SUMO binary: the venv's bin directory first, then PATH."""
+    candidate = Path(sys.executable).parent / name
+    if candidate.exists():
+        return str(candidate)
+    found = shutil.which(name)
+    if found is None:
+        raise NetworkBuildError(
+            f"SUMO tool '{name}' not found next to {sys.executable} nor on PATH; "
+            "install the simulator extra: pip install -e .[sim]"
+        )
+    return found
+
+
+def _run(cmd: list[str]) -> None:
+    proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    if proc.returncode != 0:
+        raise NetworkBuildError(
+            f"{Path(cmd[0]).name} failed (exit {proc.returncode}): {proc.stderr.strip()[-800:]}"
+        )
+
+
+def build_highway(spec: HighwaySpec, out_dir: Path) -> Path:
+    """Write `highway.net.xml` (one edge `hw` from x=0 to x=length) and return its path.
+
+    One long edge keeps every same-lane leader on the same lane id, so the geometric following
+    relation used by the labels is unambiguous.
+    """
+    out_dir.mkdir(parents=True, exist_ok=True)
+    nodes = out_dir / "highway.nod.xml"
+    edges = out_dir / "highway.edg.xml"
+    net = out_dir / "highway.net.xml"
+    nodes.write_text(
+        '<nodes>\n'
+        '  <node id="west" x="0" y="0" type="priority"/>\n'
+        f'  <node id="east" x="{spec.length:.1f}" y="0" type="priority"/>\n'
+        '</nodes>\n'
+    )
+    edges.write_text(
+        '<edges>\n'
+        f'  <edge id="hw" from="west" to="east" numLanes="{spec.lanes}" speed="{spec.speed}"/>\n'
+        '</edges>\n'
+    )
+    _run([sumo_tool("netconvert"), "-n", str(nodes), "-e", str(edges), "-o", str(net),
+          "--no-turnarounds", "true"])
+    return net
+
+
+def build_grid(spec: GridSpec, out_dir: Path) -> Path:
+    """Write `grid.net.xml` with traffic lights at every junction and return its path."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    net = out_dir / "grid.net.xml"
+    _run([
+        sumo_tool("netgenerate"), "--grid",
+        "--grid.number", str(spec.junctions),
+        "--grid.length", f"{spec.block}",
+        "--default.lanenumber", str(spec.lanes),
+        "--default.speed", f"{spec.speed}",
+        "--default-junction-type", "traffic_light",
+        "--tls.default-type", "static",
+        "--tls.cycle.time", str(spec.tls_cycle),
+        "--no-turnarounds", "true",
+        "-o", str(net),
+    ])
+    return net
