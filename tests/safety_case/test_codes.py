@@ -23,3 +23,16 @@ def test_codes_stay_in_the_structural_range() -> None:
 def test_docs_table_lists_every_code_with_its_severity() -> None:
     rows = dict(re.findall(r"^\| (CW\d{3}) \| (error|warning) \|", DOCS.read_text(), re.M))
     assert {c: e.severity for c, e in CODES.items()} == {c: rows[c] for c in CODES}
+
+
+def test_language_doc_example_passes_check() -> None:
+    from safety_case.checks import check_case
+    from safety_case.loader import load_text
+
+    doc = (DOCS.parent / "safety-case-language.md").read_text()
+    example = doc.split("```yaml\n", 1)[1].split("```", 1)[0]
+    result = load_text(example, "example.yaml")
+    assert result.case is not None, [f.format() for f in result.findings]
+    assert result.findings == [] and check_case(result.case) == []
+    assert result.case.nodes["Sn2"].spi is not None
+    assert result.case.monitor.signals == {"lane_offset": "lateral offset from the lane centre [m]"}
