@@ -40,18 +40,19 @@ class HashingReader(io.RawIOBase):
 
 
 def open_hashed(source: str | Path) -> tuple[IO[bytes], HashingReader, str]:
-    """Open a path (gzip detected by its magic bytes) or `-` (stdin) for reading frames.
+    """Open a path or `-` (stdin) for reading frames; gzip is detected by its magic bytes.
 
     Returns the binary stream to parse, the hashing layer (read `.sha256` at the end) and the
     name to show in messages. Raises OSError when the file cannot be opened.
     """
     if str(source) == "-":
-        hashing = HashingReader(sys.stdin.buffer)
-        return io.BufferedReader(hashing, buffer_size=1 << 16), hashing, "<stdin>"
-    path = Path(source)
-    raw = open(path, "rb")  # noqa: SIM115 - closed through the returned stream
+        raw: IO[bytes] = sys.stdin.buffer
+        name = "<stdin>"
+    else:
+        raw = open(Path(source), "rb")  # noqa: SIM115 - closed through the returned stream
+        name = str(source)
     hashing = HashingReader(raw)
     buffered = io.BufferedReader(hashing, buffer_size=1 << 16)
-    if buffered.peek(2)[:2] == b"\x1f\x8b":
-        return gzip.GzipFile(fileobj=buffered, mode="rb"), hashing, str(path)  # type: ignore[return-value]
-    return buffered, hashing, str(path)
+    if buffered.peek(2)[:2] == b"\x1f\x8b":  # gzip, from a file or piped in
+        return gzip.GzipFile(fileobj=buffered, mode="rb"), hashing, name  # type: ignore[return-value]
+    return buffered, hashing, name

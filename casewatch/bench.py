@@ -1,0 +1,282 @@
+"""`make bench`: the benchmark suite. Prints a table and writes `bench/results.json`.
+
+1. Online latency per frame at reference load (2 channels, 40 objects with 30-point
+   predictions, 50-point plans) through the reference case's full set of formulas: p50, p99
+   and max in ms, split into metrics, STL update, episodes/status, and total.
+2. rtamt update cost per formula, as the evaluator uses it.
+3. Offline throughput on the bundled data and on an 8-hour equivalent (the bundled scenarios
+   replayed end to end with shifted times), single process and with `--jobs 2`; peak RSS of
+   the single-process 8-hour run.
+4. Report rendering time and size for a 1-hour run.
+
+Targets (issue "Performance"): online p99 <= 2.5 ms total; offline >= 200x real time with
+--jobs 2; peak RSS of the 8-hour run <= 1 GiB. Options: `--quick` for a short smoke run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import gzip
+import json
+import os
+import platform
+import re
+import resource
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from casewatch import api
+from evaluator.core import Evaluator
+from monitor.bench import reference_load_frames
+from monitor.engine import MetricEngine
+
+REPO = Path(__file__).resolve().parent.parent
+CASE = REPO / "examples" / "reference-case.yaml"
+DATA = REPO / "examples" / "data"
+BENCH = Path("bench")
+T_FIELD = re.compile(rb'^\{"t":\s*([-0-9.eE+]+)')
+
+
+def _ms(values: list[float]) -> dict[str, float]:
+    a = np.asarray(values) * 1e3
+    return {"p50": round(float(np.percentile(a, 50)), 4),
+            "p99": round(float(np.percentile(a, 99)), 4),
+            "max": round(float(a.max()), 4), "mean": round(float(a.mean()), 4)}
+
+
+def online_latency(frames: int, warmup: int = 30) -> dict[str, object]:
+    """Per-frame cost of metrics + STL + episodes/status on the reference load."""
+    case, spec = api.prepare(CASE)
+    engine = MetricEngine(case.monitor.metrics, list(case.monitor.channels))
+    evaluator = Evaluator(case, spec)
+    parts: dict[str, list[float]] = {"metrics": [], "stl": [], "episodes_status": [], "total": []}
+    for i, frame in enumerate(reference_load_frames(frames + warmup, seed=1)):
+        t0 = time.perf_counter()
+        values = engine.step(frame)
+        t1 = time.perf_counter()
+        stl_before = evaluator.stl_seconds
+        evaluator.step(frame.t, values)
+        t2 = time.perf_counter()
+        if i < warmup:
+            continue
+        stl = evaluator.stl_seconds - stl_before
+        parts["metrics"].append(t1 - t0)
+        parts["stl"].append(stl)
+        parts["episodes_status"].append(t2 - t1 - stl)
+        parts["total"].append(t2 - t0)
+    return {"frames": frames, "formulas": len(spec.formulas),
+            **{k: _ms(v) for k, v in parts.items()}}
+
+
+def rtamt_cost(updates: int = 2000) -> list[dict[str, object]]:
+    """Mean cost of one `update` per compiled formula of the reference case (µs)."""
+    from spec.emit import build_rtamt_monitor
+
+    _, spec = api.prepare(CASE)
+    rng = np.random.default_rng(0)
+    rows = []
+    for formula in spec.formulas:
+        monitor = build_rtamt_monitor(formula, spec.period)
+        values = rng.uniform(0, 1, size=(updates, len(formula.signals)))
+        start = time.perf_counter()
+        for i in range(updates):
+            monitor.update(i, list(zip(formula.signals, values[i].tolist(), strict=True)))
+        cost = (time.perf_counter() - start) / updates * 1e6
+        rows.append(
+            {"formula": formula.id, "rtamt": formula.rtamt, "us_per_update": round(cost, 2)}
+        )
+    return rows
+
+
+def bundled_streams() -> list[Path]:
+    from casewatch.batch import find_streams
+
+    return find_streams(str(DATA))
+
+
+def build_replay(hours: float, files: int, folder: Path) -> tuple[list[Path], int]:
+    """Replay the bundled scenarios end to end, shifting times, into `files` gzip files that
+    together cover `hours` of driving. Returns the files and the frame count."""
+    folder.mkdir(parents=True, exist_ok=True)
+    sources: list[tuple[bytes, list[tuple[float, bytes]]]] = []
+    for path in bundled_streams():
+        with gzip.open(path, "rb") if path.suffix == ".gz" else open(path, "rb") as fh:
+            lines = fh.read().splitlines()
+        header = lines[0] if lines[0].startswith(b'{"header"') else b""
+        body = []
+        for line in lines[1:] if header else lines:
+            m = T_FIELD.match(line)
+            if m:
+                body.append((float(m.group(1)), line[m.end():]))
+        sources.append((header, body))
+    period = 0.1
+    total_frames = round(hours * 3600 / period)
+    per_file = total_frames // files
+    out: list[Path] = []
+    t_next = 0.0
+    written = 0
+    source = 0
+    for index in range(files):
+        path = folder / f"replay-{index:02d}.jsonl.gz"
+        with gzip.open(path, "wb", compresslevel=1) as fh:
+            header = sources[0][0]
+            if header:
+                fh.write(header + b"\n")
+            count = 0
+            while count < per_file:
+                _, body = sources[source % len(sources)]
+                source += 1
+                t0 = body[0][0]
+                chunk = []
+                for t, rest in body[: per_file - count]:
+                    chunk.append(b'{"t": %.3f' % (t_next + t - t0) + rest)
+                count += len(chunk)
+                t_next += (body[len(chunk) - 1][0] - t0) + 1.0  # a 1 s pause between drives
+                fh.write(b"\n".join(chunk) + b"\n")
+        written += count
+        out.append(path)
+    return out, written
+
+
+def run_cli(args: list[str], stdin_files: list[Path] | None = None) -> tuple[float, int, int]:
+    """Run `casewatch ARGS` in a child process: wall seconds, peak RSS (KiB), exit code."""
+    cmd = [sys.executable, "-m", "casewatch", *args]
+    start = time.perf_counter()
+    if stdin_files:
+        proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.DEVNULL,
+                                stderr=subprocess.PIPE)
+        assert proc.stdin is not None
+        for path in stdin_files:
+            with gzip.open(path, "rb") as fh:
+                lines = fh.read().splitlines(keepends=True)
+            if stdin_files.index(path) > 0 and lines and lines[0].startswith(b'{"header"'):
+                lines = lines[1:]
+            proc.stdin.write(b"".join(lines))
+        proc.stdin.close()
+        _, err = proc.communicate()
+    else:
+        proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        _, err = proc.communicate()
+    wall = time.perf_counter() - start
+    rss = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+    if proc.returncode not in (0, 1):
+        raise RuntimeError(f"casewatch {' '.join(args)} failed: {err.decode()[-2000:]}")
+    return wall, rss, proc.returncode
+
+
+def offline(streams: list[Path], frames: int, hours: float, jobs: int, out: Path) -> dict:
+    args = ["run", str(CASE), *map(str, streams), "-o", str(out), "--jobs", str(jobs),
+            "--format", "none", "--quiet"]
+    wall, _, _ = run_cli(args)
+    return {"jobs": jobs, "frames": frames, "hours": round(hours, 4), "wall_s": round(wall, 2),
+            "frames_per_s": round(frames / wall, 1), "x_real_time": round(hours * 3600 / wall, 1)}
+
+
+def count_frames(streams: list[Path]) -> tuple[int, float]:
+    frames, seconds = 0, 0.0
+    for path in streams:
+        with gzip.open(path, "rb") if path.suffix == ".gz" else open(path, "rb") as fh:
+            n = sum(1 for line in fh if line.startswith(b'{"t"'))
+        frames += n
+        seconds += n * 0.1
+    return frames, seconds / 3600
+
+
+def machine() -> dict[str, object]:
+    cpu = "unknown"
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return {"cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version(),
+            "platform": platform.platform()}
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m casewatch.bench", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--quick", action="store_true", help="short run (smoke test of the suite)")
+    ap.add_argument("--hours", type=float, default=8.0, help="length of the replay run")
+    args = ap.parse_args(argv)
+    hours = 0.05 if args.quick else args.hours
+    BENCH.mkdir(exist_ok=True)
+    results: dict[str, object] = {"machine": machine()}
+
+    print("1. online latency at reference load ...", flush=True)
+    online = online_latency(100 if args.quick else 1000)
+    results["online"] = online
+    print("2. rtamt update cost per formula ...", flush=True)
+    results["rtamt"] = rtamt_cost(200 if args.quick else 2000)
+
+    print("3. offline throughput ...", flush=True)
+    streams = bundled_streams()
+    frames, bundled_hours = count_frames(streams)
+    results["offline_bundled"] = [
+        offline(streams, frames, bundled_hours, jobs, BENCH / f"bundled-j{jobs}")
+        for jobs in (1, 2)
+    ]
+    replay, replay_frames = build_replay(hours, 4, BENCH / "replay")
+    wall, rss, _ = run_cli(["run", str(CASE), "-", "-o", str(BENCH / "replay-single"),
+                            "--format", "none", "--quiet"], stdin_files=replay)
+    single = {"jobs": 1, "frames": replay_frames, "hours": hours, "wall_s": round(wall, 2),
+              "frames_per_s": round(replay_frames / wall, 1),
+              "x_real_time": round(hours * 3600 / wall, 1), "peak_rss_mib": round(rss / 1024, 1)}
+    results["offline_replay"] = [single,
+                                 offline(replay, replay_frames, hours, 2, BENCH / "replay-j2")]
+
+    print("4. report rendering ...", flush=True)
+    try:
+        from reports.bench import measure
+
+        results["report"] = measure(hours=0.1 if args.quick else 1.0)
+    except ImportError as exc:
+        results["report"] = {"error": f"reports.bench unavailable: {exc}"}
+
+    (BENCH / "results.json").write_text(json.dumps(results, indent=1))
+    print_table(results)
+    print(f"\nwritten: {BENCH / 'results.json'}")
+    return 0
+
+
+def print_table(r: dict) -> None:
+    m = r["machine"]
+    print(f"\nmachine: {m['cpu']}, {m['cores']} cores, Python {m['python']}")
+    o = r["online"]
+    print(f"\nonline latency per frame, reference load, {o['formulas']} formulas "
+          f"({o['frames']} frames)")
+    print(f"{'part':<18}{'p50 ms':>9}{'p99 ms':>9}{'max ms':>9}")
+    for part in ("metrics", "stl", "episodes_status", "total"):
+        v = o[part]
+        print(f"{part:<18}{v['p50']:>9.3f}{v['p99']:>9.3f}{v['max']:>9.3f}")
+    print(f"target: total p99 <= 2.5 ms: {'met' if o['total']['p99'] <= 2.5 else 'MISSED'}")
+    print("\nrtamt update cost per formula (µs)")
+    for row in r["rtamt"]:
+        print(f"  {row['formula']:<6}{row['us_per_update']:>8.1f}  {row['rtamt'][:70]}")
+    print(f"\n{'offline':<16}{'jobs':>5}{'frames':>10}{'hours':>8}{'wall s':>9}"
+          f"{'frames/s':>10}{'x real':>9}{'RSS MiB':>9}")
+    for name in ("offline_bundled", "offline_replay"):
+        for row in r[name]:
+            print(f"{name[8:]:<16}{row['jobs']:>5}{row['frames']:>10}{row['hours']:>8.3f}"
+                  f"{row['wall_s']:>9.1f}{row['frames_per_s']:>10.0f}{row['x_real_time']:>9.0f}"
+                  f"{row.get('peak_rss_mib', ''):>9}")
+    replay_j2 = r["offline_replay"][1]["x_real_time"]
+    rss = r["offline_replay"][0]["peak_rss_mib"]
+    print(f"target: >= 200x real time with --jobs 2: {'met' if replay_j2 >= 200 else 'MISSED'}")
+    print(f"target: peak RSS <= 1024 MiB: {'met' if rss <= 1024 else 'MISSED'}")
+    rep = r.get("report", {})
+    if "error" not in rep:
+        print(f"\nreport for a {rep.get('hours')} h run: {rep.get('render_s')} s, "
+              f"{rep.get('html_bytes', 0) / 1e6:.2f} MB HTML")
+    else:
+        print(f"\nreport: {rep['error']}")
+
+
+if __name__ == "__main__":
+    sys.exit(main())
