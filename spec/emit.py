@@ -14,12 +14,16 @@ rtamt emitter therefore never relies on rtamt's precedence or associativity:
 - bounds are emitted as exact decimal seconds, a whole number of sampling periods, and the
   monitor's period is set as an exact fraction, so rtamt's own "multiple of the sampling period"
   test (done in exact fractions) cannot trip on binary rounding;
+- a repeated stateful subformula (`prev`, `once`, `historically`, `since`) is made textually
+  unique: rtamt keys operator state by the printed subformula and would update a shared one
+  twice per sample;
 - `pastify()` is never called (it shifts a predicate twice beside a bounded future operator).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from decimal import Decimal, localcontext
 from fractions import Fraction
 from typing import Any
@@ -111,39 +115,69 @@ def to_text(node: Node) -> str:
 
 def to_rtamt(node: Node) -> str:
     """Canonical rtamt text with every fence applied (see the module docstring)."""
-    if isinstance(node, Num):
-        return number_text(node.value)
-    if isinstance(node, Signal):
-        return node.name
-    if isinstance(node, Neg):
-        if isinstance(node.operand, Num):
-            # fence: rtamt only knows signed literals; the parentheses keep `x - (-1.0)` legal
-            return f"(-{number_text(node.operand.value)})"
-        return f"(0.0 - {to_rtamt(node.operand)})"
-    if isinstance(node, Abs):
-        return f"abs({to_rtamt(node.operand)})"
-    if isinstance(node, Arith):
-        right = to_rtamt(node.right)
-        if node.op == "-" and isinstance(node.right, Num):
-            right = f"({right})"  # fence: `x - 1` does not parse in rtamt 0.4.10
-        return f"({to_rtamt(node.left)} {node.op} {right})"
-    if isinstance(node, Compare):
-        op = "!==" if node.op == "!=" else node.op
-        return f"({to_rtamt(node.left)} {op} {to_rtamt(node.right)})"
-    if isinstance(node, Not):
-        return f"(not {to_rtamt(node.operand)})"
-    if isinstance(node, BoolOp):
-        return f"({to_rtamt(node.left)} {node.op} {to_rtamt(node.right)})"
-    if isinstance(node, Prev | Next):
-        word = "prev" if isinstance(node, Prev) else "next"
-        return f"({word} {to_rtamt(node.operand)})"
-    if isinstance(node, Window):
-        bounds = interval_text(node.interval) if node.interval else ""
-        return f"({node.op}{bounds} {to_rtamt(node.operand)})"
-    if isinstance(node, Span):
-        bounds = interval_text(node.interval) if node.interval else ""
-        return f"({to_rtamt(node.left)} {node.op}{bounds} {to_rtamt(node.right)})"
-    raise TypeError(f"not a formula node: {node!r}")
+    return _RtamtEmitter().emit(node)
+
+
+class _RtamtEmitter:
+    """One emission: remembers the stateful subformulas already written.
+
+    rtamt 0.4.10 keeps the state of each temporal operator under the operator's printed name,
+    so two equal subformulas (`prev (x >= 1) and prev (x >= 1)`) share one state that is
+    updated twice per sample: the second reads the sample just written. The fence writes a
+    repeated stateful subformula with its operand as `not (not ...)` (same robustness,
+    different name) as many times as needed to make every stateful name unique.
+    """
+
+    def __init__(self) -> None:
+        self.stateful: set[str] = set()
+
+    def emit(self, node: Node) -> str:
+        if isinstance(node, Num):
+            return number_text(node.value)
+        if isinstance(node, Signal):
+            return node.name
+        if isinstance(node, Neg):
+            if isinstance(node.operand, Num):
+                # fence: rtamt only knows signed literals; the parentheses keep `x - (-1.0)` legal
+                return f"(-{number_text(node.operand.value)})"
+            return f"(0.0 - {self.emit(node.operand)})"
+        if isinstance(node, Abs):
+            return f"abs({self.emit(node.operand)})"
+        if isinstance(node, Arith):
+            right = self.emit(node.right)
+            if node.op == "-" and isinstance(node.right, Num):
+                right = f"({right})"  # fence: `x - 1` does not parse in rtamt 0.4.10
+            return f"({self.emit(node.left)} {node.op} {right})"
+        if isinstance(node, Compare):
+            op = "!==" if node.op == "!=" else node.op
+            return f"({self.emit(node.left)} {op} {self.emit(node.right)})"
+        if isinstance(node, Not):
+            return f"(not {self.emit(node.operand)})"
+        if isinstance(node, BoolOp):
+            return f"({self.emit(node.left)} {node.op} {self.emit(node.right)})"
+        if isinstance(node, Prev | Next):
+            word = "prev" if isinstance(node, Prev) else "next"
+            return self._unique(lambda operand: f"({word} {operand})", self.emit(node.operand))
+        if isinstance(node, Window):
+            bounds = interval_text(node.interval) if node.interval else ""
+            return self._unique(
+                lambda operand: f"({node.op}{bounds} {operand})", self.emit(node.operand)
+            )
+        if isinstance(node, Span):
+            bounds = interval_text(node.interval) if node.interval else ""
+            left = self.emit(node.left)
+            return self._unique(
+                lambda operand: f"({left} {node.op}{bounds} {operand})", self.emit(node.right)
+            )
+        raise TypeError(f"not a formula node: {node!r}")
+
+    def _unique(self, shape: Callable[[str], str], operand: str) -> str:
+        text = shape(operand)
+        while text in self.stateful:
+            operand = f"(not (not {operand}))"
+            text = shape(operand)
+        self.stateful.add(text)
+        return text
 
 
 def new_rtamt_spec(text: str, variables: list[str], period: float) -> Any:

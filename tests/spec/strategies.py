@@ -1,0 +1,58 @@
+"""hypothesis strategies for random past-time formulas and traces (shared by spec tests)."""
+
+from __future__ import annotations
+
+from fractions import Fraction
+
+from hypothesis import strategies as st
+
+from spec.ast import Abs, Arith, BoolOp, Compare, Interval, Neg, Not, Num, Prev, Signal, Span, Window
+
+SIGNALS = ("x", "y", "z")
+PERIOD = 0.1
+
+numbers = st.sampled_from([0.0, 0.5, 1.0, 2.0, 3.25, 10.0]).map(Num)
+signals = st.sampled_from(SIGNALS).map(Signal)
+
+terms = st.recursive(
+    st.one_of(numbers, signals),
+    lambda inner: st.one_of(
+        st.builds(Neg, inner),
+        st.builds(Abs, inner),
+        st.builds(Arith, st.sampled_from(["+", "-", "*"]), inner, inner),
+        # division only by a non-zero constant: rtamt raises ZeroDivisionError on x / 0
+        st.builds(Arith, st.just("/"), inner, st.sampled_from([0.5, 2.0, 4.0]).map(Num)),
+    ),
+    max_leaves=4,
+)
+
+comparisons = st.builds(Compare, st.sampled_from(["<", "<=", ">", ">=", "==", "!="]), terms, terms)
+
+
+@st.composite
+def intervals(draw: st.DrawFn) -> Interval | None:
+    if draw(st.booleans()):
+        return None
+    lo = draw(st.integers(0, 3))
+    hi = draw(st.integers(lo, 5))
+    return Interval(Fraction(lo, 10), Fraction(hi, 10))
+
+
+past_formulas = st.recursive(
+    comparisons,
+    lambda inner: st.one_of(
+        st.builds(Not, inner),
+        st.builds(BoolOp, st.sampled_from(["and", "or", "implies"]), inner, inner),
+        st.builds(Prev, inner),
+        st.builds(Window, st.sampled_from(["once", "historically"]), intervals(), inner),
+        st.builds(Span, st.just("since"), intervals(), inner, inner),
+    ),
+    max_leaves=5,
+)
+
+
+@st.composite
+def traces(draw: st.DrawFn, min_len: int = 1, max_len: int = 12) -> dict[str, list[float]]:
+    n = draw(st.integers(min_len, max_len))
+    values = st.floats(-10, 10, allow_nan=False, allow_infinity=False).map(lambda v: round(v, 3))
+    return {name: draw(st.lists(values, min_size=n, max_size=n)) for name in SIGNALS}
