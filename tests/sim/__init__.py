@@ -1,0 +1,1 @@
+"""Tests for the SUMO reference-data generator (examples/sim)."""
