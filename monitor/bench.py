@@ -44,9 +44,16 @@ def _world(n: int, seed: int) -> dict[str, np.ndarray]:
     # Objects: spread along +-120 m of the road around the ego, on lanes, constant-ish speed.
     lane = rng.choice(LANES, N_OBJECTS)
     x0 = rng.uniform(-120.0, 120.0, N_OBJECTS)
-    x0[0], lane[0] = 25.0, 0.0  # a lead vehicle in the ego lane
     speed = rng.uniform(8.0, 25.0, N_OBJECTS)
-    speed[0] = 14.0
+    # The ego's lanes (0 and +3.5) hold no one it would drive through: traffic there is ahead
+    # and faster, or behind and slower; plus a lead vehicle 25 m ahead.
+    mine = (lane == 0.0) | (lane == 3.5)
+    ahead = rng.random(N_OBJECTS) < 0.5
+    x0 = np.where(mine & ahead, rng.uniform(30.0, 120.0, N_OBJECTS), x0)
+    x0 = np.where(mine & ~ahead, rng.uniform(-120.0, -30.0, N_OBJECTS), x0)
+    speed = np.where(mine & ahead, rng.uniform(18.0, 25.0, N_OBJECTS), speed)
+    speed = np.where(mine & ~ahead, rng.uniform(8.0, 12.0, N_OBJECTS), speed)
+    x0[0], lane[0], speed[0] = 25.0, 0.0, 17.5
     wobble = rng.uniform(0.0, 0.3, N_OBJECTS)
     ox = x0[:, None] + speed[:, None] * t[None, :]
     oy = lane[:, None] + wobble[:, None] * np.sin(0.5 * t[None, :] + x0[:, None])
@@ -156,7 +163,8 @@ def main(argv: list[str] | None = None) -> int:
     rows = run(args.frames, args.seed, args.warmup)
     print(
         f"monitor.bench: {len(CHANNELS)} channels, {N_OBJECTS} objects x {PRED_POINTS}-point "
-        f"predictions, {PLAN_POINTS}-point plans, {args.frames} frames (after {args.warmup} warm-up)"
+        f"predictions, {PLAN_POINTS}-point plans, {args.frames} frames "
+        f"(after {args.warmup} warm-up)"
     )
     print(f"{'family':<22} {'p50 ms':>8} {'p99 ms':>8}")
     for name, r in rows.items():

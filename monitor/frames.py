@@ -67,6 +67,9 @@ class Ego:
     vy: float
     footprint: np.ndarray
     convex: bool = True
+    #: (half length, half width) when the footprint is a length/width box, else None; boxes
+    #: take a closed-form separating-axis test in the safety score.
+    half: tuple[float, float] | None = None
 
     @property
     def pos(self) -> np.ndarray:
@@ -97,6 +100,8 @@ class Objects:
     pred: np.ndarray
     pred_len: np.ndarray
     convex: np.ndarray
+    #: (K, 2) half length and half width of box footprints; NaN rows for polygon footprints.
+    half: np.ndarray
     _areas: np.ndarray | None = field(default=None, repr=False)
     _radii: np.ndarray | None = field(default=None, repr=False)
 
@@ -149,6 +154,7 @@ class Objects:
             pred=np.zeros((0, 0, 3)),
             pred_len=np.zeros(0, dtype=int),
             convex=np.zeros(0, dtype=bool),
+            half=np.zeros((0, 2)),
         )
 
 

@@ -49,7 +49,8 @@ class FrameDefect(Exception):
 
 
 def _is_num(v: Any) -> bool:
-    return type(v) is float or type(v) is int
+    # bool is an int subclass in Python but never a number in a frame.
+    return isinstance(v, (float, int)) and type(v) is not bool
 
 
 def _number(d: dict[str, Any], key: str, where: str, default: float | None = None) -> float:
@@ -147,6 +148,7 @@ def _ego(v: Any, where: str) -> Ego:
         vy=_number(d, "vy", where, 0.0),
         footprint=fp,
         convex="polygon" not in d or is_convex(fp),
+        half=None if "polygon" in d else (float(fp[0, 0]), float(fp[0, 1])),
     )
 
 
@@ -162,6 +164,7 @@ def _objects(v: Any, where: str) -> Objects:
     fps: list[np.ndarray] = []
     preds: list[np.ndarray] = []
     convex = np.ones(k, dtype=bool)
+    half = np.full((k, 2), np.nan)
     for i, o in enumerate(v):
         w = f"{where}[{i}]"
         o = _dict(o, w)
@@ -186,6 +189,8 @@ def _objects(v: Any, where: str) -> Objects:
         fp = _footprint(o, w)
         if "polygon" in o:
             convex[i] = is_convex(fp)
+        else:
+            half[i] = fp[0]
         fps.append(fp)
         p = o.get("prediction")
         preds.append(np.zeros((0, 3)) if p is None else _trajectory(p, f"{w}.prediction"))
@@ -216,6 +221,7 @@ def _objects(v: Any, where: str) -> Objects:
         pred=pred,
         pred_len=lens,
         convex=convex,
+        half=half,
     )
 
 

@@ -19,36 +19,40 @@ def interpolate_tracks(
     point it stays there; without a prediction it stays where it is.
     """
     k, t = len(pos), len(times)
-    out = np.broadcast_to(pos[:, None, :], (k, t, 2)).copy()
     if k == 0 or pred.shape[1] == 0:
-        return out
+        return np.broadcast_to(pos[:, None, :], (k, t, 2)).copy()
     dt = pred[:, :, 0]
     xy = pred[:, :, 1:3]
     p = pred.shape[1]
+    if p > 1 and bool((pred_len == p).all()) and bool((dt == dt[0]).all()):
+        # Common case: every object predicted on the same time grid, one searchsorted.
+        g = dt[0]
+        i1 = np.clip(np.searchsorted(g, times, side="right") - 1, 0, p - 2)
+        f1 = np.clip((times - g[i1]) / (g[i1 + 1] - g[i1]), 0.0, 1.0)[None, :, None]
+        a = xy[:, i1]
+        out = a + (xy[:, i1 + 1] - a) * f1
+        if g[0] > 0 and times[0] < g[0]:
+            before = times < g[0]
+            lead = (times[before] / g[0])[None, :, None]
+            out[:, before] = pos[:, None, :] + (xy[:, None, 0, :] - pos[:, None, :]) * lead
+        return out
+    out = np.broadcast_to(pos[:, None, :], (k, t, 2)).copy()
     have = pred_len > 0
+    rows = np.arange(k)[:, None]
     if p == 1:
         idx = np.zeros((k, t), dtype=int)
         frac = np.zeros((k, t))
-    elif bool((pred_len == p).all()) and bool((dt == dt[0]).all()):
-        # Common case: every object predicted on the same time grid; one searchsorted.
-        g = dt[0]
-        i1 = np.clip(np.searchsorted(g, times, side="right") - 1, 0, p - 2)
-        f1 = np.clip((times - g[i1]) / (g[i1 + 1] - g[i1]), 0.0, 1.0)
-        idx = np.broadcast_to(i1, (k, t))
-        frac = np.broadcast_to(f1, (k, t))
     else:
         valid = np.arange(p)[None, :] < pred_len[:, None]
         dtm = np.where(valid, dt, np.inf)
         idx = (dtm[:, None, :] <= times[None, :, None]).sum(-1) - 1
         idx = np.clip(idx, 0, np.maximum(pred_len - 2, 0)[:, None])
-        rows = np.arange(k)[:, None]
         t0 = dt[rows, idx]
         t1 = dt[rows, np.minimum(idx + 1, p - 1)]
         span = t1 - t0
         frac = np.clip(
             np.divide(times[None, :] - t0, span, out=np.zeros_like(t0), where=span > 0), 0.0, 1.0
         )
-    rows = np.arange(k)[:, None]
     a = xy[rows, idx]
     b = xy[rows, np.minimum(idx + 1, p - 1)]
     inside = a + (b - a) * frac[..., None]
