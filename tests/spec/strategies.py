@@ -6,7 +6,20 @@ from fractions import Fraction
 
 from hypothesis import strategies as st
 
-from spec.ast import Abs, Arith, BoolOp, Compare, Interval, Neg, Not, Num, Prev, Signal, Span, Window
+from spec.ast import (
+    Abs,
+    Arith,
+    BoolOp,
+    Compare,
+    Interval,
+    Neg,
+    Not,
+    Num,
+    Prev,
+    Signal,
+    Span,
+    Window,
+)
 
 SIGNALS = ("x", "y", "z")
 PERIOD = 0.1

@@ -49,8 +49,13 @@ def test_hand_computed_past_operators() -> None:
 
 def test_hand_computed_matches_rtamt() -> None:
     trace = {"x": [5.0, 4.0, 3.0, 2.0, 1.0], "y": [0.0, 2.0, 0.0, 0.0, 3.0]}
-    for text in ("once[0:0.2s] x >= 2", "historically[100ms:200ms] x >= 2", "prev y >= 1",
-                 "x >= 2 since y >= 1", "x >= 2 since[0.1:0.3] y >= 1"):
+    for text in (
+        "once[0:0.2s] x >= 2",
+        "historically[100ms:200ms] x >= 2",
+        "prev y >= 1",
+        "x >= 2 since y >= 1",
+        "x >= 2 since[0.1:0.3] y >= 1",
+    ):
         formula = parse_formula(text)
         ours = reference_robustness(formula, trace, 0.1)
         theirs = rtamt_online(to_rtamt(formula), trace, 0.1)
