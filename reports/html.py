@@ -1,0 +1,143 @@
+"""The HTML audit report: one self-contained file (inline CSS and SVG, no script, no URL).
+
+Jinja2 renders it with autoescaping on for every template, so node texts, stream metadata and
+defect messages reach the page only as escaped text; geometry comes from `layout` and `plot` as
+numbers. The file must open offline years later, so it references nothing outside itself.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import jinja2
+
+from evaluator.result import STATUS_SEVERITY, RunResult
+from reports.layout import LINE_HEIGHT, SKEW, Diagram, layout_case
+from reports.plot import PlotView, StripRect, plot_series, status_strip
+from reports.view import (
+    STATUS_LABELS,
+    STATUS_MEANING,
+    ReportView,
+    build_view,
+    fmt_number,
+    fmt_ratio,
+    fmt_time,
+)
+
+#: Episodes beyond this number show a link to their node's trace instead of repeating it, so a
+#: run with thousands of episodes still renders a report of bounded size.
+TRACE_LIMIT = 1000
+STRIP_WIDTH = 1000
+EPISODE_LINK_CAP = 300
+
+
+@dataclass(frozen=True)
+class PlotCard:
+    formula_id: str
+    node_id: str
+    title: str
+    note: str
+    plot: PlotView
+
+
+def _environment() -> jinja2.Environment:
+    env = jinja2.Environment(
+        loader=jinja2.PackageLoader("reports", "templates"),
+        autoescape=True,  # every template, whatever its extension
+        undefined=jinja2.StrictUndefined,
+        trim_blocks=False,
+        lstrip_blocks=False,
+    )
+    env.globals.update(
+        status_label=lambda s: STATUS_LABELS.get(s, s),
+        fmt_time=fmt_time,
+        fmt_ratio=fmt_ratio,
+        fmt_rob=lambda v: "–" if v is None else f"{v:+.3f}",
+        fmt_number=fmt_number,
+    )
+    return env
+
+
+_ENV = _environment()
+
+
+def subtitles(result: RunResult) -> dict[str, str]:
+    """The second line of an SPI node in the diagram: its signal and threshold."""
+    out: dict[str, str] = {}
+    for formula in result.formulas:
+        if formula.kind == "spi" and formula.signal and formula.threshold:
+            out[formula.node_id] = f"{formula.signal} {formula.threshold}"
+        elif formula.kind == "spi":
+            out[formula.node_id] = "STL"
+        else:
+            out[formula.node_id] = "hazard"
+    return out
+
+
+def _plots(result: RunResult) -> list[PlotCard]:
+    """One plot per formula: its signal series when recorded, else its robustness."""
+    chosen = {}
+    for series in result.series:
+        current = chosen.get(series.formula_id)
+        if current is None or (current.quantity == "robustness" and series.quantity == "signal"):
+            chosen[series.formula_id] = series
+    span = (result.stream.t_start, result.stream.t_end)
+    t_range = None
+    if span[0] is not None and span[1] is not None:
+        t_range = (span[0], span[1] + result.case.period)
+    cards = []
+    order = {f.id: i for i, f in enumerate(result.formulas)}
+    for formula in sorted(result.formulas, key=lambda f: (f.kind != "spi", order[f.id])):
+        series = chosen.get(formula.id)
+        if series is None:
+            continue
+        episodes = [e for e in result.episodes if e.formula_id == formula.id]
+        gaps = [g for g in result.data_gaps if g.formula_id == formula.id]
+        plot = plot_series(series, episodes, gaps, result.case.period, t_range)
+        if series.quantity == "signal":
+            title = f"{series.name} {formula.threshold or ''}".strip()
+        else:
+            title = f"robustness of {formula.id}"
+        note = f"{len(episodes)} episodes · {len(gaps)} gaps"
+        if plot.buckets and series.bucket > result.case.period * 1.5:
+            note += f" · {series.bucket:g} s per bucket"
+        cards.append(PlotCard(formula.id, formula.node_id, title, note, plot))
+    return cards
+
+
+def _strips(view: ReportView, result: RunResult) -> dict[str, list[StripRect]]:
+    t0 = result.stream.t_start or 0.0
+    t1 = (result.stream.t_end if result.stream.t_end is not None else t0) + result.case.period
+    return {
+        n.id: status_strip(n.timeline, t0, t1, result.case.period, STRIP_WIDTH) for n in view.nodes
+    }
+
+
+def render_html(result: RunResult) -> str:
+    """The complete HTML report of `result`."""
+    view = build_view(result)
+    diagram: Diagram = layout_case(result.case, subtitles(result))
+    plots = _plots(result)
+    strips = _strips(view, result)
+    traces = {}
+    for node in result.case.nodes:
+        episode = next((e for e in result.episodes if e.node_id == node.id), None)
+        traces[node.id] = episode.trace if episode is not None else []
+    statuses = sorted(STATUS_SEVERITY, key=lambda s: -STATUS_SEVERITY[s])
+    template = _ENV.get_template("report.html.j2")
+    return template.render(
+        view=view,
+        diagram=diagram,
+        plots=plots,
+        plot_ids={p.formula_id for p in plots},
+        strips=strips,
+        root_strip=strips.get(result.case.root_id, []),
+        strip_width=STRIP_WIDTH,
+        traces=traces,
+        statuses=statuses,
+        status_meaning=STATUS_MEANING,
+        line_height=LINE_HEIGHT,
+        skew=SKEW,
+        trace_limit=TRACE_LIMIT,
+        episode_link_cap=EPISODE_LINK_CAP,
+    )
