@@ -273,7 +273,14 @@ class _Checker:
                 node.key_marks.get("undeveloped", node.mark),
                 "remove `undeveloped: true` once the node is developed, or drop its support",
             )
-        if node.type in DEVELOPABLE and not node.supported_by and not node.undeveloped:
+        # A `supportedBy` that failed validation was already reported; do not add a warning.
+        written = "supportedBy" in node.key_marks
+        if (
+            node.type in DEVELOPABLE
+            and not node.supported_by
+            and not node.undeveloped
+            and not written
+        ):
             self.add(
                 "CW039",
                 f"{_TYPE_NAMES[node.type]} {node.id} has no support and is not marked undeveloped",

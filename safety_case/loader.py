@@ -436,7 +436,10 @@ class _Builder:
         if code != "CW012":
             return finding(code, f"{subject}: {error['msg']}", self.path, mark)
         got = describe_value(error.get("input"))
-        if kind in _EXPECTED:
+        if names and names[0] in RELATIONS and kind in ("list_type", "string_type"):
+            expected = "a node id" if len(names) > 1 else "a node id or a list of node ids"
+            message = f"{subject} must be {expected}, got {got}"
+        elif kind in _EXPECTED:
             message = f"{subject} must be {_EXPECTED[kind]}, got {got}"
         else:
             reason = str(error.get("msg", "invalid value"))

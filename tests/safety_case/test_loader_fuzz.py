@@ -75,7 +75,7 @@ def assert_all_coded(findings: list) -> None:
     for item in findings:
         assert item.code in CODES
         assert item.severity == CODES[item.code].severity
-        assert item.line >= 0 and item.col >= 0
+        assert item.line >= 1 and item.col >= 1, item  # every finding points into the file
         assert item.message
 
 
