@@ -1,0 +1,54 @@
+"""`casewatch report OUTDIR`: re-render the reports of a run from its result.json alone."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from reports.render import FORMATS, ResultError, load_result, parse_formats, render_reports
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "report",
+        help="re-render the reports of a run from OUTDIR/result.json",
+        description="Re-render HTML, Markdown and JUnit reports from OUTDIR/result.json, "
+        "without re-running the evaluator.",
+    )
+    parser.add_argument("outdir", metavar="OUTDIR", help="output folder of `casewatch run`")
+    parser.add_argument(
+        "--format",
+        default=",".join(FORMATS),
+        help=f"comma-separated formats to write (default and valid: {','.join(FORMATS)})",
+    )
+
+
+def main(args: argparse.Namespace) -> int:
+    """Exit 0 when every report was written, 2 when the input or options are unusable."""
+    try:
+        formats = parse_formats(args.format)
+    except ValueError as exc:
+        print(f"casewatch report: {exc}", file=sys.stderr)
+        return 2
+    outdir = Path(args.outdir)
+    if not outdir.is_dir():
+        print(
+            f"casewatch report: {outdir}: no such folder (expected the output folder of "
+            "`casewatch run`)",
+            file=sys.stderr,
+        )
+        return 2
+    try:
+        result = load_result(outdir / "result.json")
+    except ResultError as exc:
+        print(f"casewatch report: {exc}", file=sys.stderr)
+        return 2
+    try:
+        written = render_reports(result, outdir, formats)
+    except OSError as exc:
+        print(f"casewatch report: cannot write reports into {outdir}: {exc}", file=sys.stderr)
+        return 2
+    for name, path in written.items():
+        print(f"{name}: {path}")
+    return 0

@@ -1,0 +1,209 @@
+"""The Markdown report: the headline, tables and traces, for pull requests and tickets.
+
+Every piece of user text is escaped so it cannot break a table (`|`, newlines) or turn into
+markup (`<script>`, `*`, `[`...). Long lists are capped with a count of what was left out, since
+a pull-request comment has a size limit; the HTML report and result.json hold everything.
+"""
+
+from __future__ import annotations
+
+import re
+
+from evaluator.result import RunResult, TraceStep
+from reports.view import STATUS_LABELS, build_view, fmt_ratio, fmt_time
+
+#: Episodes listed with their traces; the rest are counted.
+MD_EPISODE_CAP = 100
+
+_CONTROL = re.compile(r"[\x00-\x08\x0b\x0c\x0e-\x1f\x7f]")
+_SPECIAL = re.compile(r"([\\`*_{}\[\]<>()#+!|~])")
+
+
+def md_escape(text: object) -> str:
+    """Plain text that renders literally inside a Markdown paragraph or table cell."""
+    flat = " ".join(_CONTROL.sub("", str(text)).split())
+    return _SPECIAL.sub(r"\\\1", flat).replace("&", "&amp;")
+
+
+def md_code(text: object) -> str:
+    """Inline code; backticks inside are replaced since they cannot be escaped there."""
+    flat = " ".join(_CONTROL.sub("", str(text)).split()).replace("`", "'").replace("|", "¦")
+    return f"`{flat}`" if flat else ""
+
+
+def _table(header: list[str], rows: list[list[str]], align: list[str]) -> list[str]:
+    lines = ["| " + " | ".join(header) + " |"]
+    lines.append("| " + " | ".join("---:" if a == "r" else "---" for a in align) + " |")
+    lines += ["| " + " | ".join(row) + " |" for row in rows]
+    return lines
+
+
+def _trace(paths: list[list[TraceStep]]) -> list[str]:
+    return [
+        "  - " + " → ".join(f"**{md_escape(s.id)}** {md_escape(s.text)}" for s in path)
+        for path in paths
+    ]
+
+
+def render_markdown(result: RunResult) -> str:
+    """The complete Markdown report of `result`."""
+    view = build_view(result)
+    h = view.headline
+    out: list[str] = [f"# casewatch audit report: {md_escape(h.module)}", ""]
+    if not h.complete:
+        out += ["> **Incomplete run**: the run stopped before the end of the stream.", ""]
+    out += [
+        f"**Top claim {md_escape(h.root_id)}: {md_escape(h.verdict_label.upper())}** — "
+        f"{md_escape(h.root_text)}",
+        "",
+    ]
+    if h.root_shares:
+        shares = ", ".join(f"{label} {share}" for _, label, share in h.root_shares)
+        out += [f"Share of the run: {shares}.", ""]
+    out += _table(
+        ["frames", "duration", "SPI episodes", "hazard events", "data gaps", "stream defects"],
+        [
+            [
+                f"{h.frames:,}",
+                h.duration,
+                str(h.episodes_spi),
+                str(h.episodes_hazard),
+                str(h.data_gaps),
+                str(h.defects),
+            ]
+        ],
+        ["r"] * 6,
+    )
+    out += [
+        "",
+        f"- case: {md_code(h.case_path)} digest {md_code(h.case_digest)}",
+        f"- stream: {md_code(h.stream_path)} digest {md_code(h.stream_digest)}",
+        f"- created {md_escape(h.created)} by casewatch {md_escape(h.casewatch_version)}",
+        "",
+        "## Safety Performance Indicators",
+        "",
+    ]
+    if view.spi_rows:
+        out += _table(
+            [
+                "node",
+                "signal",
+                "threshold",
+                "ticks violated",
+                "time violated",
+                "episodes",
+                "worst robustness",
+                "data gaps",
+                "status",
+            ],
+            [
+                [
+                    f"**{md_escape(r.node_id)}** {md_escape(r.node_text)}",
+                    md_code(r.signal),
+                    md_code(r.threshold),
+                    f"{r.ticks_violated:,} / {r.ticks_evaluated:,}",
+                    r.share_violated,
+                    str(r.episodes),
+                    f"{r.worst_robustness} at {r.t_worst}",
+                    r.gap_share,
+                    STATUS_LABELS.get(r.status, r.status),
+                ]
+                for r in view.spi_rows
+            ],
+            ["l", "l", "l", "r", "r", "r", "r", "r", "l"],
+        )
+    else:
+        out.append("The case binds no SPI.")
+    out += ["", "## Hazards", ""]
+    if view.hazard_rows:
+        labelled = view.labels_path is not None
+        header = ["node", "condition", "events", "time active", "data gaps"]
+        if labelled:
+            header += ["TP", "FP", "FN", "precision", "recall"]
+        rows = []
+        for r in view.hazard_rows:
+            row = [
+                f"**{md_escape(r.node_id)}** {md_escape(r.node_text)}",
+                md_code(r.condition),
+                str(r.events),
+                r.share_active,
+                r.gap_share,
+            ]
+            if labelled:
+                s = r.score
+                row += [
+                    str(s.true_positives) if s else "–",
+                    str(s.false_positives) if s else "–",
+                    str(s.false_negatives) if s else "–",
+                    r.precision,
+                    r.recall,
+                ]
+            rows.append(row)
+        if labelled and view.overall_score is not None:
+            o = view.overall_score
+            rows.append(
+                [
+                    "**all hazards**",
+                    "",
+                    "",
+                    "",
+                    "",
+                    str(o.true_positives),
+                    str(o.false_positives),
+                    str(o.false_negatives),
+                    fmt_ratio(o.precision),
+                    fmt_ratio(o.recall),
+                ]
+            )
+        out += _table(header, rows, ["l", "l"] + ["r"] * (len(header) - 2))
+        if not labelled:
+            out += ["", "No ground-truth labels were given."]
+    else:
+        out.append("The case declares no hazard.")
+    out += ["", f"## Episodes ({len(view.episodes)})", ""]
+    if not view.episodes:
+        out.append("No SPI violation and no hazard event over the run.")
+    for e in view.episodes[:MD_EPISODE_CAP]:
+        kind = "SPI violation" if e.kind == "spi" else "hazard event"
+        out.append(
+            f"- **#{e.number} {md_escape(e.node_id)}** ({kind}) {e.start} to {e.end} "
+            f"({e.ticks} ticks), worst robustness {e.worst_robustness} at {e.t_worst}; trace:"
+        )
+        out += _trace(e.trace)
+    if len(view.episodes) > MD_EPISODE_CAP:
+        out += ["", f"… and {len(view.episodes) - MD_EPISODE_CAP} more episodes (see report.html)."]
+    out += ["", f"## Data gaps ({len(result.data_gaps)})", ""]
+    if view.gaps.shown:
+        out += _table(
+            ["node", "from", "to", "ticks", "missing inputs"],
+            [
+                [
+                    md_escape(g.node_id),
+                    fmt_time(g.start),
+                    fmt_time(g.end),
+                    str(g.ticks),
+                    md_code(", ".join(g.missing)),
+                ]
+                for g in view.gaps.shown
+            ],
+            ["l", "r", "r", "r", "l"],
+        )
+        if view.gaps.omitted:
+            out += ["", f"… and {view.gaps.omitted} more data gaps (all in result.json)."]
+    else:
+        out.append("No data gaps.")
+    out += ["", f"## Stream defects ({h.defects})", ""]
+    if view.defects.shown:
+        out += _table(
+            ["line", "kind", "message"],
+            [[str(d.line), md_code(d.kind), md_escape(d.message)] for d in view.defects.shown],
+            ["r", "l", "l"],
+        )
+        if view.defects.omitted:
+            out += ["", f"… and {view.defects.omitted} more defects."]
+    else:
+        out.append("No stream defects.")
+    if h.meta:
+        out += ["", "Stream meta: " + "; ".join(f"{md_code(k)} = {md_code(v)}" for k, v in h.meta)]
+    out.append("")
+    return "\n".join(out)
