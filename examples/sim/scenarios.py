@@ -106,7 +106,7 @@ HIGHWAY_TAILGATING = Scenario(
     vehicles=(VehicleSpec("lead", "lead", HW, 470.0, 1, 24.0, lc_mode=512, max_speed=25.0),),
     actions=(
         Action(8.0, "ego", "tau", 0.45), Action(8.0, "ego", "min_gap", 1.0),
-        Action(28.0, "lead", "slow_down", 11.0, 2.5),
+        Action(28.0, "lead", "slow_down", 10.0, 2.0),
         Action(40.0, "lead", "max_speed", 26.0), Action(40.0, "lead", "slow_down", 26.0, 8.0),
         Action(50.0, "ego", "tau", 1.6), Action(50.0, "ego", "min_gap", 2.5),
         Action(58.0, "ego", "max_speed", 22.0),
@@ -114,7 +114,7 @@ HIGHWAY_TAILGATING = Scenario(
         Action(76.0, "lead", "lane", 1, 44.0),
         Action(80.0, "ego", "max_speed", 30.0),
         Action(86.0, "ego", "tau", 0.45), Action(86.0, "ego", "min_gap", 1.0),
-        Action(96.0, "lead", "slow_down", 8.0, 2.5),
+        Action(96.0, "lead", "slow_down", 8.0, 2.2),
         Action(104.0, "lead", "slow_down", 24.0, 6.0),
     ),
     background=Background(initial=45, flow_per_hour=1500.0),
@@ -177,7 +177,7 @@ HIGHWAY_SHORT = Scenario(
     network="highway",
     seed=5,
     duration=20.0,
-    ego=VehicleSpec("ego", "ego", HW, 400.0, 1, 24.0, lc_mode=512, max_speed=30.0),
+    ego=VehicleSpec("ego", "ego", HW, 380.0, 1, 24.0, lc_mode=512, max_speed=30.0),
     vehicles=(VehicleSpec("lead", "lead", HW, 460.0, 1, 24.0, lc_mode=512, max_speed=25.0),),
     actions=(
         Action(3.0, "ego", "tau", 0.45), Action(3.0, "ego", "min_gap", 1.0),

@@ -30,7 +30,8 @@ STEP = 0.1
 VTYPES = """
   <vType id="ego" vClass="passenger" length="4.6" width="1.9" accel="2.6" decel="4.5"
          tau="1.5" minGap="2.5" sigma="0" speedFactor="1.0"/>
-  <vType id="lead" vClass="passenger" length="4.5" width="1.8" accel="2.6" decel="4.5"
+  <vType id="lead" vClass="passenger" length="4.5" width="1.8" accel="2.6" decel="7.5"
+         apparentDecel="4.5" emergencyDecel="9.0"
          tau="1.4" minGap="2.5" sigma="0.2" speedFactor="1.0"/>
   <vType id="aggressive" vClass="passenger" length="4.7" width="1.85" accel="3.0" decel="5.0"
          tau="1.2" minGap="2.5" sigma="0.1" speedFactor="1.2"/>
@@ -256,8 +257,11 @@ def run(sc: Scenario, work_dir: Path | None = None, extra_time: float = 5.5) -> 
                 next_action += 1
             if ego not in live:
                 if t <= sc.duration:
+                    why = ("SUMO refused to insert it (too close to the vehicle ahead for "
+                           "its depart speed?)" if t == 0.0 else "it left the network early")
                     raise SimulationError(
-                        f"scenario {sc.name}: ego '{ego}' not on the network at t={t:.1f} s"
+                        f"scenario {sc.name}: ego '{ego}' not on the network at t={t:.1f} s: "
+                        f"{why}"
                     )
                 times = times[:k]
                 break
