@@ -16,7 +16,7 @@ from pathlib import Path
 
 from evaluator.result import RunResult
 from evaluator.session import RunOptions, evaluate_stream
-from safety_case.checks import check_file
+from safety_case.checks import check_file, sort_findings
 from safety_case.findings import CaseError, Finding, has_errors
 from safety_case.model import Case
 from spec.compiler import check_formulas, compile_case
@@ -24,10 +24,14 @@ from spec.model import CompiledSpec
 
 
 def check(path: str | Path, mode: str = "online") -> tuple[Case | None, list[Finding]]:
-    """Every finding for a case file: loading, structure, then formulas (when it loaded)."""
+    """Every finding for a case file, sorted by position: loading, structure, formulas.
+
+    Formulas are checked whenever the case loaded, even with structural errors, so one
+    `casewatch check` shows everything there is to fix.
+    """
     case, findings = check_file(path)
-    if case is not None and not has_errors(findings):
-        findings = findings + check_formulas(case, mode=mode)
+    if case is not None:
+        findings = sort_findings(findings + check_formulas(case, mode=mode))
     return case, findings
 
 

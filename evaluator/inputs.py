@@ -18,8 +18,9 @@ from typing import IO
 class HashingReader(io.RawIOBase):
     """A raw binary stream that feeds every byte it returns into a sha256."""
 
-    def __init__(self, raw: IO[bytes]):
+    def __init__(self, raw: IO[bytes], name: str):
         self._raw = raw
+        self.name = name  # readers above (buffer, gzip, text) report this name in messages
         self.sha256 = hashlib.sha256()
 
     def readable(self) -> bool:
@@ -51,7 +52,7 @@ def open_hashed(source: str | Path) -> tuple[IO[bytes], HashingReader, str]:
     else:
         raw = open(Path(source), "rb")  # noqa: SIM115 - closed through the returned stream
         name = str(source)
-    hashing = HashingReader(raw)
+    hashing = HashingReader(raw, name)
     buffered = io.BufferedReader(hashing, buffer_size=1 << 16)
     if buffered.peek(2)[:2] == b"\x1f\x8b":  # gzip, from a file or piped in
         return gzip.GzipFile(fileobj=buffered, mode="rb"), hashing, name  # type: ignore[return-value]

@@ -117,7 +117,6 @@ def evaluate_stream(
     engine = MetricEngine(case.monitor.metrics, list(case.monitor.channels))
     text = io.TextIOWrapper(binary, encoding="utf-8", errors="strict")
     reader = read_stream(text, strict=options.strict, channels=list(case.monitor.channels))
-    reader.name = name
     arbitration = RunLength()
     clock = _Clock()
     complete = True

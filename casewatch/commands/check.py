@@ -12,7 +12,7 @@ import json
 import sys
 from pathlib import Path
 
-from safety_case.checks import check_file, sort_findings
+from casewatch import api
 from safety_case.findings import Finding
 from safety_case.model import Case
 
@@ -35,21 +35,27 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         default="text",
         help="text (default): one line per finding; json: a JSON list of findings",
     )
+    parser.add_argument(
+        "--mode",
+        choices=("online", "offline"),
+        default="online",
+        help="online (default): formulas must be causal (no future operators), as for live "
+        "monitoring; offline: bounded future operators are accepted",
+    )
 
 
-def collect_findings(path: str | Path) -> tuple[Case | None, list[Finding]]:
-    """Load the case and run every check; findings sorted by position.
+def collect_findings(path: str | Path, mode: str = "online") -> tuple[Case | None, list[Finding]]:
+    """Load the case and run every check (structure, then formulas); sorted by position.
 
     The case is None when loading failed (syntax or schema errors); otherwise it is returned
-    even when structural checks found errors, so later checks can still look at it.
+    even when structural checks found errors, so the formula checks still look at it.
     """
-    case, findings = check_file(path)
-    return case, sort_findings(findings)
+    return api.check(path, mode=mode)
 
 
 def main(args: argparse.Namespace) -> int:
     path = str(args.case)
-    case, findings = collect_findings(path)
+    case, findings = collect_findings(path, getattr(args, "mode", "online"))
     errors = sum(f.severity == "error" for f in findings)
     warnings = len(findings) - errors
     if getattr(args, "format", "text") == "json":
