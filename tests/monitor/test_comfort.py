@@ -1,0 +1,72 @@
+"""hcs and ppcs, hand-computed."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from monitor.comfort import comfort_score, hcs, nv, ppcs
+
+W = 0.2
+
+
+def test_nv_symmetric_form():
+    assert nv(0.0, W) == 0.0
+    # 2 / (1 + exp(-0.4)) - 1 = 0.197375
+    assert nv(2.0, W) == pytest.approx(0.197375, abs=1e-6)
+    assert nv(-2.0, W) == nv(2.0, W)
+
+
+def test_hcs_constant_speed_is_one_and_constant_acceleration():
+    t = np.arange(10) * 0.1
+    yaw = np.full(10, 0.7)
+    u = np.array([math.cos(0.7), math.sin(0.7)])
+    xy = (5 * t)[:, None] * u
+    assert hcs(t, xy, yaw, 10, W) == pytest.approx(1.0)
+    # s = t^2 along the heading: a_lon = 2, a_lat = 0, jerk 0
+    # score = 1 - ((NV(2) + 0) / 2 + 0) / 2 = 1 - 0.197375 / 4 = 0.950656
+    xy = (t**2)[:, None] * u
+    assert hcs(t, xy, yaw, 10, W) == pytest.approx(1 - nv(2.0, W) / 4, abs=1e-9)
+    assert hcs(t, xy, yaw, 10, W) == pytest.approx(0.950656, abs=1e-6)
+
+
+def test_hcs_uses_the_channel_yaw_not_the_path():
+    t = np.arange(10) * 0.1
+    xy = np.column_stack([t**2, np.zeros(10)])  # a = 2 along +x
+    # heading +y: the acceleration is all lateral: 1 - ((0 + NV(2)) / 2 + NV(0)) / 2
+    # (a_lon = 0 everywhere, so j_lon = 0 too)
+    assert hcs(t, xy, np.full(10, math.pi / 2), 10, W) == pytest.approx(1 - nv(2.0, W) / 4)
+
+
+def test_hcs_warm_up():
+    t = np.arange(9) * 0.1
+    assert hcs(t, np.zeros((9, 2)), np.zeros(9), 10, W) is None
+
+
+def test_ppcs_circle_lateral_acceleration():
+    # 5 m/s on a 10 m radius circle: a_lat = v^2 / R = 2.5, a_lon = 0, jerk 0
+    # score = 1 - NV(2.5) / 4 = 1 - 0.244919 / 4 = 0.938770 (finite differences within 1e-4)
+    dt = np.arange(30) * 0.1
+    ang = 0.5 * dt
+    plan = np.column_stack([dt, 10 * np.cos(ang), 10 * np.sin(ang)])
+    assert ppcs(plan, W) == pytest.approx(1 - nv(2.5, W) / 4, abs=1e-4)
+    assert ppcs(plan, W) == pytest.approx(0.938770, abs=1e-4)
+
+
+def test_ppcs_straight_and_too_short():
+    dt = np.arange(5) * 0.2
+    plan = np.column_stack([dt, 3 * dt, -dt])
+    assert ppcs(plan, W) == pytest.approx(1.0)
+    assert ppcs(plan[:3], W) is None
+
+
+def test_jerk_counts():
+    # x = t^3: v = 3t^2, a = 6t, jerk 6 (finite differences on a uniform grid: exact jerk 6)
+    t = np.arange(6) * 0.1
+    xy = np.column_stack([t**3, np.zeros(6)])
+    got = comfort_score(t, xy, np.zeros(6), W)
+    # peak |a_lon| = 6 * t at the last acceleration sample (t = 0.4) -> 2.4
+    a_peak = 6 * 0.4
+    assert got == pytest.approx(1 - (nv(a_peak, W) / 2 + nv(6.0, W)) / 2, abs=1e-6)

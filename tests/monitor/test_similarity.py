@@ -1,0 +1,145 @@
+"""Cross-channel similarity metrics, hand-computed on tiny frames."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from monitor.similarity import (
+    angdiff,
+    crpps_distance,
+    ego_similarities,
+    ets,
+    frechet,
+    object_similarities,
+    pair_objects,
+    weighted_pointwise,
+)
+from tests.monitor.builders import channel, ego, frame, obj
+
+GATE = 3.0
+K = 0.95
+
+
+def two_channel_frame():
+    a = channel(
+        ego(0, 0, 0),
+        plan=[[0, 0, 0], [0.1, 1, 0], [0.2, 2, 0]],
+        objects=[
+            obj("o1", 10, 0, 0, 4, 2, prediction=[[0, 10, 0], [0.1, 11, 0]]),
+            obj("o2", 20, 0, 0, 4, 2),
+        ],
+    )
+    b = channel(
+        ego(3, 4, math.pi / 2),
+        plan=[[0, 3, 4], [0.1, 4, 4]],
+        objects=[
+            obj(
+                "p1", 10, 1, math.pi / 4, 4, 1, prediction=[[0, 10, 1], [0.1, 11, 1], [0.2, 12, 1]]
+            ),
+            obj("p2", 50, 0),
+            obj("p3", 20, 2, math.pi, 4, 2),
+        ],
+    )
+    return frame(0.0, {"a": a, "b": b})
+
+
+def test_ego_similarities_hand_computed():
+    f = two_channel_frame()
+    out = ego_similarities(f.channels["a"], f.channels["b"])
+    # els: |(0,0)-(3,4)| = 5 -> 1 / (1 + 5) = 1/6
+    assert out["els"] == pytest.approx(1 / 6)
+    # eos: angdiff(0, pi/2) = pi/2 -> 1 - (pi/2)/pi = 0.5
+    assert out["eos"] == pytest.approx(0.5)
+
+
+def test_object_similarities_hand_computed():
+    f = two_channel_frame()
+    out = object_similarities(f.channels["a"].objects, f.channels["b"].objects, GATE, K)
+    # ocs: |2 - 3| = 1 -> 1/2
+    assert out["ocs"] == pytest.approx(0.5)
+    # pairs within 3 m: o1-p1 at 1 m, o2-p3 at 2 m (p2 is 30 m away)
+    # ols: mean(1/(1+1), 1/(1+2)) = (0.5 + 0.3333) / 2 = 5/12
+    assert out["ols"] == pytest.approx(5 / 12)
+    # oos: o1-p1 angdiff pi/4 -> 0.75; o2-p3 angdiff pi -> 0.0; mean 0.375
+    assert out["oos"] == pytest.approx(0.375)
+    # oas: 4x2 = 8 vs 4x1 = 4 -> 0.5; 8 vs 8 -> 1.0; mean 0.75
+    assert out["oas"] == pytest.approx(0.75)
+    # ots, pair o1-p1: o1's 2-point prediction padded with its last point to 3:
+    #   (10,0),(11,0),(11,0) vs (10,1),(11,1),(12,1): distances 1, 1, sqrt(2)
+    #   S = (1*0.5 + 0.95*0.5 + 0.9025/(1+sqrt 2)) / (1 + 0.95 + 0.9025) = 0.472858
+    # pair o2-p3: no predictions -> one point each, (20,0) vs (20,2): 1/(1+2) = 1/3
+    s1 = (0.5 + 0.95 * 0.5 + 0.9025 / (1 + math.sqrt(2))) / 2.8525
+    assert s1 == pytest.approx(0.472858, abs=1e-6)
+    assert out["ots"] == pytest.approx((s1 + 1 / 3) / 2)
+
+
+def test_plan_similarities_hand_computed():
+    f = two_channel_frame()
+    pa, pb = f.channels["a"].plan, f.channels["b"].plan
+    # ets: truncated to 2 points, (0,0)-(3,4) and (1,0)-(4,4): both 5 m -> 1/6 each
+    assert ets(pa, pb, K) == pytest.approx(1 / 6)
+    # crpps: B translated by (-3,-4) -> (0,0),(1,0); Frechet to (0,0),(1,0),(2,0) is 1
+    assert crpps_distance(pa, pb) == pytest.approx(1.0)
+    assert crpps_distance(pb, pa) == pytest.approx(1.0)
+
+
+def test_both_see_nothing_is_one_and_one_side_only_is_zero():
+    e = frame(0.0, {"a": channel(ego()), "b": channel(ego())})
+    out = object_similarities(e.channels["a"].objects, e.channels["b"].objects, GATE, K)
+    assert out == {"ocs": 1.0, "ols": 1.0, "oos": 1.0, "oas": 1.0, "ots": 1.0}
+    f = frame(0.0, {"a": channel(ego(), objects=[obj(1, 5, 0), obj(2, 9, 0)]), "b": channel(ego())})
+    out = object_similarities(f.channels["a"].objects, f.channels["b"].objects, GATE, K)
+    # ocs = 1 / (1 + 2); the rest: objects exist, no pair -> 0.0 (spi-reference Decision)
+    assert out == pytest.approx({"ocs": 1 / 3, "ols": 0.0, "oos": 0.0, "oas": 0.0, "ots": 0.0})
+
+
+def test_no_pair_within_gate_is_zero():
+    f = frame(
+        0.0,
+        {
+            "a": channel(ego(), objects=[obj(1, 0, 0)]),
+            "b": channel(ego(), objects=[obj(1, 3.5, 0)]),
+        },
+    )
+    out = object_similarities(f.channels["a"].objects, f.channels["b"].objects, GATE, K)
+    assert out == {"ocs": 1.0, "ols": 0.0, "oos": 0.0, "oas": 0.0, "ots": 0.0}
+
+
+def test_pairing_is_greedy_global_with_ties_by_index():
+    a = np.array([[0.0, 0.0], [2.0, 0.0]])
+    b = np.array([[1.5, 0.0], [-1.0, 0.0]])
+    # sorted: A1-B0 0.5, A0-B1 1.0, A0-B0 1.5 (A0 taken), A1-B1 3.0 -> (1,0), (0,1)
+    ia, ib, d = pair_objects(a, b, GATE)
+    assert ia.tolist() == [1, 0] and ib.tolist() == [0, 1]
+    assert d.tolist() == pytest.approx([0.5, 1.0])
+    # tie: B0 and B1 both 1 m from A0 -> the lower B index wins
+    ia, ib, _ = pair_objects(np.array([[0.0, 0.0]]), np.array([[1.0, 0.0], [-1.0, 0.0]]), GATE)
+    assert (ia.tolist(), ib.tolist()) == ([0], [0])
+    # gate is inclusive: exactly 3 m pairs
+    ia, _, _ = pair_objects(np.array([[0.0, 0.0]]), np.array([[3.0, 0.0]]), GATE)
+    assert ia.tolist() == [0]
+
+
+def test_weighted_pointwise_weights_decay():
+    p = np.array([[[0.0, 0.0], [0.0, 0.0]]])
+    q = np.array([[[0.0, 1.0], [0.0, 0.0]]])
+    # (1 * 1/2 + 0.95 * 1) / 1.95 = 1.45 / 1.95
+    assert weighted_pointwise(p, q, None, K)[0] == pytest.approx(1.45 / 1.95)
+    # limited to the first point: 1/2
+    assert weighted_pointwise(p, q, np.array([1]), K)[0] == pytest.approx(0.5)
+
+
+def test_angdiff_wraps():
+    assert angdiff(0.1, 2 * math.pi - 0.1) == pytest.approx(0.2)
+    assert angdiff(-math.pi, math.pi) == pytest.approx(0.0, abs=1e-12)
+    assert angdiff(0.0, 3 * math.pi) == pytest.approx(math.pi)
+
+
+def test_frechet_single_point_and_empty_plan():
+    # one point vs a polyline: the farthest point, |(0,0)-(3,4)| = 5
+    assert frechet(np.array([[0.0, 0.0]]), np.array([[1.0, 0.0], [3.0, 4.0]])) == 5.0
+    assert ets(np.zeros((0, 3)), np.array([[0.0, 1.0, 1.0]]), K) is None
+    assert crpps_distance(np.zeros((0, 3)), np.array([[0.0, 1.0, 1.0]])) is None
