@@ -35,7 +35,7 @@ from spec.emit import interval_text, number_text, period_fraction, to_rtamt, to_
 from spec.model import CompiledFormula, CompiledSpec, FormulaKind
 from spec.parser import FormulaError, parse_formula, yaml_position
 from spec.signals import resolve_signals
-from spec.timing import bound_ticks, delay, future_depth, intervals_of, past_horizon
+from spec.timing import bound_ticks, future_depth, intervals_of, past_form, past_horizon
 from spec.trace import traces_for
 
 Mode = Literal["online", "offline"]
@@ -194,11 +194,11 @@ def _causality(case: Case, src: _Source, formula: Formula, period: Fraction) -> 
     future = future_operators(formula)
     if not future:
         return []
-    depth = future_depth(formula, period)
-    past = delay(formula, depth, period)
-    if past is not None:
+    found = past_form(formula, period)
+    if found is not None:
+        past, ticks = found
         hint = (
-            f"the same judgement, delivered {float(depth * period):g}s late, is the past-time "
+            f"the same judgement, delivered {float(ticks * period):g}s late, is the past-time "
             f"formula: {to_text(past)}"
         )
     else:

@@ -27,6 +27,7 @@ from spec.ast import (
     Signal,
     Span,
     Window,
+    future_operators,
 )
 
 
@@ -107,15 +108,15 @@ def _interval(lo: int, hi: int, period: Fraction) -> Interval:
 def delay(formula: Formula, ticks: int, period: Fraction) -> Formula | None:
     """A past-time formula whose value at `t` is `formula`'s value at `t - ticks`.
 
-    Needs `ticks >= future_depth(formula)`. Returns None for `until` with a future inside
-    (no single past operator expresses it; the hint then says so). This is the shift rtamt's
-    `pastify()` gets wrong: it shifts a predicate beside a bounded future operator twice.
+    Returns None when no such formula is found for this `ticks` (below `future_reach` some
+    shapes need more delay; `until` has no single past operator); `past_form` picks the delay.
+    This is the shift rtamt's `pastify()` gets wrong: it shifts a predicate beside a bounded
+    future operator twice.
     """
-    depth = future_depth(formula, period)
-    if ticks < depth:
-        raise ValueError("delay shorter than the formula's future depth")
-    if depth == 0:
-        return formula if ticks == 0 else Window("once", _interval(ticks, ticks, period), formula)
+    if ticks < future_depth(formula, period):
+        return None
+    if not future_operators(formula):
+        return delay_past(formula, ticks, period)
     if isinstance(formula, Not):
         inner = delay(formula.operand, ticks, period)
         return None if inner is None else Not(inner)
@@ -133,6 +134,8 @@ def delay(formula: Formula, ticks: int, period: Fraction) -> Formula | None:
             return None
         lo, hi = _ticks(formula.interval, period) if formula.interval else (0, 0)
         e = ticks - h
+        if e + lo < 0:
+            return None
         if formula.op in ("eventually", "always"):
             op = "once" if formula.op == "eventually" else "historically"
             return Window(op, _interval(e - hi, e - lo, period), shifted)
@@ -142,9 +145,43 @@ def delay(formula: Formula, ticks: int, period: Fraction) -> Formula | None:
     if isinstance(formula, Span) and formula.op == "since":
         h = max(future_depth(formula.left, period), future_depth(formula.right, period))
         left, right = delay(formula.left, h, period), delay(formula.right, h, period)
-        if left is None or right is None:
+        if left is None or right is None or ticks < h:
             return None
         return delay_past(replace(formula, left=left, right=right), ticks - h, period)
+    return None
+
+
+def future_reach(node: Node, period: Fraction) -> int:
+    """Like `future_depth` but never crediting `prev` or a window's lower bound: a delay of at
+    least this many samples always has a past-time form (see `past_form`)."""
+    if isinstance(node, Compare):
+        return 0
+    if isinstance(node, Not | Prev):
+        return future_reach(node.operand, period)
+    if isinstance(node, Next):
+        return 1 + future_reach(node.operand, period)
+    if isinstance(node, Window):
+        inner = future_reach(node.operand, period)
+        if node.op in ("eventually", "always") and node.interval is not None:
+            return _ticks(node.interval, period)[1] + inner
+        return inner
+    if isinstance(node, BoolOp | Span):
+        inner = max(future_reach(node.left, period), future_reach(node.right, period))
+        if isinstance(node, Span) and node.op == "until" and node.interval is not None:
+            return _ticks(node.interval, period)[1] + inner
+        return inner
+    return 0
+
+
+def past_form(formula: Formula, period: Fraction) -> tuple[Formula, int] | None:
+    """The causal formula judging `formula` late, and by how many samples (shortest found).
+
+    None when `formula` uses `until` over future operands (no single past operator for it).
+    """
+    for ticks in sorted({future_depth(formula, period), future_reach(formula, period)}):
+        shifted = delay(formula, ticks, period)
+        if shifted is not None:
+            return shifted, ticks
     return None
 
 

@@ -1,0 +1,84 @@
+"""Time: bounds in samples, horizons, and the past-time shift the online check suggests.
+
+The shift (`spec.timing.delay`) is what rtamt's `pastify()` gets wrong; here it is checked
+against the reference evaluator of the original future formula on random formulas and traces.
+"""
+
+from __future__ import annotations
+
+import math
+from fractions import Fraction
+
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from spec.ast import BoolOp, Interval, Next, Not, Prev, Span, Window
+from spec.emit import period_fraction, to_rtamt, to_text
+from spec.parser import parse_formula
+from spec.reference_eval import reference_robustness
+from spec.timing import bound_ticks, delay, future_depth, past_form, past_horizon
+from tests.spec.rtamt_helpers import online
+from tests.spec.strategies import PERIOD, comparisons, traces
+
+P = period_fraction(PERIOD)
+
+
+def test_bound_ticks() -> None:
+    assert bound_ticks(Fraction(3, 10), P) == 3  # 0.3 s / 0.1 s, exact (no 2.9999...)
+    assert bound_ticks(Fraction(7, 10), P) == 7
+    assert bound_ticks(Fraction(1, 4), P) is None
+
+
+def test_horizons() -> None:
+    formula = parse_formula("once[0:0.5s] (prev x >= 1) and historically[0.1:0.2] y > 0")
+    assert past_horizon(formula, P) == 6  # once: 5 + prev: 1; historically: 2
+    assert future_depth(formula, P) == 0
+    future = parse_formula("eventually[0:0.3] (x >= 1 until[0:0.2] next y > 0)")
+    assert future_depth(future, P) == 3 + 2 + 1
+
+
+def test_delay_of_the_issue_example() -> None:
+    formula = parse_formula("eventually[0:1s] x >= 1")
+    shifted = delay(formula, future_depth(formula, P), P)
+    assert shifted is not None and to_text(shifted) == "(once[0s:1s] (x >= 1.0))"
+
+
+def _bounded(lo_max: int = 2, hi_max: int = 3) -> st.SearchStrategy[Interval]:
+    return st.integers(0, lo_max).flatmap(
+        lambda lo: st.integers(lo, hi_max).map(
+            lambda hi: Interval(Fraction(lo, 10), Fraction(hi, 10))
+        )
+    )
+
+
+mixed_formulas = st.recursive(
+    comparisons,
+    lambda inner: st.one_of(
+        st.builds(Not, inner),
+        st.builds(BoolOp, st.sampled_from(["and", "or", "implies"]), inner, inner),
+        st.builds(Prev, inner),
+        st.builds(Next, inner),
+        st.builds(Window, st.sampled_from(["once", "historically"]), _bounded(), inner),
+        st.builds(Window, st.sampled_from(["eventually", "always"]), _bounded(), inner),
+        st.builds(Span, st.just("since"), _bounded(), inner, inner),
+    ),
+    max_leaves=4,
+)
+
+
+@settings(max_examples=60, deadline=None)
+@given(formula=mixed_formulas, trace=traces(min_len=16, max_len=24))
+def test_delay_is_the_future_formula_judged_late(formula, trace) -> None:  # type: ignore[no-untyped-def]
+    found = past_form(formula, P)
+    assert found is not None
+    shifted, depth = found
+    assert depth >= future_depth(formula, P)
+    assert future_depth(shifted, P) == 0  # causal: rtamt's online monitor accepts it
+    truth = reference_robustness(formula, trace, PERIOD)
+    judged = online(to_rtamt(shifted), trace)
+    n = len(truth)
+    # after the warm-up (shift + look-back) every late verdict equals the truth d samples back
+    warm_up = depth + past_horizon(formula, P) + depth
+    for t in range(warm_up, n):
+        a, b = judged[t], truth[t - depth]
+        assert (a == b) if math.isinf(b) or math.isinf(a) else abs(a - b) <= 1e-9, (t, a, b)
