@@ -7,9 +7,11 @@ numbers. The file must open offline years later, so it references nothing outsid
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 import jinja2
+import markupsafe
 
 from evaluator.result import STATUS_SEVERITY, RunResult
 from reports.layout import LINE_HEIGHT, SKEW, Diagram, layout_case
@@ -40,8 +42,19 @@ class PlotCard:
     plot: PlotView
 
 
+_CONTROL = re.compile(r"[\x00-\x08\x0b\x0c\x0e-\x1f\x7f]")
+
+
+def _finalize(value: object) -> object:
+    """Drop control characters (not allowed in HTML text) from every value the templates print."""
+    if isinstance(value, str) and not isinstance(value, markupsafe.Markup):
+        return _CONTROL.sub("", value)
+    return value
+
+
 def _environment() -> jinja2.Environment:
     env = jinja2.Environment(
+        finalize=_finalize,
         loader=jinja2.PackageLoader("reports", "templates"),
         autoescape=True,  # every template, whatever its extension
         undefined=jinja2.StrictUndefined,

@@ -1,0 +1,40 @@
+"""Plot and status-strip geometry."""
+
+from __future__ import annotations
+
+from evaluator.result import Series, StatusInterval
+from reports.plot import MAX_BUCKETS, nice_ticks, plot_series, status_strip
+
+
+def test_nice_ticks() -> None:
+    assert nice_ticks(0.0, 10.0, 5) == [0.0, 2.0, 4.0, 6.0, 8.0, 10.0]
+    assert nice_ticks(0.13, 0.87, 4) == [0.2, 0.4, 0.6, 0.8]
+
+
+def test_rebucketing_keeps_extremes() -> None:
+    n = 3 * MAX_BUCKETS  # 3 buckets fold into one
+    lo = [0.5] * n
+    hi = [0.5] * n
+    lo[1234] = -2.0  # a single dip must survive decimation
+    series = Series(formula_id="f", quantity="signal", name="els", bucket=0.1,
+                    t=[i * 0.1 for i in range(n)], lo=lo, hi=hi, reference=0.6)
+    plot = plot_series(series, [], [], 0.1)
+    assert plot.buckets == MAX_BUCKETS
+    # y axis spans the dip: min -2.0, max 0.6 (threshold), padded by 8 % of 2.6
+    labels = [float(t.label) for t in plot.y_ticks]
+    assert min(labels) <= -2.0
+    assert plot.reference_y is not None
+    assert plot.top < plot.reference_y < plot.top + plot.inner_h
+
+
+def test_status_strip_keeps_a_short_violation_visible() -> None:
+    # 1000 s run on 100 px: 10 s per pixel; a 0.1 s violation at t=500 still colours column 50
+    timeline = [
+        StatusInterval(status="satisfied", start=0.0, end=499.9, ticks=5000),
+        StatusInterval(status="violated", start=500.0, end=500.0, ticks=1),
+        StatusInterval(status="satisfied", start=500.1, end=999.9, ticks=4999),
+    ]
+    rects = status_strip(timeline, 0.0, 1000.0, 0.1, 100)
+    violated = [r for r in rects if r.status == "violated"]
+    assert len(violated) == 1 and violated[0].x == 50.0 and violated[0].w == 1.0
+    assert sum(r.w for r in rects) == 100.0
