@@ -149,7 +149,7 @@ def _check(
         findings.append(
             formula_finding(
                 "CW041",
-                f"{miss.message()} (node {src.node.id})",
+                miss.message(src.node.id),
                 path,
                 line,
                 col,

@@ -23,8 +23,9 @@ class UnknownSignal:
     suggestion: str | None
     families: tuple[str, ...]  # the unsuffixed metric names plus declared signals, for the hint
 
-    def message(self) -> str:
-        text = f"unknown signal {self.name!r} in formula"
+    def message(self, node_id: str | None = None) -> str:
+        where = f" of node {node_id}" if node_id else ""
+        text = f"unknown signal {self.name!r} in formula{where}"
         if self.suggestion:
             text += f"; did you mean {self.suggestion!r}?"
         return text

@@ -90,7 +90,7 @@ def test_compile_command_exits_2_on_errors_and_writes_nothing(
     case_path.write_text(CASE_YAML.replace('"speed <= 13.9"', '"sped <= 13.9"'), encoding="utf-8")
     assert run(case_path, tmp_path / "out") == 2
     out = capsys.readouterr().out
-    assert "CW041 error: unknown signal 'sped' in formula; did you mean 'speed'?" in out
+    assert "CW041 error: unknown signal 'sped' in formula of node Sn2; did you mean 'speed'?" in out
     assert f"{case_path}:14:" in out  # the line of the `stl:` value
     assert not (tmp_path / "out").exists()
 

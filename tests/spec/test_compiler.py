@@ -74,7 +74,9 @@ def test_unknown_signal_finding_points_into_yaml() -> None:
     # 'olss' is at formula column 11; the text starts at YAML column 12 -> 12 + 11 - 1 = 22
     assert (finding.code, finding.line, finding.col) == ("CW041", 30, 22)
     assert "did you mean 'ols'?" in finding.message
-    assert finding.format().startswith("case.yaml:30:22: CW041 error: unknown signal 'olss'")
+    assert finding.format().startswith(
+        "case.yaml:30:22: CW041 error: unknown signal 'olss' in formula of node CSn1; did you mean"
+    )
 
 
 def test_unknown_threshold_signal_points_at_signal_value() -> None:
