@@ -47,8 +47,11 @@ def test_never_evaluated_formula_is_an_error_not_a_pass(reference_result: RunRes
         for f in reference_result.formulas
     ]
     result = reference_result.model_copy(update={"formulas": formulas})
-    case = next(c for c in ET.fromstring(render_junit(result)).iter("testcase")
-                if c.get("name", "").startswith("Sn10:"))
+    case = next(
+        c
+        for c in ET.fromstring(render_junit(result)).iter("testcase")
+        if c.get("name", "").startswith("Sn10:")
+    )
     assert case.find("error") is not None
 
 

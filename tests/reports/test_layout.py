@@ -34,7 +34,7 @@ def assert_clean(diagram) -> None:
 
 def test_reference_case_has_no_overlap_and_no_edge_through_a_node() -> None:
     diagram = layout_case(reference_case())
-    assert len(diagram.nodes) == 27  # G1, S1, G2-G5, C1, C2, A1, Sn1-Sn15, CSn1-CSn3
+    assert len(diagram.nodes) == 28  # G1, S1, G2-G5, C1-C3, A1, J1, Sn1-Sn14, CSn1-CSn3
     assert_clean(diagram)
 
 
@@ -50,18 +50,18 @@ def test_layers_follow_supported_by() -> None:
     y = {n.id: n.y for n in diagram.nodes}
     assert y["G1"] < y["S1"] < y["G2"] == y["G5"] < y["Sn1"] == y["Sn14"]
     # counters sit beside the goal they challenge, contexts beside G1
-    assert y["CSn3"] == y["G2"] and y["CSn1"] == y["G5"]
-    assert y["C1"] == y["G1"]
+    assert y["CSn1"] == y["G2"] and y["CSn2"] == y["G5"]
+    assert y["C1"] == y["G1"] and y["A1"] == y["S1"]
 
 
 def test_edges_of_every_relation_are_drawn() -> None:
     diagram = layout_case(reference_case())
     kinds = {(e.source, e.target): e.kind for e in diagram.edges}
     assert kinds[("G1", "S1")] == "supported_by"
-    assert kinds[("G1", "A1")] == "in_context_of"
-    assert kinds[("CSn1", "G5")] == "challenges"
-    # 1 + 4 + 3 + 4 + 2 + 6 supportedBy, 3 in context, 3 challenges
-    assert len(diagram.edges) == 20 + 3 + 3
+    assert kinds[("S1", "J1")] == "in_context_of"
+    assert kinds[("CSn2", "G5")] == "challenges"
+    # 1 + 4 + 3 + 3 + 2 + 6 supportedBy, 5 in context, 3 challenges
+    assert len(diagram.edges) == 19 + 5 + 3
 
 
 def test_layer_skipping_edge_goes_around_nodes() -> None:
@@ -75,8 +75,9 @@ def test_layer_skipping_edge_goes_around_nodes() -> None:
         CaseNode(id="Sn1", type="Sn", text="e1"),
         CaseNode(id="Sn2", type="Sn", text="e2"),
     ]
-    case = CaseInfo(path="x", digest="d", module="m", root_id="G1", channels=["a"], period=0.1,
-                    nodes=nodes)
+    case = CaseInfo(
+        path="x", digest="d", module="m", root_id="G1", channels=["a"], period=0.1, nodes=nodes
+    )
     diagram = layout_case(case)
     assert_clean(diagram)
     long_edge = next(e for e in diagram.edges if (e.source, e.target) == ("G1", "Sn1"))
@@ -97,18 +98,52 @@ def test_isotonic_place_keeps_order_and_gaps() -> None:
     contexts=st.integers(min_value=0, max_value=3),
 )
 def test_random_trees_stay_clean(fanout: list[int], texts: str, contexts: int) -> None:
-    nodes = [CaseNode(id="G1", type="G", text=texts,
-                      supported_by=[f"G{i + 2}" for i in range(len(fanout))],
-                      in_context_of=[f"C{i + 1}" for i in range(contexts)])]
+    nodes = [
+        CaseNode(
+            id="G1",
+            type="G",
+            text=texts,
+            supported_by=[f"G{i + 2}" for i in range(len(fanout))],
+            in_context_of=[f"C{i + 1}" for i in range(contexts)],
+        )
+    ]
     nodes += [CaseNode(id=f"C{i + 1}", type="C", text=texts) for i in range(contexts)]
     sn = 0
     for i, count in enumerate(fanout):
         children = [f"Sn{sn + k + 1}" for k in range(count)]
         sn += count
-        nodes.append(CaseNode(id=f"G{i + 2}", type="G", text=texts, supported_by=children,
-                              undeveloped=not children))
+        nodes.append(
+            CaseNode(
+                id=f"G{i + 2}",
+                type="G",
+                text=texts,
+                supported_by=children,
+                undeveloped=not children,
+            )
+        )
         nodes += [CaseNode(id=c, type="Sn", text=texts) for c in children]
     nodes.append(CaseNode(id="CSn1", type="CSn", text=texts, challenges=["G2"]))
-    case = CaseInfo(path="x", digest="d", module="m", root_id="G1", channels=["a"], period=0.1,
-                    nodes=nodes)
+    case = CaseInfo(
+        path="x", digest="d", module="m", root_id="G1", channels=["a"], period=0.1, nodes=nodes
+    )
     assert_clean(layout_case(case))
+
+
+def test_reference_yaml_lays_out_cleanly_and_matches_the_fixture() -> None:
+    from pathlib import Path
+
+    from reports.sample import case_info_from_case
+    from safety_case.loader import load_case
+
+    path = Path(__file__).resolve().parents[2] / "examples" / "reference-case.yaml"
+    case, findings = load_case(path)
+    assert case is not None, findings
+    info = case_info_from_case(case)
+    assert_clean(layout_case(info))
+    fixture = reference_case()
+    shape = [
+        (n.id, n.type, n.text, n.supported_by, n.in_context_of, n.challenges) for n in info.nodes
+    ]
+    assert shape == [
+        (n.id, n.type, n.text, n.supported_by, n.in_context_of, n.challenges) for n in fixture.nodes
+    ]

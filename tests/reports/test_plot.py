@@ -16,8 +16,16 @@ def test_rebucketing_keeps_extremes() -> None:
     lo = [0.5] * n
     hi = [0.5] * n
     lo[1234] = -2.0  # a single dip must survive decimation
-    series = Series(formula_id="f", quantity="signal", name="els", bucket=0.1,
-                    t=[i * 0.1 for i in range(n)], lo=lo, hi=hi, reference=0.6)
+    series = Series(
+        formula_id="f",
+        quantity="signal",
+        name="els",
+        bucket=0.1,
+        t=[i * 0.1 for i in range(n)],
+        lo=lo,
+        hi=hi,
+        reference=0.6,
+    )
     plot = plot_series(series, [], [], 0.1)
     assert plot.buckets == MAX_BUCKETS
     # y axis spans the dip: min -2.0, max 0.6 (threshold), padded by 8 % of 2.6

@@ -54,16 +54,18 @@ def test_parse_formats() -> None:
         parse_formats("html,pdf")
 
 
-def test_cli_rerenders(reference_result: RunResult, tmp_path: Path,
-                       capsys: pytest.CaptureFixture[str]) -> None:
+def test_cli_rerenders(
+    reference_result: RunResult, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     (tmp_path / "result.json").write_text(reference_result.model_dump_json())
     assert cli_main(["report", str(tmp_path), "--format", "md"]) == 0
     assert capsys.readouterr().out.strip() == f"md: {tmp_path / 'report.md'}"
     assert (tmp_path / "report.md").exists()
 
 
-def test_cli_missing_or_invalid_result_exits_2(tmp_path: Path,
-                                               capsys: pytest.CaptureFixture[str]) -> None:
+def test_cli_missing_or_invalid_result_exits_2(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     assert cli_main(["report", str(tmp_path)]) == 2
     assert "no such file" in capsys.readouterr().err
     (tmp_path / "result.json").write_text(json.dumps({"format": "casewatch-result"}))
