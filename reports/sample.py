@@ -686,5 +686,5 @@ def sample_result(
 def long_run_result(*, duration: float = 3600.0, seed: int = 11) -> RunResult:
     """A 1-hour, 10 Hz run with hundreds of episodes and data gaps: the report-size benchmark."""
     return sample_result(
-        duration=duration, period=0.1, seed=seed, dips_per_minute=0.4, gaps_per_minute=0.4
+        duration=duration, period=0.1, seed=seed, dips_per_minute=1.0, gaps_per_minute=0.4
     )

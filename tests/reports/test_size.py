@@ -1,0 +1,30 @@
+"""A 1-hour run's report stays under 5 MB (timing is printed by `python -m reports.bench`)."""
+
+from __future__ import annotations
+
+from reports.html import render_html
+from reports.plot import MAX_BUCKETS
+from reports.sample import long_run_result, sample_result
+
+FIVE_MB = 5 * 1024 * 1024
+
+
+def test_one_hour_report_under_5_mb() -> None:
+    result = long_run_result()
+    assert result.stream.frames_read == 36_000  # 3600 s at 10 Hz
+    assert len(result.episodes) > 200 and len(result.data_gaps) > 200
+    html = render_html(result)
+    assert len(html.encode("utf-8")) < FIVE_MB
+    assert f'id="episode-{len(result.episodes)}"' in html  # every episode still has a section
+
+
+def test_undecimated_series_are_bounded_by_the_report() -> None:
+    # An evaluator that forgot to decimate: 36 000 buckets per series. The plot re-buckets to
+    # MAX_BUCKETS, so the report stays small.
+    result = sample_result(duration=3600.0, max_buckets=36_000, dips_per_minute=0.2)
+    assert len(result.series[0].t) == 36_000
+    html = render_html(result)
+    assert len(html.encode("utf-8")) < FIVE_MB
+    band = html.split('id="plot-Sn1"')[1].split('class="band" d="')[1].split('"')[0]
+    # two points per bucket edge pair on top and bottom of the band
+    assert band.count(",") <= 4 * MAX_BUCKETS
