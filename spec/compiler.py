@@ -253,7 +253,11 @@ def _compile_one(
         rtamt=to_rtamt(monitored),
         signals=known,
         signal=spi.signal if spi and spi.stl is None else None,
-        threshold=str(spi.threshold) if spi and spi.threshold and spi.stl is None else None,
+        threshold=(
+            f"{spi.threshold.op} {number_text(spi.threshold.value)}"
+            if spi and spi.threshold and spi.stl is None
+            else None
+        ),
         merge_gap=src.merge_gap if src.merge_gap is not None else case.monitor.merge_gap,
         min_duration=(
             src.min_duration if src.min_duration is not None else case.monitor.min_duration

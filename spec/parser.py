@@ -84,6 +84,10 @@ class FormulaError(Exception):
     def __str__(self) -> str:
         return f"column {self.col}: {self.message}"
 
+    def yaml_position(self, mark: Mark) -> tuple[int, int]:
+        """Where this error sits in the YAML file, given the formula value's `formula_mark`."""
+        return yaml_position(mark, self.line, self.col)
+
 
 @cache
 def _parser() -> Lark:

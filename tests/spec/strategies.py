@@ -13,6 +13,7 @@ from spec.ast import (
     Compare,
     Interval,
     Neg,
+    Next,
     Not,
     Num,
     Prev,
@@ -69,3 +70,27 @@ def traces(draw: st.DrawFn, min_len: int = 1, max_len: int = 12) -> dict[str, li
     n = draw(st.integers(min_len, max_len))
     values = st.floats(-10, 10, allow_nan=False, allow_infinity=False).map(lambda v: round(v, 3))
     return {name: draw(st.lists(values, min_size=n, max_size=n)) for name in SIGNALS}
+
+
+def _bounded(lo_max: int = 2, hi_max: int = 3) -> st.SearchStrategy[Interval]:
+    return st.integers(0, lo_max).flatmap(
+        lambda lo: st.integers(lo, hi_max).map(
+            lambda hi: Interval(Fraction(lo, 10), Fraction(hi, 10))
+        )
+    )
+
+
+#: past and bounded future operators together (for shifts and canonical text round trips)
+mixed_formulas = st.recursive(
+    comparisons,
+    lambda inner: st.one_of(
+        st.builds(Not, inner),
+        st.builds(BoolOp, st.sampled_from(["and", "or", "implies"]), inner, inner),
+        st.builds(Prev, inner),
+        st.builds(Next, inner),
+        st.builds(Window, st.sampled_from(["once", "historically"]), _bounded(), inner),
+        st.builds(Window, st.sampled_from(["eventually", "always"]), _bounded(), inner),
+        st.builds(Span, st.just("since"), _bounded(), inner, inner),
+    ),
+    max_leaves=4,
+)

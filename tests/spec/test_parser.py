@@ -5,6 +5,7 @@ from __future__ import annotations
 from fractions import Fraction
 
 import pytest
+from hypothesis import given, settings
 
 from safety_case.model import Mark
 from spec.ast import (
@@ -12,6 +13,7 @@ from spec.ast import (
     Arith,
     BoolOp,
     Compare,
+    Formula,
     Interval,
     Neg,
     Not,
@@ -21,7 +23,9 @@ from spec.ast import (
     Span,
     Window,
 )
+from spec.emit import to_text
 from spec.parser import FormulaError, parse_formula, parse_term, yaml_position
+from tests.spec.strategies import mixed_formulas
 
 x, y, z = Signal("x"), Signal("y"), Signal("z")
 
@@ -114,3 +118,16 @@ def test_yaml_position_single_and_multi_line() -> None:
     assert yaml_position(Mark(line=40, col=12), 1, 6) == (40, 17)
     # second line of a block scalar: the line moves, the column is the formula's
     assert yaml_position(Mark(line=40, col=12), 2, 3) == (41, 3)
+
+
+@settings(max_examples=100, deadline=None)
+@given(formula=mixed_formulas)
+def test_canonical_text_reads_back_equal(formula: Formula) -> None:
+    """to_text is fully parenthesised, so re-parsing must give the same tree."""
+    assert parse_formula(to_text(formula)) == formula
+
+
+def test_error_maps_to_yaml() -> None:
+    with pytest.raises(FormulaError) as info:
+        parse_formula("els >= 0.6 and $")
+    assert info.value.yaml_position(Mark(line=7, col=11)) == (7, 11 + 16 - 1)

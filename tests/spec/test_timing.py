@@ -10,15 +10,13 @@ import math
 from fractions import Fraction
 
 from hypothesis import given, settings
-from hypothesis import strategies as st
 
-from spec.ast import BoolOp, Interval, Next, Not, Prev, Span, Window
 from spec.emit import period_fraction, to_rtamt, to_text
 from spec.parser import parse_formula
 from spec.reference_eval import reference_robustness
 from spec.timing import bound_ticks, delay, future_depth, past_form, past_horizon
 from tests.spec.rtamt_helpers import online
-from tests.spec.strategies import PERIOD, comparisons, traces
+from tests.spec.strategies import PERIOD, mixed_formulas, traces
 
 P = period_fraction(PERIOD)
 
@@ -41,29 +39,6 @@ def test_delay_of_the_issue_example() -> None:
     formula = parse_formula("eventually[0:1s] x >= 1")
     shifted = delay(formula, future_depth(formula, P), P)
     assert shifted is not None and to_text(shifted) == "(once[0s:1s] (x >= 1.0))"
-
-
-def _bounded(lo_max: int = 2, hi_max: int = 3) -> st.SearchStrategy[Interval]:
-    return st.integers(0, lo_max).flatmap(
-        lambda lo: st.integers(lo, hi_max).map(
-            lambda hi: Interval(Fraction(lo, 10), Fraction(hi, 10))
-        )
-    )
-
-
-mixed_formulas = st.recursive(
-    comparisons,
-    lambda inner: st.one_of(
-        st.builds(Not, inner),
-        st.builds(BoolOp, st.sampled_from(["and", "or", "implies"]), inner, inner),
-        st.builds(Prev, inner),
-        st.builds(Next, inner),
-        st.builds(Window, st.sampled_from(["once", "historically"]), _bounded(), inner),
-        st.builds(Window, st.sampled_from(["eventually", "always"]), _bounded(), inner),
-        st.builds(Span, st.just("since"), _bounded(), inner, inner),
-    ),
-    max_leaves=4,
-)
 
 
 @settings(max_examples=60, deadline=None)
