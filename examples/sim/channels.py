@@ -31,9 +31,13 @@ if TYPE_CHECKING:
     from examples.sim.simulate import GroundTruth
 
 
-#: Plan and prediction points are written with centimetre resolution (well below the channels'
-#: noise); states keep millimetres. The points are most of a stream's bytes.
-POINT_DECIMALS = 2
+#: Decimals written. Object predictions: centimetres (well below perception noise; they are most
+#: of a stream's bytes). Ego pose and plan: 0.1 mm, because the comfort metrics (hcs, ppcs)
+#: differentiate positions three times at 0.1 s: a rounding step q adds jerk noise of about
+#: 4.5 q / 0.001 s^3, i.e. 1.3 m/s^3 at 1 mm and 0.13 m/s^3 at 0.1 mm.
+PREDICTION_DECIMALS = 2
+EGO_DECIMALS = 4
+OBJECT_DECIMALS = 3
 
 
 @dataclass(frozen=True)
@@ -53,7 +57,7 @@ class ChannelParams:
     ghost_life: tuple[float, float]  # lifetime range (s)
     p_id_switch: float  # probability per object and tick that its track id changes
     track_timeout: float  # an object unseen for longer gets a new id when seen again
-    loc_sigma: float  # localisation white noise per axis
+    loc_sigma: float  # localisation jitter per axis (smooth, periods `loc_jitter_period`)
     loc_drift: float  # standard deviation of the slow drift per axis
     loc_drift_period: tuple[float, float]  # periods of the drift components (s)
     loc_yaw_sigma: float
@@ -64,15 +68,20 @@ class ChannelParams:
     plan_period: tuple[float, float]  # periods of the plan distortion processes (s)
     prediction_points: int = 30
     prediction_step: float = 0.1
+    loc_jitter_period: tuple[float, float] = (1.5, 6.0)
 
 
-#: The all-round channel (the study's LAV stack: 360-degree perception, 5 s plan).
+#: The all-round channel (the study's LAV stack: 360-degree perception, 5 s plan). Its 30
+#: prediction points are 0.2 s apart so they cover its plan: an object whose prediction ends
+#: "stays at its last point" for the safety score, which would put phantom obstacles in a
+#: longer plan.
 LAV = ChannelParams(
     name="lav", seed=101, range_m=60.0, fov_deg=360.0, pos_sigma=0.20, yaw_sigma=0.03,
     speed_sigma=0.3, size_sigma=0.05, p_miss=0.04, ghost_rate=0.08, ghost_life=(0.3, 1.0),
     p_id_switch=0.002, track_timeout=1.0, loc_sigma=0.05, loc_drift=0.15,
     loc_drift_period=(20.0, 60.0), loc_yaw_sigma=0.005, ego_speed_sigma=0.1,
     plan_horizon=5.0, plan_lateral=0.3, plan_speed_bias=0.03, plan_period=(4.0, 15.0),
+    prediction_step=0.2,
 )
 
 #: The forward-looking channel (the study's TransFuser stack: blind behind, 3 s plan).
@@ -141,12 +150,14 @@ def localize(
     rng = np.random.default_rng([seed, params.seed, 1])
     t = gt.times
     e = gt.ego_index
-    n = len(t)
     drift = np.stack([smooth_process(rng, t, params.loc_drift, params.loc_drift_period)
                       for _ in range(2)], axis=1)
-    noise = rng.normal(0.0, params.loc_sigma, (n, 2))
+    # a fused localisation is smooth at 10 Hz: its error is correlated from tick to tick, not
+    # white (white noise of a few cm would read as tens of m/s^3 of jerk in hcs)
+    noise = np.stack([smooth_process(rng, t, params.loc_sigma, params.loc_jitter_period, 6)
+                      for _ in range(2)], axis=1)
     offset = drift + noise + fault_offsets(rng, t, faults, params.name)
-    yaw = gt.yaw[:, e] + rng.normal(0.0, params.loc_yaw_sigma, n)
+    yaw = gt.yaw[:, e] + smooth_process(rng, t, params.loc_yaw_sigma, params.loc_jitter_period, 6)
     yaw += smooth_process(rng, t, params.loc_yaw_sigma, params.loc_drift_period)
     return Localization(gt.x[:, e] + offset[:, 0], gt.y[:, e] + offset[:, 1], yaw, offset)
 
@@ -275,8 +286,9 @@ class ChannelModel:
         px = x[:, None] + vx[:, None] * dts[None, :]
         py = y[:, None] + vy[:, None] * dts[None, :]
         pred = np.stack([np.broadcast_to(dts, px.shape), px, py], axis=2)
-        state = np.round(np.column_stack([x, y, yaw, vx, vy, length, width]), 3).tolist()
-        pred_l = np.round(pred, POINT_DECIMALS).tolist()
+        state = np.round(np.column_stack([x, y, yaw, vx, vy, length, width]),
+                         OBJECT_DECIMALS).tolist()
+        pred_l = np.round(pred, PREDICTION_DECIMALS).tolist()
         return [
             {"id": ids[i], "cls": cls[i], "x": s[0], "y": s[1], "yaw": s[2], "vx": s[3],
              "vy": s[4], "length": s[5], "width": s[6], "prediction": pred_l[i]}
@@ -285,6 +297,6 @@ class ChannelModel:
 
     def frame(self, tick: int) -> dict[str, Any]:
         """The channel's entry of a casewatch frame at `tick` (floats rounded to 3 decimals)."""
-        ego = {k: round(float(v), 3) for k, v in self.ego(tick).items()}
-        return {"ego": ego, "plan": np.round(self.plan(tick), POINT_DECIMALS).tolist(),
+        ego = {k: round(float(v), EGO_DECIMALS) for k, v in self.ego(tick).items()}
+        return {"ego": ego, "plan": np.round(self.plan(tick), EGO_DECIMALS).tolist(),
                 "objects": self.objects(tick)}
