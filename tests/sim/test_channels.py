@@ -46,13 +46,15 @@ def test_tfuse_is_blind_behind_and_lav_sees_all_around() -> None:
 
 def test_prediction_is_constant_velocity_over_30_points() -> None:
     gt = _truth()
-    obj = ChannelModel(gt, replace(LAV, **QUIET), (), seed=1).objects(10)
-    ahead = next(o for o in obj if o["x"] > 0)
-    pred = np.array(ahead["prediction"])
-    assert pred.shape == (30, 3)
-    # at t = 1.0 the car is at x = 20 + 10 * 1.0 = 30; after dt = 2.9 s at 10 m/s: 59
-    assert ahead["x"] == 30.0
-    np.testing.assert_allclose(pred[-1], [2.9, 59.0, 0.0])
+    for params, last_dt in ((TFUSE, 2.9), (LAV, 5.8)):
+        obj = ChannelModel(gt, replace(params, **QUIET), (), seed=1).objects(10)
+        ahead = next(o for o in obj if o["x"] > 0)
+        pred = np.array(ahead["prediction"])
+        assert pred.shape == (30, 3)
+        # at t = 1.0 the car is at x = 20 + 10 * 1.0 = 30; tfuse: 29 steps of 0.1 s -> 2.9 s,
+        # x = 30 + 29 = 59; lav: 29 steps of 0.2 s -> 5.8 s, x = 30 + 58 = 88
+        assert ahead["x"] == 30.0
+        np.testing.assert_allclose(pred[-1], [last_dt, 30.0 + 10.0 * last_dt, 0.0])
 
 
 def test_quiet_plan_is_true_future_path_over_the_horizon() -> None:
