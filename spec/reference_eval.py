@@ -13,7 +13,9 @@ exactly, including its edges (checked operator by operator against rtamt's onlin
 - `l since[a:b] r` at `t` -> max over samples `s` in `t-b .. t-a` of
   `min(r(s), min of l over s+1 .. t)` (missing samples: r = -inf);
 - future operators see the trace end as missing samples (eventually/until: -inf,
-  always: +inf, next: -inf), which is how far an offline check could go.
+  always: +inf, next: -inf). rtamt's offline evaluator fills the end differently (`next` at
+  the last sample is +inf); the two agree on every sample whose look-ahead lies inside the
+  trace (tested), and verdicts closer to the end are incomplete either way.
 
 Time is counted in samples: a bound of `b` seconds at period `p` is `b / p` samples.
 """
