@@ -1,10 +1,11 @@
 """Write a simulated scenario as casewatch frames (JSON Lines, gzipped) plus its label files.
 
-Frame format: `docs/frame-format` contract (header line, then one frame per 0.1 s tick with the
-two channels). Besides the channels, each frame carries ground-truth scalar `signals` so a case
-or an analyst can use them directly: `speed_limit`, `ego_speed`, and the true same-lane gaps
-`gt_lead_gap`, `gt_lead_time_gap`, `gt_follower_gap`, `gt_follower_time_gap` (null when there is
-no such vehicle). They are truth, not what a channel sees.
+Frame format: the casewatch frames that `monitor.reader` reads (header line, then one frame per
+0.1 s tick with the two channels). Besides the channels, each frame carries ground-truth scalar
+`signals` so a case or an analyst can use them directly: `speed_limit`, `ego_speed`, and the
+true same-lane gaps `gt_lead_gap`, `gt_lead_time_gap`, `gt_follower_gap`,
+`gt_follower_time_gap` (null when there is no such vehicle). They are truth, not what a
+channel sees.
 """
 
 from __future__ import annotations
