@@ -374,8 +374,9 @@ def _synth_signal(
     noise = np.cumsum(rng.normal(0.0, 0.004, n))
     noise -= np.convolve(noise, np.ones(51) / 51, mode="same")
     values = healthy + noise
-    bad = threshold - 0.2 if op == ">=" else threshold * 2.5
     for _ in range(dips):
+        depth = float(rng.uniform(0.3, 1.6))  # how far past the threshold this dip goes
+        bad = threshold - 0.2 * depth if op == ">=" else threshold * (1 + 1.5 * depth)
         start = int(rng.integers(0, max(1, n - 80)))
         width = int(rng.integers(5, 60))
         ramp = np.sin(np.linspace(0, np.pi, width)) ** 0.5

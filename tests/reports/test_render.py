@@ -76,3 +76,36 @@ def test_cli_missing_or_invalid_result_exits_2(
 def test_cli_rejects_unknown_format(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert cli_main(["report", str(tmp_path), "--format", "pdf"]) == 2
     assert "valid formats: html, md, junit" in capsys.readouterr().err
+
+
+def test_empty_run_renders_every_format(reference_result: RunResult, tmp_path: Path) -> None:
+    # A run that read no frame: no episodes, gaps, series or status, times unknown.
+    stream = reference_result.stream.model_copy(
+        update={
+            "frames_read": 0,
+            "t_start": None,
+            "t_end": None,
+            "duration": 0.0,
+            "defects": [],
+            "defect_count": 0,
+            "digest": None,
+        }
+    )
+    empty = reference_result.model_copy(
+        update={
+            "stream": stream,
+            "episodes": [],
+            "data_gaps": [],
+            "series": [],
+            "status": [],
+            "verdict": "no-data",
+            "ground_truth": None,
+            "formulas": [],
+        }
+    )
+    written = render_reports(empty, tmp_path)
+    html = written["html"].read_text()
+    assert "No SPI violation and no hazard event" in html
+    assert 'class="verdict bg-no-data"' in html
+    assert "not hashed" in html
+    assert "No SPI violation" in written["md"].read_text()

@@ -1,0 +1,47 @@
+"""Headless Chromium opens the HTML report: no console errors, all nodes drawn, no overlap."""
+
+from __future__ import annotations
+
+import itertools
+from pathlib import Path
+
+import pytest
+
+from evaluator.result import RunResult
+from reports.render import render_reports
+from reports.screenshot import find_chromium, open_page
+
+pytestmark = [
+    pytest.mark.browser,
+    pytest.mark.skipif(find_chromium() is None, reason="needs Chromium (Debian package chromium)"),
+]
+
+
+def test_report_in_chromium(reference_result: RunResult, tmp_path: Path) -> None:
+    assert reference_result.episodes, "the fixture must have violations"
+    html = render_reports(reference_result, tmp_path, ("html",))["html"]
+    shot = tmp_path / "report.png"
+    with open_page(html, width=1600) as (page, errors):
+        page.screenshot(path=str(shot), full_page=True)
+        boxes = page.evaluate(
+            """() => Array.from(document.querySelectorAll('svg.gsn g.gsn-node')).map(g => {
+                   const r = g.getBoundingClientRect();
+                   return {id: g.dataset.node, x: r.x, y: r.y, w: r.width, h: r.height};
+               })"""
+        )
+        missing = page.evaluate(
+            "(n) => Array.from({length: n}, (_, i) => 'episode-' + (i + 1))"
+            ".filter(id => !document.getElementById(id))",
+            len(reference_result.episodes),
+        )
+        scripts = page.evaluate("() => document.querySelectorAll('script').length")
+    assert errors == []
+    assert scripts == 0
+    assert shot.stat().st_size > 10_000
+    assert sorted(b["id"] for b in boxes) == sorted(n.id for n in reference_result.case.nodes)
+    assert missing == []
+    assert all(b["w"] > 10 and b["h"] > 10 for b in boxes)  # drawn, not collapsed
+    for a, b in itertools.combinations(boxes, 2):
+        overlap_x = min(a["x"] + a["w"], b["x"] + b["w"]) - max(a["x"], b["x"])
+        overlap_y = min(a["y"] + a["h"], b["y"] + b["h"]) - max(a["y"], b["y"])
+        assert overlap_x <= 0.5 or overlap_y <= 0.5, f"{a['id']} overlaps {b['id']}"
