@@ -12,6 +12,9 @@ import shapely
 
 from monitor.frames import ChannelState, Objects
 
+#: Pairing distance resolution [m]: closer distances are ties.
+PAIRING_EPS = 1e-9
+
 
 def inv(d: np.ndarray | float) -> np.ndarray | float:
     """spi-reference: inv(d) = 1 / (1 + d)."""
@@ -37,11 +40,13 @@ def pair_objects(
         return empty, empty, np.zeros(0)
     diff = pos_a[:, None, :] - pos_b[None, :, :]
     dist = np.sqrt(np.einsum("ijk,ijk->ij", diff, diff))
-    ia, ib = np.nonzero(dist <= gate)
+    # Decision: distances equal to within 1e-9 m are ties (broken by index), so that float
+    # noise from a change of world frame cannot reorder the matching.
+    ia, ib = np.nonzero(dist <= gate + PAIRING_EPS)
     if len(ia) == 0:
         empty = np.zeros(0, dtype=int)
         return empty, empty, np.zeros(0)
-    dv = dist[ia, ib]
+    dv = np.round(dist[ia, ib] / PAIRING_EPS)
     order = np.lexsort((ib, ia, dv))
     # Greedy acceptance is inherently sequential; the loop runs over gated candidates only.
     used_a = np.zeros(len(pos_a), dtype=bool)

@@ -1,0 +1,142 @@
+"""Safety score geometry: TTC, PET, the matrix and arbitration."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import shapely
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from monitor.frames import box_footprint, place
+from monitor.safety_score import (
+    arbitrate,
+    boxes_intersect,
+    convex_intersects,
+    safety_matrix,
+    safety_score,
+)
+from tests.monitor.builders import channel, ego, frame, obj, straight_plan
+
+PET_REF = 2.0
+GRID = 0.1
+
+
+def scene(objects, plan=None):
+    plan = plan if plan is not None else straight_plan(0, 0, 10, 0, 31)  # 10 m/s for 3.0 s
+    f = frame(0.0, {"a": channel(ego(0, 0, 0, 4, 2), plan=plan, objects=objects)})
+    return f.channels["a"]
+
+
+def test_driving_into_a_stopped_object_at_one_second_of_three():
+    # Ego 4x2 box, front bumper at x + 2; stopped 4x2 object centred at 13.5 m, rear at 11.5.
+    # At 0.9 s the front is at 11.0 (no contact), at 1.0 s at 12.0: first hit at 1.0 s.
+    # ttc = 1.0, H = 3.0 -> ss = 1/3 (within the grid resolution 0.1 / 3)
+    s = scene([obj(1, 13.5, 0, 0, 4, 2)])
+    ss, ttc, pet = safety_score(s.plan, s.ego, s.objects, PET_REF)
+    assert ttc == pytest.approx(1.0)
+    assert ss == pytest.approx(1 / 3, abs=GRID / 3)
+    assert pet == math.inf  # the colliding object is not a PET candidate
+
+
+def test_passing_five_metres_beside_is_one():
+    s = scene([obj(1, 13.5, 5.0, 0, 4, 2)])
+    assert safety_score(s.plan, s.ego, s.objects, PET_REF) == (1.0, math.inf, math.inf)
+
+
+def test_crossing_object_gives_post_encroachment_time():
+    # Object 4x2 crosses northwards along x = 20.5 at 10 m/s, from y = -10.5.
+    # Footprints meet when ego x in [17.5, 23.5] -> t_n in [1.75, 2.35] (grid 1.8 .. 2.3)
+    # and object y in [-3, 3] -> t_m in [0.75, 1.35] (grid 0.8 .. 1.3): never at equal times.
+    # PET on the grid = 1.8 - 1.3 = 0.5 -> ss = min(1, inf, 0.5 / 2) = 0.25
+    pred = straight_plan(20.5, -10.5, 0, 10, 31)
+    s = scene([obj(1, 20.5, -10.5, math.pi / 2, 4, 2, prediction=pred)])
+    ss, ttc, pet = safety_score(s.plan, s.ego, s.objects, PET_REF)
+    assert ttc == math.inf
+    assert pet == pytest.approx(0.5)
+    assert ss == pytest.approx(0.25)
+
+
+def test_first_step_collision_is_zero_and_short_plans():
+    s = scene([obj(1, 3.0, 0, 0, 4, 2)])  # already overlapping at dt = 0
+    assert safety_score(s.plan, s.ego, s.objects, PET_REF)[0] == 0.0
+    one = scene([obj(1, 3.0, 0)], plan=[[0.0, 0.0, 0.0]])
+    assert safety_score(one.plan, one.ego, one.objects, PET_REF)[0] == 1.0  # < 2 points
+    empty = scene([obj(1, 3.0, 0)], plan=[])
+    assert safety_score(empty.plan, empty.ego, empty.objects, PET_REF)[0] is None
+    nobody = scene([])
+    assert safety_score(nobody.plan, nobody.ego, nobody.objects, PET_REF)[0] == 1.0
+
+
+def test_non_convex_polygon_footprint_uses_shapely():
+    # A U-shaped object open towards the ego, 3 m wide inside: the 2 m-wide ego drives into
+    # the gap. Its arms span x in [12, 16] at |y| in [1.5, 2.5]; back wall x in [16, 17].
+    # Ego (x in [x_e - 2, x_e + 2], |y| <= 1) first touches the back wall when x_e + 2 >= 16,
+    # x_e = 14 at t = 1.4 s -> ss = 1.4 / 3; the convex hull would give an earlier hit (1.0 s).
+    u = [[-2, 2.5], [-2, 1.5], [2, 1.5], [2, -1.5], [-2, -1.5], [-2, -2.5], [3, -2.5], [3, 2.5]]
+    s = scene([{"id": 1, "x": 14.0, "y": 0.0, "yaw": 0.0, "polygon": u}])
+    assert not s.objects.convex[0]
+    ss, ttc, _ = safety_score(s.plan, s.ego, s.objects, PET_REF)
+    assert ttc == pytest.approx(1.4)
+    assert ss == pytest.approx(1.4 / 3)
+
+
+def test_matrix_dropout_and_arbitration_ties():
+    plan = straight_plan(0, 0, 10, 0, 31)
+    f = frame(
+        0.0,
+        {
+            "a": channel(ego(), plan=plan, objects=[obj(1, 13.5, 0)]),
+            "b": channel(ego(), plan=plan, objects=[]),
+        },
+    )
+    m = safety_matrix(["a", "b"], f.channels, PET_REF)
+    # a's objects block both plans (same plan): ss_aa = ss_ba = 1/3; b sees nothing: 1.0
+    assert m[("a", "a")] == pytest.approx(1 / 3) and m[("b", "a")] == pytest.approx(1 / 3)
+    assert m[("a", "b")] == 1.0 and m[("b", "b")] == 1.0
+    # both plans score 1/3 in the worst world: tie -> first declared, or keep the previous
+    assert arbitrate(["a", "b"], m, None) == "a"
+    assert arbitrate(["a", "b"], m, "b") == "b"
+    g = frame(0.0, {"a": channel(ego(), plan=plan, objects=[obj(1, 13.5, 0)])})
+    m = safety_matrix(["a", "b"], g.channels, PET_REF)
+    assert m[("a", "b")] is None and m[("b", "b")] is None and m[("b", "a")] is None
+    assert arbitrate(["a", "b"], m, "b") == "a"  # b has no value: not a candidate
+    assert arbitrate(["a", "b"], dict.fromkeys(m), "a") is None
+
+
+finite = st.floats(-6, 6, allow_nan=False)
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    finite,
+    finite,
+    st.floats(-4, 4),
+    st.floats(0.5, 5),
+    st.floats(0.5, 3),
+    st.floats(-4, 4),
+    st.floats(0.5, 5),
+    st.floats(0.5, 3),
+)
+def test_box_sat_agrees_with_shapely(x, y, ha, la, wa, hb, lb, wb):
+    a = place(box_footprint(la, wa)[None], np.zeros((1, 2)), np.array([ha]))
+    b = place(box_footprint(lb, wb)[None], np.array([[x, y]]), np.array([hb]))
+    truth = bool(shapely.intersects(shapely.polygons(a[0]), shapely.polygons(b[0])))
+    dist = float(shapely.distance(shapely.polygons(a[0]), shapely.polygons(b[0])))
+    if dist > 1e-9 or truth:  # skip knife-edge touching configurations only
+        box = boxes_intersect(
+            np.array([x]),
+            np.array([y]),
+            np.cos([ha]),
+            np.sin([ha]),
+            la / 2,
+            wa / 2,
+            np.cos([hb]),
+            np.sin([hb]),
+            np.array([lb / 2]),
+            np.array([wb / 2]),
+        )[0]
+        assert bool(box) == truth
+        assert bool(convex_intersects(a, b)[0]) == truth
