@@ -314,10 +314,4 @@ def run(sc: Scenario, work_dir: Path | None = None, extra_time: float = 5.5) -> 
     )
 
 
-def heading_vector(yaw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Unit vector of a yaw array (helper shared by labels and channels)."""
-    return np.cos(yaw), np.sin(yaw)
-
-
-__all__ = ["STEP", "GroundTruth", "SimulationError", "heading_vector", "run", "sumo_to_centre",
-           "write_inputs"]
+__all__ = ["STEP", "GroundTruth", "SimulationError", "run", "sumo_to_centre", "write_inputs"]
