@@ -230,6 +230,7 @@ class ReportView:
     unmatched_labels: list[str]
     labels_path: str | None
     formula_of_node: dict[str, FormulaStats] = field(default_factory=dict)
+    arbitration: list[tuple[str, str]] = field(default_factory=list)  # (channel, share of ticks)
 
 
 def _shares(status: NodeStatus | None) -> list[tuple[str, str, str]]:
@@ -394,6 +395,12 @@ def build_view(result: RunResult) -> ReportView:
     defects: list[StreamDefect] = list(stream.defects[:LIST_CAP])
     gaps: list[DataGap] = list(result.data_gaps[:LIST_CAP])
     truth = result.ground_truth
+    chosen: dict[str, int] = {}
+    for interval in result.arbitration:
+        name = interval.channel or "none"
+        chosen[name] = chosen.get(name, 0) + interval.ticks
+    total = sum(chosen.values())
+    arbitration = [(name, fmt_share(n, total)) for name, n in sorted(chosen.items())]
     return ReportView(
         result=result,
         headline=headline,
@@ -408,4 +415,5 @@ def build_view(result: RunResult) -> ReportView:
         unmatched_labels=list(truth.unmatched_label_names) if truth else [],
         labels_path=truth.labels_path if truth else None,
         formula_of_node=formula_of_node,
+        arbitration=arbitration,
     )

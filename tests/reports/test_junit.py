@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import xml.etree.ElementTree as ET
 
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
 from evaluator.result import RunResult
 from reports.junit import render_junit, xml_text
 
@@ -58,3 +61,14 @@ def test_never_evaluated_formula_is_an_error_not_a_pass(reference_result: RunRes
 
 def test_xml_text_strips_illegal_characters() -> None:
     assert xml_text("a\x00b\x1bc\td\ne") == "abc\td\ne"
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.text())
+def test_any_node_text_gives_well_formed_xml(text: str) -> None:
+    element = ET.Element("testcase", name=xml_text(text))
+    element.text = xml_text(text)
+    parsed = ET.fromstring(ET.tostring(element, encoding="unicode"))  # raises if malformed
+    # XML parsers normalise line ends to \n; everything else survives
+    expected = xml_text(text).replace("\r\n", "\n").replace("\r", "\n")
+    assert (parsed.text or "") == expected

@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import re
 
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
 from evaluator.result import RunResult
 from reports.markdown import md_escape, render_markdown
 
@@ -48,3 +51,12 @@ def test_headline_tables_and_traces(reference_result: RunResult) -> None:
     assert "→ **G1**" in md  # every trace ends at the root goal
     assert f"## Episodes ({len(reference_result.episodes)})" in md
     assert "| precision | recall |" in md
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.text())
+def test_escaped_text_never_breaks_a_table_cell(text: str) -> None:
+    escaped = md_escape(text)
+    assert "\n" not in escaped and "\r" not in escaped
+    assert _unescaped_pipes(escaped.replace("\\\\", "")) == 0
+    assert re.search(r"(?<!\\)<", escaped.replace("\\\\", "")) is None

@@ -28,3 +28,15 @@ def test_undecimated_series_are_bounded_by_the_report() -> None:
     band = html.split('id="plot-Sn1"')[1].split('class="band" d="')[1].split('"')[0]
     # two points per bucket edge pair on top and bottom of the band
     assert band.count(",") <= 4 * MAX_BUCKETS
+
+
+def test_thousands_of_episodes_keep_every_section_but_bound_traces() -> None:
+    from reports.html import TRACE_LIMIT
+
+    base = sample_result(duration=60.0)
+    episode = base.episodes[0]
+    many = [episode.model_copy(update={"start": i * 0.1, "end": i * 0.1}) for i in range(1200)]
+    html = render_html(base.model_copy(update={"episodes": many}))
+    assert 'id="episode-1200"' in html
+    # the first TRACE_LIMIT episodes draw their trace, the rest link to the node's trace
+    assert html.count("(traces of episodes past #") == 1200 - TRACE_LIMIT
