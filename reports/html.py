@@ -112,8 +112,8 @@ def _plots(result: RunResult) -> list[PlotCard]:
         else:
             title = f"robustness of {formula.id}"
         note = f"{len(episodes)} episodes · {len(gaps)} gaps"
-        if plot.buckets and series.bucket > result.case.period * 1.5:
-            note += f" · {series.bucket:g} s per bucket"
+        if plot.buckets and plot.bucket > result.case.period * 1.5:
+            note += f" · min–max per {plot.bucket:g} s"
         cards.append(PlotCard(formula.id, formula.node_id, title, note, plot))
     return cards
 

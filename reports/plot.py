@@ -17,13 +17,14 @@ import numpy as np
 
 from evaluator.result import STATUS_SEVERITY, DataGap, Episode, Series, StatusInterval
 
-MAX_BUCKETS = 1200
 PLOT_W = 880.0
 PLOT_H = 200.0
 LEFT = 56.0  # room for y tick labels
 RIGHT = 12.0
 TOP = 10.0
 BOTTOM = 34.0  # room for x tick labels and the axis title
+#: No more buckets than the plot has pixel columns: finer detail would only add bytes.
+MAX_BUCKETS = int(PLOT_W - LEFT - RIGHT)
 
 
 @dataclass(frozen=True)
@@ -56,6 +57,7 @@ class PlotView:
     x_title: str
     y_title: str
     buckets: int
+    bucket: float  # seconds per plotted bucket (after any re-bucketing)
 
 
 def nice_ticks(lo: float, hi: float, target: int = 6) -> list[float]:
@@ -145,18 +147,17 @@ def plot_series(
     def sy(vv: np.ndarray | float) -> np.ndarray | float:
         return TOP + (v1 - np.asarray(vv)) / (v1 - v0) * inner_h
 
-    # Band: one closed polygon per run of buckets with values; each bucket is a flat step.
+    # Band: one closed polygon per run of buckets with values, through the bucket centres (max
+    # forwards, min backwards); a lone bucket is a zero-width polygon that its stroke still shows.
     parts: list[str] = []
     if finite.any():
         padded = np.concatenate(([False], finite, [False])).astype(np.int8)
         edges = np.flatnonzero(np.diff(padded))
         for a, b in zip(edges[::2], edges[1::2], strict=True):
-            xs = np.repeat(np.stack((sx(t[a:b]), sx(t[a:b] + bucket)), axis=1).ravel(), 1)
-            top = np.repeat(sy(hi[a:b]), 2)
-            bottom = np.repeat(sy(lo[a:b]), 2)
-            upper = " ".join(f"{x:.1f},{y:.1f}" for x, y in zip(xs, top, strict=True))
+            xs = sx(t[a:b] + bucket / 2)
+            upper = " ".join(f"{x:.1f},{y:.1f}" for x, y in zip(xs, sy(hi[a:b]), strict=True))
             lower = " ".join(
-                f"{x:.1f},{y:.1f}" for x, y in zip(xs[::-1], bottom[::-1], strict=True)
+                f"{x:.1f},{y:.1f}" for x, y in zip(xs[::-1], sy(lo[a:b])[::-1], strict=True)
             )
             parts.append(f"M{upper} L{lower}Z")
     band_path = " ".join(parts)
@@ -198,6 +199,7 @@ def plot_series(
         x_title=x_title,
         y_title=series.name,
         buckets=len(t),
+        bucket=bucket,
     )
 
 
