@@ -19,9 +19,8 @@ from evaluator.ground_truth import LabelsError
 from evaluator.result import DataGap, Episode, RunResult
 from evaluator.session import InputError, RunOptions, evaluate_stream
 from evaluator.summary import LogSummary
+from reports.render import FORMATS, parse_formats
 from safety_case.findings import CaseError
-
-FORMATS = ("html", "md", "junit")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -46,14 +45,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _formats(text: str) -> tuple[str, ...]:
+    """The reports to write; 'none' writes only events.jsonl and result.json."""
     if text.strip().lower() == "none":
         return ()
-    chosen = tuple(f.strip() for f in text.split(",") if f.strip())
-    unknown = [f for f in chosen if f not in FORMATS]
-    if unknown:
-        raise ValueError(f"unknown report format(s) {', '.join(unknown)}; "
-                         f"choose from {', '.join(FORMATS)} or 'none'")
-    return chosen
+    return tuple(parse_formats(text))
 
 
 def event_line(event: Episode | DataGap) -> str:
@@ -122,7 +117,7 @@ def _run_single(args, case, spec, formats: tuple[str, ...]) -> int:
         print(f"\ncasewatch run: {exc}", file=sys.stderr)
         return 2
     if not live and not args.quiet:
-        print("\r", end="", file=sys.stderr)
+        print("\r" + " " * 60 + "\r", end="", file=sys.stderr)
     path = api.write_result(result, args.out)
     written = api.render(args.out, formats) if formats else {}
     if not args.quiet:

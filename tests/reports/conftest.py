@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from evaluator.result import RunResult
 from reports.sample import sample_result
+
+REPO = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="session")
@@ -18,3 +22,15 @@ def reference_result() -> RunResult:
 def hostile_result() -> RunResult:
     """The same run with markup, quotes, ampersands and control characters in every text."""
     return sample_result(hostile=True)
+
+
+@pytest.fixture(scope="session")
+def real_run_result() -> RunResult:
+    """The reference case judged on a bundled SUMO drive, with its labels (about 4 s)."""
+    from casewatch import api
+    from evaluator.session import RunOptions, evaluate_stream
+
+    data = REPO / "examples" / "data"
+    case, spec = api.prepare(REPO / "examples" / "reference-case.yaml")
+    options = RunOptions(labels=data / "highway-tailgated.labels.jsonl")
+    return evaluate_stream(case, spec, data / "highway-tailgated.jsonl.gz", options)

@@ -17,8 +17,10 @@ pytestmark = [
 ]
 
 
-def test_report_in_chromium(reference_result: RunResult, tmp_path: Path) -> None:
-    assert reference_result.episodes, "the fixture must have violations"
+def test_report_in_chromium(real_run_result: RunResult, tmp_path: Path) -> None:
+    """The reference case on a real bundled drive with violations."""
+    reference_result = real_run_result
+    assert reference_result.episodes, "the run must have violations"
     html = render_reports(reference_result, tmp_path, ("html",))["html"]
     shot = tmp_path / "report.png"
     with open_page(html, width=1600) as (page, errors):
