@@ -1,14 +1,18 @@
-"""Safety score: time to collision and post-encroachment time of a plan against a world model.
+"""Safety score: time to collision and post-encroachment time of plans against world models.
 
 spi-reference "Safety score". For an ordered channel pair (i, j) the ego footprint of channel i
 is swept along plan i, and each object of channel j along its prediction, on the plan's time
-grid. The exact footprint tests run only on candidates that survive two numpy prefilters
-(bounding box of the whole ego sweep, then bounding circles per time pair):
+grid. All ordered pairs whose plans share a time grid (the usual case) are computed in one
+vectorised pass: per-call numpy overhead, not arithmetic, dominates at this size.
 
-- convex footprints (every box, and convex polygons) are tested exactly with the separating
-  axis theorem, vectorised in numpy over all candidates: two convex polygons intersect (touching
-  included, like shapely's `intersects`) iff no edge normal of either separates them;
-- a non-convex polygon footprint goes to `shapely.intersects`, vectorised over its candidates.
+Exact footprint tests run only on candidates that survive numpy prefilters (bounding circles of
+CHUNK-point runs of both sweeps, then bounding circles per time pair):
+
+- box footprints: a closed-form separating-axis test (exact for oriented boxes);
+- convex polygons: a vectorised separating-axis test over their vertices;
+- non-convex polygons: `shapely.intersects`, vectorised over their candidates.
+
+Touching counts as intersecting everywhere, like shapely's `intersects`.
 
 Decision (grid reading of PET): the ego "occupies the shared region" at plan time t_n when its
 footprint there intersects the object's footprint at grid time t_m; PET is the smallest
@@ -18,6 +22,7 @@ footprint there intersects the object's footprint at grid time t_m; PET is the s
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 import shapely
@@ -62,19 +67,27 @@ def convex_intersects(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 CHUNK = 5
 
 
-def _chunk_circles(centres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Bounding circles of consecutive runs of CHUNK grid points: centres (..., C, 2) and radii
-    (..., C) of the point sets (footprint radii are added by the caller)."""
-    n = centres.shape[-2]
+def _runs(values: np.ndarray) -> np.ndarray:
+    """(..., N) -> (..., C, CHUNK): consecutive runs of CHUNK grid points, the last run padded
+    by repeating the last point (a real grid point)."""
+    n = values.shape[-1]
     nc = -(-n // CHUNK)
     pad = nc * CHUNK - n
     if pad:
-        last = np.repeat(centres[..., -1:, :], pad, axis=-2)
-        centres = np.concatenate([centres, last], axis=-2)
-    runs = centres.reshape(*centres.shape[:-2], nc, CHUNK, 2)
-    mid = 0.5 * (runs.max(axis=-2) + runs.min(axis=-2))
-    off = runs - mid[..., None, :]
-    return mid, np.sqrt(np.max(np.einsum("...d,...d->...", off, off), axis=-1))
+        values = np.concatenate([values, np.repeat(values[..., -1:], pad, axis=-1)], axis=-1)
+    return values.reshape(*values.shape[:-1], nc, CHUNK)
+
+
+def _chunk_circles(
+    run_x: np.ndarray, run_y: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Bounding circles of the runs (..., C, CHUNK): centre x, centre y, radius (..., C)
+    (footprint radii are added by the caller)."""
+    mx = 0.5 * (run_x.max(axis=-1) + run_x.min(axis=-1))
+    my = 0.5 * (run_y.max(axis=-1) + run_y.min(axis=-1))
+    ox = run_x - mx[..., None]
+    oy = run_y - my[..., None]
+    return mx, my, np.sqrt(np.max(ox * ox + oy * oy, axis=-1))
 
 
 def boxes_intersect(
@@ -105,211 +118,278 @@ def boxes_intersect(
     return ~sep
 
 
-class Sweep:
-    """Footprint centres and headings of one or more movers on a time grid, flattened to
-    (M * N,) arrays (row-major: mover, then time) so candidate gathers are single `take`s,
-    plus bounding circles of CHUNK-point runs (centre and radius, footprint radius included)
-    for the coarse prefilter."""
+class _Movers:
+    """Footprints moving on a common time grid, (M, N) arrays: centres x, y, heading (and its
+    cos, sin), chunk circles (M, C) with the footprint radius included, and per mover the
+    radius, box half extents (NaN for polygons), convexity and body-frame polygon."""
 
-    __slots__ = ("chunk_r", "chunk_x", "chunk_y", "cos", "heading", "n", "sin", "x", "y")
+    __slots__ = (
+        "chunk_r",
+        "chunk_x",
+        "chunk_y",
+        "convex",
+        "cos",
+        "cosf",
+        "footprints",
+        "half",
+        "heading",
+        "hi_x",
+        "hi_y",
+        "lo_x",
+        "lo_y",
+        "radius",
+        "run_x",
+        "run_y",
+        "sin",
+        "sinf",
+        "x",
+        "xf",
+        "y",
+        "yf",
+    )  # fmt: skip
 
-    def __init__(self, centres: np.ndarray, heading: np.ndarray, radius: np.ndarray):
-        # centres (M, N, 2), heading (M, N), radius (M,)
-        self.n = centres.shape[1]
-        self.x = centres[..., 0].ravel()
-        self.y = centres[..., 1].ravel()
-        self.heading = heading.ravel()
-        self.cos = np.cos(self.heading)
-        self.sin = np.sin(self.heading)
-        mid, rad = _chunk_circles(centres)
-        self.chunk_x = mid[..., 0]
-        self.chunk_y = mid[..., 1]
+    def __init__(self, centres: np.ndarray, heading: np.ndarray, radius: np.ndarray,
+                 half: np.ndarray, convex: np.ndarray, footprints: list[np.ndarray]):  # fmt: skip
+        self.x = centres[..., 0]
+        self.y = centres[..., 1]
+        self.heading = heading
+        self.cos = np.cos(heading)
+        self.sin = np.sin(heading)
+        # Flat copies: candidates are gathered with `take` on (mover * N + time) indices,
+        # several times faster than 2-D fancy indexing.
+        self.xf = self.x.ravel()
+        self.yf = self.y.ravel()
+        self.cosf = self.cos.ravel()
+        self.sinf = self.sin.ravel()
+        # (M * C, CHUNK) runs of the grid, flattened over movers for row gathers
+        run_x = _runs(self.x)
+        run_y = _runs(self.y)
+        self.chunk_x, self.chunk_y, rad = _chunk_circles(run_x, run_y)
         self.chunk_r = rad + radius[:, None]
+        self.run_x = run_x.reshape(-1, CHUNK)
+        self.run_y = run_y.reshape(-1, CHUNK)
+        self.radius = radius
+        # bounding box of the whole sweep, footprint included
+        self.lo_x = self.x.min(axis=1) - radius
+        self.hi_x = self.x.max(axis=1) + radius
+        self.lo_y = self.y.min(axis=1) - radius
+        self.hi_y = self.y.max(axis=1) + radius
+        self.half = half
+        self.convex = convex
+        self.footprints = footprints
 
 
-def object_sweep(objects: Objects, times: np.ndarray) -> Sweep:
-    """Objects moved along their predictions on the plan's time grid."""
-    centres = interpolate_tracks(objects.pos, objects.pred, objects.pred_len, times)
-    return Sweep(centres, _headings(centres, objects.yaw), objects.radii)
+def _egos(plans: Sequence[np.ndarray], egos: Sequence[Ego]) -> _Movers:
+    centres = np.stack([p[:, 1:3] for p in plans])
+    heading = _headings(centres, np.array([e.yaw for e in egos]))
+    return _Movers(
+        centres,
+        heading,
+        np.array([e.radius for e in egos]),
+        np.array([e.half if e.half is not None else (np.nan, np.nan) for e in egos]),
+        np.array([e.convex for e in egos]),
+        [e.footprint for e in egos],
+    )
 
 
-def ego_sweep(plan: np.ndarray, ego: Ego) -> Sweep:
-    """The ego footprint along a plan, heading = path tangent."""
-    centres = plan[None, :, 1:3]
-    return Sweep(centres, _headings(centres, np.asarray([ego.yaw])), np.array([ego.radius]))
-
-
-class SweepCache:
-    """Per-frame cache of object sweeps per (channel, time grid), so the ordered pairs (i, j)
-    of one tick share world model j when their plans use the same grid (the usual case)."""
-
-    def __init__(self) -> None:
-        self._objects: dict[tuple[str, bytes], Sweep] = {}
-
-    def objects_on_grid(self, channel: str, objects: Objects, times: np.ndarray) -> Sweep:
-        key = (channel, times.tobytes())
-        hit = self._objects.get(key)
-        if hit is None:
-            hit = object_sweep(objects, times)
-            self._objects[key] = hit
-        return hit
+def _objects(worlds: Sequence[Objects], times: np.ndarray) -> tuple[_Movers, np.ndarray]:
+    """All objects of all world models on the grid, and each object's world index."""
+    centres = np.concatenate([interpolate_tracks(o.pos, o.pred, o.pred_len, times) for o in worlds])
+    yaw = np.concatenate([o.yaw for o in worlds])
+    owner = np.repeat(np.arange(len(worlds)), [len(o) for o in worlds])
+    movers = _Movers(
+        centres,
+        _headings(centres, yaw),
+        np.concatenate([o.radii for o in worlds]),
+        np.concatenate([o.half for o in worlds]),
+        np.concatenate([o.convex for o in worlds]),
+        [fp for o in worlds for fp in o.footprints],
+    )
+    return movers, owner
 
 
 def _exact(
-    ego: Ego,
-    es: Sweep,
-    objects: Objects,
-    os_: Sweep,
-    k: np.ndarray,
-    n: np.ndarray,
-    m: np.ndarray,
+    eg: _Movers, ob: _Movers, i: np.ndarray, k: np.ndarray, fi: np.ndarray, fk: np.ndarray
 ) -> np.ndarray:
-    """Exact footprint tests of the ego at grid n against object k at grid m: (C,) bool."""
-    f = k * os_.n + m
-    if ego.half is not None:
-        half = objects.half[k]
-        boxes = ~np.isnan(half[:, 0])
-        if boxes.all():
-            return boxes_intersect(
-                os_.x.take(f) - es.x.take(n), os_.y.take(f) - es.y.take(n),
-                es.cos.take(n), es.sin.take(n), ego.half[0], ego.half[1],
-                os_.cos.take(f), os_.sin.take(f), half[:, 0], half[:, 1],
-            )  # fmt: skip
-    else:
-        boxes = np.zeros(len(k), dtype=bool)
+    """Exact footprint tests of ego i against object k, at the flat grid indices fi = i * N + n
+    and fk = k * N + m: (C,) bool."""
+    ehalf = eg.half[i]
+    ohalf = ob.half[k]
+    boxes = ~(np.isnan(ehalf[:, 0]) | np.isnan(ohalf[:, 0]))
+    if boxes.all():
+        return boxes_intersect(
+            ob.xf.take(fk) - eg.xf.take(fi), ob.yf.take(fk) - eg.yf.take(fi),
+            eg.cosf.take(fi), eg.sinf.take(fi), ehalf[:, 0], ehalf[:, 1],
+            ob.cosf.take(fk), ob.sinf.take(fk), ohalf[:, 0], ohalf[:, 1],
+        )  # fmt: skip
     hit = np.zeros(len(k), dtype=bool)
     if boxes.any():
-        fb, nb, kb = f[boxes], n[boxes], k[boxes]
-        hit[boxes] = boxes_intersect(
-            os_.x[fb] - es.x[nb], os_.y[fb] - es.y[nb], es.cos[nb], es.sin[nb],
-            ego.half[0], ego.half[1],  # type: ignore[index]
-            os_.cos[fb], os_.sin[fb], objects.half[kb, 0], objects.half[kb, 1],
-        )  # fmt: skip
-    rest = ~boxes
-    fr, nr, kr = f[rest], n[rest], k[rest]
-    ego_poly = place(ego.footprint[None], np.column_stack([es.x[nr], es.y[nr]]), es.heading[nr])
-    obj_poly = place(objects.footprints[kr], np.column_stack([os_.x[fr], os_.y[fr]]),
-                     os_.heading[fr])  # fmt: skip
-    convex = objects.convex[kr] & ego.convex
-    sub = np.zeros(len(kr), dtype=bool)
-    if convex.any():
-        sub[convex] = convex_intersects(ego_poly[convex], obj_poly[convex])
-    if (~convex).any():
-        sub[~convex] = shapely.intersects(
-            shapely.polygons(ego_poly[~convex]), shapely.polygons(obj_poly[~convex])
-        )
-    hit[rest] = sub
+        hit[boxes] = _exact(eg, ob, i[boxes], k[boxes], fi[boxes], fk[boxes])
+    hf = eg.heading.ravel()
+    ohf = ob.heading.ravel()
+    for row in np.nonzero(~boxes)[0]:
+        # Polygon footprints are rare; one candidate at a time keeps ragged vertex counts simple.
+        a = place(eg.footprints[i[row]], np.array([eg.xf[fi[row]], eg.yf[fi[row]]]), hf[fi[row]])
+        b = place(ob.footprints[k[row]], np.array([ob.xf[fk[row]], ob.yf[fk[row]]]), ohf[fk[row]])
+        if eg.convex[i[row]] and ob.convex[k[row]]:
+            hit[row] = convex_intersects(a[None], b[None])[0]
+        else:
+            hit[row] = shapely.intersects(shapely.polygons(a), shapely.polygons(b))
     return hit
 
 
-def safety_score(
-    plan: np.ndarray,
-    ego: Ego,
-    objects: Objects,
+def score_grid(
+    plans: Sequence[np.ndarray],
+    egos: Sequence[Ego],
+    worlds: Sequence[Objects],
     pet_ref: float,
-    sweep: Sweep | None = None,
-) -> tuple[float | None, float, float]:
-    """(ss, ttc, pet) of one plan against one world model. ss is None for an empty plan,
-    1.0 for a one-point plan (spi-reference); ttc and pet are inf when nothing meets.
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(ss, ttc, pet), each (I, J): plans I (all on the same time grid, >= 2 points) with their
+    egos against world models J (each with >= 1 object).
 
-    TTC first (equal times only, K x N circle prefilter); PET then only needs time pairs with
+    TTC first (equal times only); PET then only needs time pairs with
     |t_n - t_m| < pet_ref * min(1, ttc / H), since larger ones cannot lower the score.
     """
-    n_pts = len(plan)
-    if n_pts == 0:
-        return None, math.inf, math.inf
-    if n_pts < 2 or len(objects) == 0:
-        return 1.0, math.inf, math.inf
-    times = plan[:, 0]
+    times = plans[0][:, 0]
     horizon = float(times[-1])
-    os_ = object_sweep(objects, times) if sweep is None else sweep
-    es = ego_sweep(plan, ego)
-    k_obj = len(objects)
-    # TTC: the diagonal n = m, bounding circles first.
-    dx = os_.x.reshape(k_obj, n_pts) - es.x
-    dy = os_.y.reshape(k_obj, n_pts) - es.y
-    reach = objects.radii + ego.radius
-    dk, dn = np.nonzero(dx * dx + dy * dy <= (reach * reach)[:, None])
-    ttc = math.inf
-    colliding = np.zeros(k_obj, dtype=bool)
-    if len(dk):
-        hit = _exact(ego, es, objects, os_, dk, dn, dn)
+    n_i, n_j = len(plans), len(worlds)
+    eg = _egos(plans, egos)
+    ob, owner = _objects(worlds, times)
+    ttc = np.full((n_i, n_j), np.inf)
+    pet = np.full((n_i, n_j), np.inf)
+    # Prefilter 1: bounding boxes of the whole sweeps, (ego i, object k) pairs that can meet.
+    pi, pk = np.nonzero(
+        (ob.lo_x[None] <= eg.hi_x[:, None])
+        & (ob.hi_x[None] >= eg.lo_x[:, None])
+        & (ob.lo_y[None] <= eg.hi_y[:, None])
+        & (ob.hi_y[None] >= eg.lo_y[:, None])
+    )
+    if len(pi) == 0:
+        return np.ones((n_i, n_j)), ttc, pet
+    # TTC: the diagonal n = m, bounding circles, then the exact test.
+    dx = ob.x[pk] - eg.x[pi]
+    dy = ob.y[pk] - eg.y[pi]
+    reach = eg.radius[pi] + ob.radius[pk]
+    cp, cn = np.nonzero(dx * dx + dy * dy <= (reach * reach)[:, None])
+    colliding = np.zeros(len(pi), dtype=bool)
+    if len(cp):
+        n_pts = len(times)
+        hit = _exact(eg, ob, pi[cp], pk[cp], pi[cp] * n_pts + cn, pk[cp] * n_pts + cn)
         if hit.any():
-            ttc = float(times[dn[hit]].min())
-            colliding[dk[hit]] = True
-    limit = pet_ref * min(1.0, ttc / horizon)
-    pet = math.inf
-    if limit > 0:
-        pet = _pet(ego, es, objects, os_, times, colliding, limit)
-    return min(1.0, ttc / horizon, pet / pet_ref), ttc, pet
+            np.minimum.at(ttc, (pi[cp[hit]], owner[pk[cp[hit]]]), times[cn[hit]])
+            colliding[cp[hit]] = True
+    limit = pet_ref * np.minimum(1.0, ttc / horizon)
+    # PET: only pairs that never meet at equal times, within their time limit.
+    lim = np.where(colliding, -np.inf, limit[pi, owner[pk]])
+    keep = lim > 0
+    if keep.any():
+        _pet(eg, ob, owner, times, pi[keep], pk[keep], lim[keep], pet)
+    ss = np.minimum(1.0, np.minimum(ttc / horizon, pet / pet_ref))
+    return ss, ttc, pet
 
 
 def _pet(
-    ego: Ego,
-    es: Sweep,
-    objects: Objects,
-    os_: Sweep,
+    eg: _Movers,
+    ob: _Movers,
+    owner: np.ndarray,
     times: np.ndarray,
-    colliding: np.ndarray,
-    limit: float,
-) -> float:
-    """Smallest |t_n - t_m| < limit at which the ego (time n) meets an object (time m) that
-    never meets it at equal times; inf when none. Chunk circles, then point circles, then the
-    exact test."""
-    n_pts = len(times)
-    nc = es.chunk_x.shape[1]
+    pi: np.ndarray,
+    pk: np.ndarray,
+    limit: np.ndarray,
+    pet: np.ndarray,
+) -> None:
+    """Lower pet[i, j] to the smallest |t_n - t_m| < limit at which ego i (time n) meets
+    object k of world j (time m), for the candidate pairs (pi, pk) with their limits."""
+    n_pts = eg.x.shape[1]
+    nc = eg.chunk_x.shape[1]
     starts = np.arange(nc) * CHUNK
     t_lo = times[starts]
     t_hi = times[np.minimum(starts + CHUNK - 1, n_pts - 1)]
     gap = np.maximum(t_lo[:, None] - t_hi[None, :], t_lo[None, :] - t_hi[:, None])
-    time_ok = gap < limit  # (ego chunk, object chunk); gap < 0 means overlapping ranges
-    dx = es.chunk_x[0][None, :, None] - os_.chunk_x[:, None, :]
-    dy = es.chunk_y[0][None, :, None] - os_.chunk_y[:, None, :]
-    reach = es.chunk_r[0][None, :, None] + os_.chunk_r[:, None, :]
-    near = (dx * dx + dy * dy <= reach * reach) & time_ok
-    if colliding.any():
-        near &= ~colliding[:, None, None]
-    ck, ca, cb = np.nonzero(near)
-    if len(ck) == 0:
-        return math.inf
-    off = np.arange(CHUNK)
-    n = ((ca * CHUNK)[:, None, None] + off[None, :, None]).repeat(CHUNK, axis=2).ravel()
-    m = ((cb * CHUNK)[:, None, None] + off[None, None, :]).repeat(CHUNK, axis=1).ravel()
-    k = np.repeat(ck, CHUNK * CHUNK)
-    ok = (n < n_pts) & (m < n_pts) & (n != m)
-    k, n, m = k[ok], n[ok], m[ok]
-    f = k * n_pts + m
-    dt = np.abs(times.take(n) - times.take(m))
-    ddx = os_.x.take(f) - es.x.take(n)
-    ddy = os_.y.take(f) - es.y.take(n)
-    r = objects.radii.take(k) + ego.radius
-    ok = (dt < limit) & (ddx * ddx + ddy * ddy <= r * r)
-    if not ok.any():
-        return math.inf
-    k, n, m, dt = k[ok], n[ok], m[ok], dt[ok]
-    hit = _exact(ego, es, objects, os_, k, n, m)
-    return float(dt[hit].min()) if hit.any() else math.inf
+    # (pair, ego chunk, object chunk); gap < 0 means overlapping time ranges
+    dx = eg.chunk_x[pi][:, :, None] - ob.chunk_x[pk][:, None, :]
+    dy = eg.chunk_y[pi][:, :, None] - ob.chunk_y[pk][:, None, :]
+    reach = eg.chunk_r[pi][:, :, None] + ob.chunk_r[pk][:, None, :]
+    near = (dx * dx + dy * dy <= reach * reach) & (gap[None] < limit[:, None, None])
+    cp, ca, cb = np.nonzero(near)
+    if len(cp) == 0:
+        return
+    # Each near chunk pair compares its CHUNK ego points with its CHUNK object points by
+    # broadcasting (C, CHUNK, CHUNK); only survivors become flat candidate indices.
+    i = pi.take(cp)
+    k = pk.take(cp)
+    er = i * nc + ca
+    orow = k * nc + cb
+    ex = eg.run_x.take(er, axis=0)[:, :, None]
+    ey = eg.run_y.take(er, axis=0)[:, :, None]
+    ox = ob.run_x.take(orow, axis=0)[:, None, :]
+    oy = ob.run_y.take(orow, axis=0)[:, None, :]
+    t_runs = _runs(times)
+    dt = np.abs(t_runs[ca][:, :, None] - t_runs[cb][:, None, :])
+    r = (ob.radius.take(k) + eg.radius.take(i))[:, None, None]
+    dx = ox - ex
+    dy = oy - ey
+    c, a, b = np.nonzero((dx * dx + dy * dy <= r * r) & (dt < limit.take(cp)[:, None, None]))
+    if len(c) == 0:
+        return
+    # Padded run entries repeat the last grid point; n = m pairs cannot hit here (these objects
+    # never meet the ego at equal times), so neither needs filtering.
+    last = n_pts - 1
+    n = np.minimum(ca.take(c) * CHUNK + a, last)
+    m = np.minimum(cb.take(c) * CHUNK + b, last)
+    i = i.take(c)
+    k = k.take(c)
+    dt = dt[c, a, b]
+    hit = _exact(eg, ob, i, k, i * n_pts + n, k * n_pts + m)
+    if hit.any():
+        np.minimum.at(pet, (i[hit], owner[k[hit]]), dt[hit])
+
+
+def safety_score(
+    plan: np.ndarray, ego: Ego, objects: Objects, pet_ref: float
+) -> tuple[float | None, float, float]:
+    """(ss, ttc, pet) of one plan against one world model. ss is None for an empty plan,
+    1.0 for a one-point plan (spi-reference) or no objects; ttc and pet are inf when nothing
+    meets."""
+    if len(plan) == 0:
+        return None, math.inf, math.inf
+    if len(plan) < 2 or len(objects) == 0:
+        return 1.0, math.inf, math.inf
+    ss, ttc, pet = score_grid([plan], [ego], [objects], pet_ref)
+    return float(ss[0, 0]), float(ttc[0, 0]), float(pet[0, 0])
 
 
 def safety_matrix(
     channels: list[str], states: dict[str, ChannelState], pet_ref: float
 ) -> dict[tuple[str, str], float | None]:
-    """ss_ij for every ordered pair of declared channels; None when i or j is absent or plan i
-    is empty."""
-    cache = SweepCache()
+    """ss_ij for every ordered pair of declared channels: None when i or j is absent or plan i
+    is empty; 1.0 when plan i has one point or channel j sees no object."""
     out: dict[tuple[str, str], float | None] = {}
+    present = [c for c in channels if c in states]
+    worlds = [j for j in present if len(states[j].objects)]
+    grids: dict[bytes, list[str]] = {}
     for i in channels:
-        si = states.get(i)
         for j in channels:
-            sj = states.get(j)
-            if si is None or sj is None:
-                out[(i, j)] = None
-                continue
-            plan = si.plan
-            sweep = None
-            if len(plan) >= 2 and len(sj.objects):
-                sweep = cache.objects_on_grid(j, sj.objects, plan[:, 0])
-            out[(i, j)] = safety_score(plan, si.ego, sj.objects, pet_ref, sweep)[0]
+            out[(i, j)] = None
+        if i not in states:
+            continue
+        plan = states[i].plan
+        if len(plan) == 0:
+            continue
+        for j in present:
+            out[(i, j)] = 1.0
+        if len(plan) >= 2 and worlds:
+            grids.setdefault(plan[:, 0].tobytes(), []).append(i)
+    for members in grids.values():
+        ss, _, _ = score_grid(
+            [states[i].plan for i in members],
+            [states[i].ego for i in members],
+            [states[j].objects for j in worlds],
+            pet_ref,
+        )
+        for a, i in enumerate(members):
+            for b, j in enumerate(worlds):
+                out[(i, j)] = float(ss[a, b])
     return out
 
 
