@@ -31,10 +31,10 @@ def comfort_score(
     n = len(times)
     if n < MIN_POINTS:
         return None
-    dt = np.diff(times)
-    vel = np.diff(xy, axis=0) / dt[:, None]  # at the midpoints tm
+    dt = times[1:] - times[:-1]
+    vel = (xy[1:] - xy[:-1]) / dt[:, None]  # at the midpoints tm
     tm = 0.5 * (times[1:] + times[:-1])
-    acc = np.diff(vel, axis=0) / np.diff(tm)[:, None]  # centred on samples 1..n-2
+    acc = (vel[1:] - vel[:-1]) / (tm[1:] - tm[:-1])[:, None]  # centred on samples 1..n-2
     if yaw is not None:
         head = yaw[1:-1]
         ux, uy = np.cos(head), np.sin(head)
@@ -52,7 +52,7 @@ def comfort_score(
         a_lon = np.where(ok, acc[:, 0] * ux + acc[:, 1] * uy, np.hypot(acc[:, 0], acc[:, 1]))
         a_lat = np.where(ok, -acc[:, 0] * uy + acc[:, 1] * ux, 0.0)
     ta = times[1:-1]
-    j_lon = np.diff(a_lon) / np.diff(ta)
+    j_lon = (a_lon[1:] - a_lon[:-1]) / (ta[1:] - ta[:-1])
     pa_lon = float(np.max(np.abs(a_lon)))
     pa_lat = float(np.max(np.abs(a_lat)))
     pj_lon = float(np.max(np.abs(j_lon)))

@@ -112,17 +112,27 @@ class Objects:
     def areas(self) -> np.ndarray:
         """Footprint areas (K,), cached: the frame is immutable once read."""
         if self._areas is None:
-            self._areas = polygon_area(self.footprints)
+            half = self.half
+            box = ~np.isnan(half[:, 0])
+            if box.all():
+                self._areas = 4.0 * half[:, 0] * half[:, 1]
+            else:
+                self._areas = np.where(box, 4.0 * half[:, 0] * half[:, 1],
+                                       polygon_area(self.footprints))  # fmt: skip
         return self._areas
 
     @property
     def radii(self) -> np.ndarray:
         """Bounding-circle radii (K,) of the footprints around their centres."""
         if self._radii is None:
-            fp = self.footprints
-            self._radii = (
-                np.max(np.hypot(fp[..., 0], fp[..., 1]), axis=1) if len(fp) else np.zeros(0)
-            )
+            half = self.half
+            if len(half) and not np.isnan(half[:, 0]).any():
+                self._radii = np.hypot(half[:, 0], half[:, 1])
+            else:
+                fp = self.footprints
+                self._radii = (
+                    np.max(np.hypot(fp[..., 0], fp[..., 1]), axis=1) if len(fp) else np.zeros(0)
+                )
         return self._radii
 
     def prediction_xy(self) -> tuple[np.ndarray, np.ndarray]:

@@ -31,22 +31,32 @@ from monitor.frames import ChannelState, Ego, Objects, place
 from monitor.prediction import interpolate_tracks
 
 
-def _headings(centres: np.ndarray, fallback: np.ndarray) -> np.ndarray:
-    """Heading at each grid point: tangent of the segment leaving it (the last point keeps the
-    last segment's); a zero-length segment keeps the previous heading, and before any motion
-    the `fallback` heading (the vehicle's yaw). centres (..., T, 2), fallback (...)."""
-    seg = centres[..., 1:, :] - centres[..., :-1, :]
-    ang = np.arctan2(seg[..., 1], seg[..., 0])
-    ok = np.abs(seg[..., 0]) + np.abs(seg[..., 1]) > 1e-9
-    if not ok.all():
-        t = seg.shape[-2]
+def _directions(centres: np.ndarray, fallback: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Heading (cos, sin) at each grid point: the tangent of the segment leaving it (the last
+    point keeps the last segment's); a zero-length segment keeps the previous heading, and
+    before any motion the `fallback` heading (the vehicle's yaw) holds.
+
+    centres (..., T, 2), fallback (...). Unit vectors, not angles: no arctan2/cos/sin needed.
+    """
+    seg_x = centres[..., 1:, 0] - centres[..., :-1, 0]
+    seg_y = centres[..., 1:, 1] - centres[..., :-1, 1]
+    length = np.hypot(seg_x, seg_y)
+    ok = length > 1e-9
+    if ok.all():
+        c = seg_x / length
+        s = seg_y / length
+    else:
+        safe = np.where(ok, length, 1.0)
+        c = seg_x / safe
+        s = seg_y / safe
+        t = seg_x.shape[-1]
         last = np.maximum.accumulate(np.where(ok, np.arange(t), -1), axis=-1)
-        ang = np.where(
-            last >= 0,
-            np.take_along_axis(ang, np.maximum(last, 0), axis=-1),
-            np.asarray(fallback)[..., None],
-        )
-    return np.concatenate([ang, ang[..., -1:]], axis=-1)
+        moved = last >= 0
+        idx = np.maximum(last, 0)
+        fb = np.asarray(fallback, dtype=float)[..., None]
+        c = np.where(moved, np.take_along_axis(c, idx, axis=-1), np.cos(fb))
+        s = np.where(moved, np.take_along_axis(s, idx, axis=-1), np.sin(fb))
+    return np.concatenate([c, c[..., -1:]], axis=-1), np.concatenate([s, s[..., -1:]], axis=-1)
 
 
 def convex_intersects(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -119,8 +129,8 @@ def boxes_intersect(
 
 
 class _Movers:
-    """Footprints moving on a common time grid, (M, N) arrays: centres x, y, heading (and its
-    cos, sin), chunk circles (M, C) with the footprint radius included, and per mover the
+    """Footprints moving on a common time grid, (M, N) arrays: centres x, y, heading as
+    (cos, sin), chunk circles (M, C) with the footprint radius included, and per mover the
     radius, box half extents (NaN for polygons), convexity and body-frame polygon."""
 
     __slots__ = (
@@ -132,7 +142,6 @@ class _Movers:
         "cosf",
         "footprints",
         "half",
-        "heading",
         "hi_x",
         "hi_y",
         "lo_x",
@@ -148,13 +157,12 @@ class _Movers:
         "yf",
     )  # fmt: skip
 
-    def __init__(self, centres: np.ndarray, heading: np.ndarray, radius: np.ndarray,
+    def __init__(self, centres: np.ndarray, direction: tuple[np.ndarray, np.ndarray],
+                 radius: np.ndarray,
                  half: np.ndarray, convex: np.ndarray, footprints: list[np.ndarray]):  # fmt: skip
         self.x = centres[..., 0]
         self.y = centres[..., 1]
-        self.heading = heading
-        self.cos = np.cos(heading)
-        self.sin = np.sin(heading)
+        self.cos, self.sin = direction
         # Flat copies: candidates are gathered with `take` on (mover * N + time) indices,
         # several times faster than 2-D fancy indexing.
         self.xf = self.x.ravel()
@@ -181,7 +189,7 @@ class _Movers:
 
 def _egos(plans: Sequence[np.ndarray], egos: Sequence[Ego]) -> _Movers:
     centres = np.stack([p[:, 1:3] for p in plans])
-    heading = _headings(centres, np.array([e.yaw for e in egos]))
+    heading = _directions(centres, np.array([e.yaw for e in egos]))
     return _Movers(
         centres,
         heading,
@@ -199,7 +207,7 @@ def _objects(worlds: Sequence[Objects], times: np.ndarray) -> tuple[_Movers, np.
     owner = np.repeat(np.arange(len(worlds)), [len(o) for o in worlds])
     movers = _Movers(
         centres,
-        _headings(centres, yaw),
+        _directions(centres, yaw),
         np.concatenate([o.radii for o in worlds]),
         np.concatenate([o.half for o in worlds]),
         np.concatenate([o.convex for o in worlds]),
@@ -225,8 +233,8 @@ def _exact(
     hit = np.zeros(len(k), dtype=bool)
     if boxes.any():
         hit[boxes] = _exact(eg, ob, i[boxes], k[boxes], fi[boxes], fk[boxes])
-    hf = eg.heading.ravel()
-    ohf = ob.heading.ravel()
+    hf = np.arctan2(eg.sinf, eg.cosf)
+    ohf = np.arctan2(ob.sinf, ob.cosf)
     for row in np.nonzero(~boxes)[0]:
         # Polygon footprints are rare; one candidate at a time keeps ragged vertex counts simple.
         a = place(eg.footprints[i[row]], np.array([eg.xf[fi[row]], eg.yf[fi[row]]]), hf[fi[row]])
@@ -320,16 +328,17 @@ def _pet(
     k = pk.take(cp)
     er = i * nc + ca
     orow = k * nc + cb
-    ex = eg.run_x.take(er, axis=0)[:, :, None]
-    ey = eg.run_y.take(er, axis=0)[:, :, None]
-    ox = ob.run_x.take(orow, axis=0)[:, None, :]
-    oy = ob.run_y.take(orow, axis=0)[:, None, :]
+    # (CHUNK, CHUNK, C) with the long candidate axis innermost: numpy is slow on tiny inner axes
+    ex = eg.run_x.take(er, axis=0).T[:, None, :]
+    ey = eg.run_y.take(er, axis=0).T[:, None, :]
+    ox = ob.run_x.take(orow, axis=0).T[None, :, :]
+    oy = ob.run_y.take(orow, axis=0).T[None, :, :]
     t_runs = _runs(times)
-    dt = np.abs(t_runs[ca][:, :, None] - t_runs[cb][:, None, :])
-    r = (ob.radius.take(k) + eg.radius.take(i))[:, None, None]
+    dt = np.abs(t_runs[ca].T[:, None, :] - t_runs[cb].T[None, :, :])
+    r = ob.radius.take(k) + eg.radius.take(i)
     dx = ox - ex
     dy = oy - ey
-    c, a, b = np.nonzero((dx * dx + dy * dy <= r * r) & (dt < limit.take(cp)[:, None, None]))
+    a, b, c = np.nonzero((dx * dx + dy * dy <= r * r) & (dt < limit.take(cp)))
     if len(c) == 0:
         return
     # Padded run entries repeat the last grid point; n = m pairs cannot hit here (these objects
@@ -339,7 +348,7 @@ def _pet(
     m = np.minimum(cb.take(c) * CHUNK + b, last)
     i = i.take(c)
     k = k.take(c)
-    dt = dt[c, a, b]
+    dt = dt[a, b, c]
     hit = _exact(eg, ob, i, k, i * n_pts + n, k * n_pts + m)
     if hit.any():
         np.minimum.at(pet, (i[hit], owner[k[hit]]), dt[hit])

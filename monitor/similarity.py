@@ -83,6 +83,8 @@ def _pad_to(xy: np.ndarray, n: np.ndarray, length: int) -> np.ndarray:
     """Rows of (M, P, 2) padded (already by last point) or cut to `length` columns, each row's
     points beyond its own length replaced by its last point."""
     m, p = xy.shape[0], xy.shape[1]
+    if p >= length and bool((n == length).all()):
+        return xy[:, :length]
     if p < length:
         xy = np.concatenate([xy, np.repeat(xy[:, -1:, :], length - p, axis=1)], axis=1)
     else:
