@@ -134,6 +134,11 @@ class _Movers:
     radius, box half extents (NaN for polygons), convexity and body-frame polygon."""
 
     __slots__ = (
+        "all_boxes",
+        "axis_hi",
+        "axis_lo",
+        "axis_x",
+        "axis_y",
         "chunk_r",
         "chunk_x",
         "chunk_y",
@@ -144,9 +149,15 @@ class _Movers:
         "half",
         "hi_x",
         "hi_y",
+        "hl",
+        "hl_or_nan",
+        "hw",
+        "hw_or_nan",
         "lo_x",
         "lo_y",
         "radius",
+        "run_cos",
+        "run_sin",
         "run_x",
         "run_y",
         "sin",
@@ -159,7 +170,8 @@ class _Movers:
 
     def __init__(self, centres: np.ndarray, direction: tuple[np.ndarray, np.ndarray],
                  radius: np.ndarray,
-                 half: np.ndarray, convex: np.ndarray, footprints: list[np.ndarray]):  # fmt: skip
+                 half: np.ndarray, convex: np.ndarray, footprints: list[np.ndarray],
+                 lateral: bool = True):  # fmt: skip
         self.x = centres[..., 0]
         self.y = centres[..., 1]
         self.cos, self.sin = direction
@@ -174,8 +186,13 @@ class _Movers:
         run_y = _runs(self.y)
         self.chunk_x, self.chunk_y, rad = _chunk_circles(run_x, run_y)
         self.chunk_r = rad + radius[:, None]
-        self.run_x = run_x.reshape(-1, CHUNK)
-        self.run_y = run_y.reshape(-1, CHUNK)
+        # stored transposed, (CHUNK, M * C), so a column gather is contiguous per run offset
+        self.run_x = np.ascontiguousarray(run_x.reshape(-1, CHUNK).T)
+        self.run_y = np.ascontiguousarray(run_y.reshape(-1, CHUNK).T)
+        self.run_cos = np.ascontiguousarray(_runs(self.cos).reshape(-1, CHUNK).T)
+        self.run_sin = np.ascontiguousarray(_runs(self.sin).reshape(-1, CHUNK).T)
+        half_l = half[:, 0] if half is not None else np.full(len(radius), np.nan)
+        half_w = half[:, 1] if half is not None else np.full(len(radius), np.nan)
         self.radius = radius
         # bounding box of the whole sweep, footprint included
         self.lo_x = self.x.min(axis=1) - radius
@@ -183,8 +200,52 @@ class _Movers:
         self.lo_y = self.y.min(axis=1) - radius
         self.hi_y = self.y.max(axis=1) + radius
         self.half = half
+        self.hl = np.ascontiguousarray(half[:, 0]) if half is not None else None
+        self.hw = np.ascontiguousarray(half[:, 1]) if half is not None else None
+        self.hl_or_nan = half_l
+        self.hw_or_nan = half_w
+        self.all_boxes = half is not None and not np.isnan(half[:, 0]).any()
         self.convex = convex
         self.footprints = footprints
+        if lateral:
+            # Per run: the unit normal of its first point's heading (the lateral axis) and the
+            # interval that the run's footprints cover on it. A separating axis for the union
+            # of a run's footprints separates every pair within it, so this is a
+            # conservative, orientation-aware prefilter (parallel traffic in the next lane
+            # passes the circle tests but not this one).
+            nc = run_x.shape[1]
+            self.axis_x = -self.run_sin[0]
+            self.axis_y = self.run_cos[0]
+            self.axis_lo, self.axis_hi = self.run_interval(
+                np.arange(self.run_x.shape[1]),
+                np.repeat(half_l, nc),
+                np.repeat(half_w, nc),
+                np.repeat(radius, nc),
+                self.axis_x,
+                self.axis_y,
+            )
+
+    def run_interval(
+        self,
+        rows: np.ndarray,
+        half_l: np.ndarray,
+        half_w: np.ndarray,
+        radius: np.ndarray,
+        ax: np.ndarray,
+        ay: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Interval (lo, hi) per run row covered on axis (ax, ay) by the run's footprints:
+        a box projects to l |u . a| + w |v . a| around its centre, a polygon (NaN half
+        extents) to its bounding radius."""
+        px = self.run_x.take(rows, axis=1)
+        py = self.run_y.take(rows, axis=1)
+        c = self.run_cos.take(rows, axis=1)
+        s = self.run_sin.take(rows, axis=1)
+        centre = px * ax + py * ay
+        rad = half_l * np.abs(c * ax + s * ay) + half_w * np.abs(c * ay - s * ax)
+        if np.isnan(half_l).any():
+            rad = np.where(np.isnan(half_l), radius, rad)
+        return (centre - rad).min(axis=0), (centre + rad).max(axis=0)
 
 
 def _egos(plans: Sequence[np.ndarray], egos: Sequence[Ego]) -> _Movers:
@@ -200,18 +261,57 @@ def _egos(plans: Sequence[np.ndarray], egos: Sequence[Ego]) -> _Movers:
     )
 
 
-def _objects(worlds: Sequence[Objects], times: np.ndarray) -> tuple[_Movers, np.ndarray]:
-    """All objects of all world models on the grid, and each object's world index."""
-    centres = np.concatenate([interpolate_tracks(o.pos, o.pred, o.pred_len, times) for o in worlds])
-    yaw = np.concatenate([o.yaw for o in worlds])
-    owner = np.repeat(np.arange(len(worlds)), [len(o) for o in worlds])
+def _reachable(objects: Objects, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """(K,) bool: objects whose every possible position (current position and prediction
+    points; interpolation stays in their bounding box) plus footprint radius can touch the box
+    [lo, hi] that holds all ego sweeps (footprints included)."""
+    pos = objects.pos
+    r = objects.radii
+    if objects.pred.shape[1]:
+        px = objects.pred[:, :, 1]
+        py = objects.pred[:, :, 2]
+        if (objects.pred_len == 0).any():  # rows without prediction hold padding zeros
+            none = (objects.pred_len == 0)[:, None]
+            px = np.where(none, pos[:, 0:1], px)
+            py = np.where(none, pos[:, 1:2], py)
+        x0 = np.minimum(px.min(axis=1), pos[:, 0])
+        x1 = np.maximum(px.max(axis=1), pos[:, 0])
+        y0 = np.minimum(py.min(axis=1), pos[:, 1])
+        y1 = np.maximum(py.max(axis=1), pos[:, 1])
+    else:
+        x0 = x1 = pos[:, 0]
+        y0 = y1 = pos[:, 1]
+    return (x0 - r <= hi[0]) & (x1 + r >= lo[0]) & (y0 - r <= hi[1]) & (y1 + r >= lo[1])
+
+
+def _objects(
+    worlds: Sequence[Objects], keep: Sequence[np.ndarray], times: np.ndarray
+) -> tuple[_Movers, np.ndarray]:
+    """The kept objects of all world models on the grid, and each one's world index."""
+    pos = np.concatenate([o.pos[m] for o, m in zip(worlds, keep, strict=True)])
+    pred_shapes = {o.pred.shape[1] for o in worlds}
+    if len(pred_shapes) == 1:
+        # Same padded prediction length everywhere (the usual case): one interpolation.
+        pred = np.concatenate([o.pred[m] for o, m in zip(worlds, keep, strict=True)])
+        plen = np.concatenate([o.pred_len[m] for o, m in zip(worlds, keep, strict=True)])
+        centres = interpolate_tracks(pos, pred, plen, times)
+    else:
+        centres = np.concatenate(
+            [
+                interpolate_tracks(o.pos[m], o.pred[m], o.pred_len[m], times)
+                for o, m in zip(worlds, keep, strict=True)
+            ]
+        )
+    yaw = np.concatenate([o.yaw[m] for o, m in zip(worlds, keep, strict=True)])
+    owner = np.repeat(np.arange(len(worlds)), [int(m.sum()) for m in keep])
     movers = _Movers(
         centres,
         _directions(centres, yaw),
-        np.concatenate([o.radii for o in worlds]),
-        np.concatenate([o.half for o in worlds]),
-        np.concatenate([o.convex for o in worlds]),
-        [fp for o in worlds for fp in o.footprints],
+        np.concatenate([o.radii[m] for o, m in zip(worlds, keep, strict=True)]),
+        np.concatenate([o.half[m] for o, m in zip(worlds, keep, strict=True)]),
+        np.concatenate([o.convex[m] for o, m in zip(worlds, keep, strict=True)]),
+        [fp for o, m in zip(worlds, keep, strict=True) for fp in o.footprints[m]],
+        lateral=False,
     )
     return movers, owner
 
@@ -221,15 +321,15 @@ def _exact(
 ) -> np.ndarray:
     """Exact footprint tests of ego i against object k, at the flat grid indices fi = i * N + n
     and fk = k * N + m: (C,) bool."""
+    if eg.all_boxes and ob.all_boxes:
+        return boxes_intersect(
+            ob.xf.take(fk) - eg.xf.take(fi), ob.yf.take(fk) - eg.yf.take(fi),
+            eg.cosf.take(fi), eg.sinf.take(fi), eg.hl.take(i), eg.hw.take(i),
+            ob.cosf.take(fk), ob.sinf.take(fk), ob.hl.take(k), ob.hw.take(k),
+        )  # fmt: skip
     ehalf = eg.half[i]
     ohalf = ob.half[k]
     boxes = ~(np.isnan(ehalf[:, 0]) | np.isnan(ohalf[:, 0]))
-    if boxes.all():
-        return boxes_intersect(
-            ob.xf.take(fk) - eg.xf.take(fi), ob.yf.take(fk) - eg.yf.take(fi),
-            eg.cosf.take(fi), eg.sinf.take(fi), ehalf[:, 0], ehalf[:, 1],
-            ob.cosf.take(fk), ob.sinf.take(fk), ohalf[:, 0], ohalf[:, 1],
-        )  # fmt: skip
     hit = np.zeros(len(k), dtype=bool)
     if boxes.any():
         hit[boxes] = _exact(eg, ob, i[boxes], k[boxes], fi[boxes], fk[boxes])
@@ -262,8 +362,14 @@ def score_grid(
     horizon = float(times[-1])
     n_i, n_j = len(plans), len(worlds)
     eg = _egos(plans, egos)
-    ob, owner = _objects(worlds, times)
     ttc = np.full((n_i, n_j), np.inf)
+    # Prefilter 0: objects that can come near any ego sweep at all, before interpolating.
+    box_lo = np.array([eg.lo_x.min(), eg.lo_y.min()])
+    box_hi = np.array([eg.hi_x.max(), eg.hi_y.max()])
+    keep = [_reachable(o, box_lo, box_hi) for o in worlds]
+    if not any(m.any() for m in keep):
+        return np.ones((n_i, n_j)), ttc, np.full((n_i, n_j), np.inf)
+    ob, owner = _objects(worlds, keep, times)
     pet = np.full((n_i, n_j), np.inf)
     # Prefilter 1: bounding boxes of the whole sweeps, (ego i, object k) pairs that can meet.
     pi, pk = np.nonzero(
@@ -322,23 +428,30 @@ def _pet(
     cp, ca, cb = np.nonzero(near)
     if len(cp) == 0:
         return
-    # Each near chunk pair compares its CHUNK ego points with its CHUNK object points by
-    # broadcasting (C, CHUNK, CHUNK); only survivors become flat candidate indices.
     i = pi.take(cp)
     k = pk.take(cp)
     er = i * nc + ca
     orow = k * nc + cb
+    # Lateral separating axis of the ego run: drop chunk pairs it separates.
+    lo, hi = ob.run_interval(
+        orow, ob.hl_or_nan.take(k), ob.hw_or_nan.take(k), ob.radius.take(k),
+        eg.axis_x.take(er), eg.axis_y.take(er),
+    )  # fmt: skip
+    sel = np.flatnonzero((lo <= eg.axis_hi.take(er)) & (hi >= eg.axis_lo.take(er)))
+    if len(sel) == 0:
+        return
+    cp, ca, cb, i, k, er, orow = (v.take(sel) for v in (cp, ca, cb, i, k, er, orow))
+    # Each remaining chunk pair compares its CHUNK ego points with its CHUNK object points by
+    # broadcasting (C, CHUNK, CHUNK); only survivors become flat candidate indices.
     # (CHUNK, CHUNK, C) with the long candidate axis innermost: numpy is slow on tiny inner axes
-    ex = eg.run_x.take(er, axis=0).T[:, None, :]
-    ey = eg.run_y.take(er, axis=0).T[:, None, :]
-    ox = ob.run_x.take(orow, axis=0).T[None, :, :]
-    oy = ob.run_y.take(orow, axis=0).T[None, :, :]
-    t_runs = _runs(times)
-    dt = np.abs(t_runs[ca].T[:, None, :] - t_runs[cb].T[None, :, :])
+    ex = eg.run_x.take(er, axis=1)[:, None, :]
+    ey = eg.run_y.take(er, axis=1)[:, None, :]
+    ox = ob.run_x.take(orow, axis=1)[None, :, :]
+    oy = ob.run_y.take(orow, axis=1)[None, :, :]
     r = ob.radius.take(k) + eg.radius.take(i)
     dx = ox - ex
     dy = oy - ey
-    a, b, c = np.nonzero((dx * dx + dy * dy <= r * r) & (dt < limit.take(cp)))
+    a, b, c = np.nonzero(dx * dx + dy * dy <= r * r)
     if len(c) == 0:
         return
     # Padded run entries repeat the last grid point; n = m pairs cannot hit here (these objects
@@ -346,9 +459,13 @@ def _pet(
     last = n_pts - 1
     n = np.minimum(ca.take(c) * CHUNK + a, last)
     m = np.minimum(cb.take(c) * CHUNK + b, last)
-    i = i.take(c)
-    k = k.take(c)
-    dt = dt[a, b, c]
+    dt = np.abs(times.take(n) - times.take(m))
+    sel = np.flatnonzero(dt < limit.take(cp.take(c)))
+    i = i.take(c).take(sel)
+    k = k.take(c).take(sel)
+    n = n.take(sel)
+    m = m.take(sel)
+    dt = dt.take(sel)
     hit = _exact(eg, ob, i, k, i * n_pts + n, k * n_pts + m)
     if hit.any():
         np.minimum.at(pet, (i[hit], owner[k[hit]]), dt[hit])
