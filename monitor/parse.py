@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
+from itertools import chain
 from typing import Any
 
 import numpy as np
@@ -77,13 +78,18 @@ def _points(v: Any, where: str, ncols: int, what: str) -> np.ndarray:
     if not v:
         return np.zeros((0, ncols))
     try:
-        arr = np.array(v, dtype=float)
+        # No dtype: numpy would turn "1.5" into 1.5; a string or null shows in the dtype.
+        arr = np.array(v)
     except (ValueError, TypeError):
-        raise FrameDefect(
-            "wrong-type", f"{where}: expected a list of {what} (numbers only)"
-        ) from None
+        raise FrameDefect("wrong-type", f"{where}: expected a list of {what}") from None
     if arr.ndim != 2 or arr.shape[1] != ncols:
         raise FrameDefect("wrong-type", f"{where}: expected a list of {what}")
+    if arr.dtype.kind not in "fi":
+        for row, point in enumerate(v):
+            if any(x is None for x in point):
+                raise FrameDefect("non-finite", f"{where}[{row}]: null in {point!r:.60}")
+        raise FrameDefect("wrong-type", f"{where}: expected a list of {what} (numbers only)")
+    arr = arr.astype(float, copy=False)
     if not np.isfinite(arr).all():
         row = int(np.nonzero(~np.isfinite(arr).all(axis=1))[0][0])
         raise FrameDefect("non-finite", f"{where}[{row}]: NaN, inf or null in {v[row]!r:.60}")
@@ -152,7 +158,80 @@ def _ego(v: Any, where: str) -> Ego:
     )
 
 
+_NUMBER_TYPES = frozenset({float, int})
+
+
+def _objects_fast(v: list[Any]) -> Objects | None:
+    """The common case in one pass of vectorised checks: box footprints, predictions of one
+    length. Returns None whenever anything is unusual or wrong; the careful path then either
+    accepts the input or names the exact defect, so both paths accept exactly the same input."""
+    try:
+        ids = [o["id"] for o in v]
+        cls = [o.get("cls", "unknown") for o in v]
+        rows = [
+            (o["x"], o["y"], o.get("yaw", 0.0), o.get("vx", 0.0), o.get("vy", 0.0), o["length"],
+             o["width"])
+            for o in v
+        ]  # fmt: skip
+        preds = [o.get("prediction") for o in v]
+        if any("polygon" in o for o in v):
+            return None
+    except (KeyError, TypeError, AttributeError):
+        return None
+    if not all(type(i) is str or type(i) is int for i in ids):
+        return None
+    if not all(type(c) is str for c in cls):
+        return None
+    if not set(map(type, chain.from_iterable(rows))) <= _NUMBER_TYPES:
+        return None
+    num = np.array(rows, dtype=float)
+    if not np.isfinite(num).all() or not (num[:, 5:7] > 0).all():
+        return None
+    k = len(v)
+    first = preds[0]
+    if not isinstance(first, list) or not all(
+        type(p) is list and len(p) == len(first) for p in preds
+    ):
+        return None
+    if first:
+        try:
+            pred = np.array(preds)
+        except (ValueError, TypeError):
+            return None
+        if pred.ndim != 3 or pred.shape[2] != 3 or pred.dtype.kind not in "fi":
+            return None
+        pred = pred.astype(float, copy=False)
+        dt = pred[:, :, 0]
+        if not (
+            np.isfinite(pred).all() and (dt[:, 0] >= 0).all() and (dt[:, 1:] > dt[:, :-1]).all()
+        ):
+            return None
+    else:
+        pred = np.zeros((k, 0, 3))
+    hl = 0.5 * num[:, 5]
+    hw = 0.5 * num[:, 6]
+    footprints = np.empty((k, 4, 2))
+    footprints[:, :, 0] = hl[:, None] * np.array([1.0, -1.0, -1.0, 1.0])
+    footprints[:, :, 1] = hw[:, None] * np.array([1.0, 1.0, -1.0, -1.0])
+    return Objects(
+        ids=[str(i) for i in ids],
+        cls=cls,
+        pos=num[:, 0:2].copy(),
+        yaw=num[:, 2].copy(),
+        vel=num[:, 3:5].copy(),
+        footprints=footprints,
+        pred=pred,
+        pred_len=np.full(k, pred.shape[1], dtype=int),
+        convex=np.ones(k, dtype=bool),
+        half=np.column_stack([hl, hw]),
+    )
+
+
 def _objects(v: Any, where: str) -> Objects:
+    if isinstance(v, list) and v:
+        fast = _objects_fast(v)
+        if fast is not None:
+            return fast
     if not isinstance(v, list):
         raise FrameDefect("wrong-type", f"{where}: expected a list of objects")
     k = len(v)

@@ -19,6 +19,23 @@ from typing import IO
 from monitor.frames import Frame, Header
 from monitor.parse import FrameDefect, parse_frame, parse_header
 
+try:  # optional: about five times faster on large frames; same results (see _decode)
+    import orjson
+except ImportError:  # pragma: no cover - depends on the environment
+    orjson = None
+
+
+def decode(text: str) -> object:
+    """json.loads, through orjson when installed. orjson refuses what the standard library
+    accepts (NaN, Infinity), so on any orjson error the standard parser decides: the defect
+    kinds and messages never depend on which parser is installed."""
+    if orjson is not None:
+        try:
+            return orjson.loads(text)
+        except orjson.JSONDecodeError:
+            pass
+    return json.loads(text)
+
 
 @dataclass(frozen=True)
 class StreamDefect:
@@ -104,7 +121,7 @@ class StreamReader:
             if not text.strip():
                 continue  # blank lines carry nothing (documented in docs/streams.md)
             try:
-                obj = json.loads(text)
+                obj = decode(text)
             except ValueError as exc:
                 self._defect(lineno, "malformed-json", f"not valid JSON: {exc}")
                 first_content = False
