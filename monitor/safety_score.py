@@ -332,7 +332,12 @@ def _exact(
     boxes = ~(np.isnan(ehalf[:, 0]) | np.isnan(ohalf[:, 0]))
     hit = np.zeros(len(k), dtype=bool)
     if boxes.any():
-        hit[boxes] = _exact(eg, ob, i[boxes], k[boxes], fi[boxes], fk[boxes])
+        bfi, bfk = fi[boxes], fk[boxes]
+        hit[boxes] = boxes_intersect(
+            ob.xf.take(bfk) - eg.xf.take(bfi), ob.yf.take(bfk) - eg.yf.take(bfi),
+            eg.cosf.take(bfi), eg.sinf.take(bfi), ehalf[boxes, 0], ehalf[boxes, 1],
+            ob.cosf.take(bfk), ob.sinf.take(bfk), ohalf[boxes, 0], ohalf[boxes, 1],
+        )  # fmt: skip
     hf = np.arctan2(eg.sinf, eg.cosf)
     ohf = np.arctan2(ob.sinf, ob.cosf)
     for row in np.nonzero(~boxes)[0]:

@@ -140,3 +140,101 @@ def test_box_sat_agrees_with_shapely(x, y, ha, la, wa, hb, lb, wb):
         )[0]
         assert bool(box) == truth
         assert bool(convex_intersects(a, b)[0]) == truth
+
+
+# -- the prefilters never change the result: compare with a brute-force shapely reference ----
+
+
+def brute_force(plan, ego_state, objects, pet_ref):
+    """Every (n, m) footprint pair tested with shapely, poses from the same rules."""
+    from monitor.prediction import interpolate_tracks
+    from monitor.safety_score import _directions
+
+    times = plan[:, 0]
+    horizon = times[-1]
+    centres = plan[None, :, 1:3]
+    ec, es = _directions(centres, np.array([ego_state.yaw]))
+    ego_polys = [
+        shapely.polygons(place(ego_state.footprint, centres[0, n], np.arctan2(es[0, n], ec[0, n])))
+        for n in range(len(times))
+    ]
+    oc = interpolate_tracks(objects.pos, objects.pred, objects.pred_len, times)
+    cos, sin = _directions(oc, objects.yaw)
+    ttc, pet = math.inf, math.inf
+    for k in range(len(objects)):
+        polys = [
+            shapely.polygons(
+                place(objects.footprints[k], oc[k, m], np.arctan2(sin[k, m], cos[k, m]))
+            )
+            for m in range(len(times))
+        ]
+        hits = [
+            (n, m)
+            for n in range(len(times))
+            for m in range(len(times))
+            if shapely.intersects(ego_polys[n], polys[m])
+        ]
+        same = [times[n] for n, m in hits if n == m]
+        if same:
+            ttc = min(ttc, min(same))
+        elif hits:
+            pet = min(pet, min(abs(times[n] - times[m]) for n, m in hits))
+    return min(1.0, ttc / horizon, pet / pet_ref), ttc
+
+
+@st.composite
+def random_scene(draw):
+    n = draw(st.integers(2, 14))
+    vx, vy = draw(st.floats(-12, 12)), draw(st.floats(-12, 12))
+    turn = draw(st.floats(-0.5, 0.5))
+    pts, x, y = [], 0.0, 0.0
+    for i in range(n):
+        pts.append([round(0.1 * i, 1), x, y])
+        c, s = math.cos(turn * 0.1), math.sin(turn * 0.1)
+        vx, vy = c * vx - s * vy, s * vx + c * vy
+        x, y = x + 0.1 * vx, y + 0.1 * vy
+    objects = []
+    for k in range(draw(st.integers(1, 5))):
+        ox, oy = draw(st.floats(-15, 15)), draw(st.floats(-15, 15))
+        o = {"id": k, "x": ox, "y": oy, "yaw": draw(st.floats(-3.2, 3.2))}
+        shape = draw(st.sampled_from(["box", "convex", "u"]))
+        if shape == "box":
+            o["length"], o["width"] = draw(st.floats(0.5, 8)), draw(st.floats(0.5, 3))
+        elif shape == "convex":
+            o["polygon"] = [[1.5, 0.0], [0.0, 1.0], [-1.5, 0.0], [0.0, -1.0]]
+        else:
+            o["polygon"] = [
+                [-2, 2.5],
+                [-2, 1.5],
+                [2, 1.5],
+                [2, -1.5],
+                [-2, -1.5],
+                [-2, -2.5],
+                [3, -2.5],
+                [3, 2.5],
+            ]
+        m = draw(st.integers(0, 12))
+        if m:
+            pvx, pvy = draw(st.floats(-12, 12)), draw(st.floats(-12, 12))
+            start = draw(st.sampled_from([0.0, 0.1, 0.3]))
+            o["prediction"] = [
+                [
+                    round(start + 0.1 * i, 1),
+                    ox + pvx * (start + 0.1 * i),
+                    oy + pvy * (start + 0.1 * i),
+                ]
+                for i in range(m)
+            ]
+        objects.append(o)
+    return pts, objects
+
+
+@settings(max_examples=60, deadline=None)
+@given(random_scene())
+def test_fast_search_matches_brute_force(scene_data):
+    plan, objects = scene_data
+    s = scene(objects, plan=plan)
+    ss, ttc, _ = safety_score(s.plan, s.ego, s.objects, PET_REF)
+    ref_ss, ref_ttc = brute_force(s.plan, s.ego, s.objects, PET_REF)
+    assert ttc == ref_ttc
+    assert ss == pytest.approx(ref_ss, abs=1e-12)
