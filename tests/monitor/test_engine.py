@@ -238,3 +238,34 @@ def test_rigid_motion_of_the_world_changes_nothing(frames, theta, dx, dy):
                 assert after[name] is None, name
             else:
                 assert after[name] == pytest.approx(v, abs=1e-9), name
+
+
+def test_three_channels_worst_pair_and_crpps_mean():
+    a = channel(ego(0, 0), plan=[[0, 0, 0], [0.1, 1, 0], [0.2, 2, 0]])
+    b = channel(ego(3, 4), plan=[[0, 5, 5], [0.1, 6, 5], [0.2, 7, 5]])
+    c = channel(ego(0, 1), plan=[[0, 0, 0], [0.1, 1, 1], [0.2, 2, 2]])
+    out = MetricEngine(MetricParams(), ["a", "b", "c"]).step(frame(0.0, {"a": a, "b": b, "c": c}))
+    # Frechet after translating onto the first plan's start: a-b 0, a-c 2, b-c 2
+    # (end points (2,0)-(2,2) must be matched) -> crpps 1, 1/3, 1/3; worst 1/3
+    assert out["crpps__a__b"] == pytest.approx(1.0)
+    assert out["crpps__a__c"] == pytest.approx(1 / 3)
+    assert out["crpps"] == pytest.approx(1 / 3)
+    # crpps_mean = inv(mean(0, 2, 2)) = 1 / (1 + 4/3) = 3/7
+    assert out["crpps_mean"] == pytest.approx(3 / 7)
+    # els: a-b 5 m -> 1/6, a-c 1 m -> 1/2, b-c sqrt(18) m -> 0.190744; worst = 1/6
+    assert out["els__b__c"] == pytest.approx(1 / (1 + 18**0.5))
+    assert out["els"] == pytest.approx(1 / 6)
+
+
+def test_ompv_bridges_a_short_dropout():
+    moving = [[0, 0, 0], [0.3, 3, 0]]
+    other = channel(ego(), objects=[obj(9, 50, 50)])
+    eng = MetricEngine(MetricParams(), AB)
+    eng.step(
+        frame(0.0, {"a": channel(ego(), objects=[obj(1, 0, 0, prediction=moving)]), "b": other})
+    )
+    out = eng.step(frame(0.1, {"b": other}))
+    assert out["ompv__a"] is None and out["ompv__b"] == 1.0
+    # 0.2 s after the last observation (< max_gap): predicted (2, 0), actual (2.5, 0): followed
+    out = eng.step(frame(0.2, {"a": channel(ego(), objects=[obj(1, 2.5, 0)]), "b": other}))
+    assert out["ompv__a"] == 1.0
