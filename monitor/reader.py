@@ -62,6 +62,16 @@ def _open_text(source: str | Path | IO) -> tuple[IO[str], str, bool]:
     """(text stream, display name, whether we own it and must close it)."""
     if isinstance(source, (str, Path)):
         if str(source) == "-":
+            raw = getattr(sys.stdin, "buffer", None)
+            if raw is not None and hasattr(raw, "peek"):
+                # Binary stdin can be gzip too (`zcat`-free pipes); look without consuming.
+                if raw.peek(2)[:2] == b"\x1f\x8b":
+                    return (
+                        io.TextIOWrapper(gzip.open(raw, "rb"), encoding="utf-8"),
+                        "<stdin>",
+                        False,
+                    )
+                return io.TextIOWrapper(raw, encoding="utf-8"), "<stdin>", False
             return sys.stdin, "<stdin>", False
         path = Path(source)
         with open(path, "rb") as fh:

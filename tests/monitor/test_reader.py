@@ -223,3 +223,18 @@ def test_reader_iterates_once(stream_file):
     list(reader)
     with pytest.raises(RuntimeError):
         list(reader)
+
+
+def test_real_stdin_plain_and_gzip():
+    import subprocess
+
+    data = ("\n".join(LINES) + "\n").encode()
+    code = (
+        "from monitor.reader import read_stream\n"
+        "r = read_stream('-')\n"
+        "print([f.t for f in r], [(d.line, d.kind) for d in r.defects], r.dropouts)"
+    )
+    for payload in (data, gzip.compress(data)):
+        run = subprocess.run([sys.executable, "-c", code], input=payload, capture_output=True,
+                             check=True)  # fmt: skip
+        assert run.stdout.decode().strip() == (f"[0.0, 0.2] {EXPECTED} {{'lav': 0, 'tfuse': 1}}")
