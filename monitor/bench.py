@@ -69,16 +69,23 @@ def reference_load_dicts(n: int, seed: int = 0) -> list[dict[str, Any]]:
     rng = np.random.default_rng(seed + 1)
     frames: list[dict[str, Any]] = []
     pt = np.arange(PRED_POINTS) * PERIOD
+    dt_plan = np.arange(PLAN_POINTS) * PERIOD
+    # Localisation error per channel: a slowly wandering offset (AR(1)), as a filtered
+    # estimate drifts, not white noise (which would read as violent acceleration).
+    drift = np.zeros((len(CHANNELS), 3))
     for k in range(n):
         chans: dict[str, Any] = {}
         for ci, name in enumerate(CHANNELS):
             noise = 0.05 + 0.15 * ci
-            ex = w["ex"][k : k + PLAN_POINTS] + rng.normal(0, noise)
-            ey = w["ey"][k : k + PLAN_POINTS] + rng.normal(0, noise)
-            yaw = math.atan2(ey[1] - ey[0], ex[1] - ex[0])
+            drift[ci] = 0.97 * drift[ci] + rng.normal(0, [0.04 * noise, 0.04 * noise, 0.001])
+            # Each stack plans its own path: a small lateral bend that varies per tick.
+            bend = rng.normal(0, 0.004 + 0.006 * ci) * dt_plan**2
+            ex = w["ex"][k : k + PLAN_POINTS] + drift[ci, 0]
+            ey = w["ey"][k : k + PLAN_POINTS] + drift[ci, 1] + bend
+            yaw = math.atan2(ey[1] - ey[0], ex[1] - ex[0]) + drift[ci, 2]
             vx = (ex[1] - ex[0]) / PERIOD
             vy = (ey[1] - ey[0]) / PERIOD
-            plan = np.column_stack([np.arange(PLAN_POINTS) * PERIOD, ex, ey]).round(4).tolist()
+            plan = np.column_stack([dt_plan, ex, ey]).round(4).tolist()
             ox = w["ox"][:, k] + rng.normal(0, noise, N_OBJECTS)
             oy = w["oy"][:, k] + rng.normal(0, noise, N_OBJECTS)
             vxo = w["speed"] + rng.normal(0, 0.2, N_OBJECTS)
