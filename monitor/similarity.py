@@ -157,9 +157,19 @@ def frechet(p: np.ndarray, q: np.ndarray) -> float:
 
 
 def crpps_distance(plan_a: np.ndarray, plan_b: np.ndarray) -> float | None:
-    """fd(plan_A, plan_B') with plan B translated so its first point is plan A's first point."""
+    """fd(plan_A, plan_B') with plan B translated so its first point is plan A's first point,
+    both plans cut to their common horizon.
+
+    Decision: the study's channels plan over different horizons (e.g. 5 s and 3 s). Compared
+    whole, the extra seconds of the longer plan alone set the Frechet distance (tens of metres
+    at road speed), so crpps would sit near 0 however well the channels agree. Like `ets`,
+    which the study truncates to the shorter plan, crpps compares the points with
+    `dt <= min(horizon_A, horizon_B)`.
+    """
     if len(plan_a) == 0 or len(plan_b) == 0:
         return None
-    pa = plan_a[:, 1:3]
-    pb = plan_b[:, 1:3] - plan_b[0, 1:3] + plan_a[0, 1:3]
+    horizon = min(plan_a[-1, 0], plan_b[-1, 0]) + 1e-9
+    pa = plan_a[plan_a[:, 0] <= horizon, 1:3]
+    pb = plan_b[plan_b[:, 0] <= horizon, 1:3]
+    pb = pb - pb[0] + pa[0]
     return frechet(pa, pb)

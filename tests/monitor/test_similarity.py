@@ -81,9 +81,21 @@ def test_plan_similarities_hand_computed():
     pa, pb = f.channels["a"].plan, f.channels["b"].plan
     # ets: truncated to 2 points, (0,0)-(3,4) and (1,0)-(4,4): both 5 m -> 1/6 each
     assert ets(pa, pb, K) == pytest.approx(1 / 6)
-    # crpps: B translated by (-3,-4) -> (0,0),(1,0); Frechet to (0,0),(1,0),(2,0) is 1
-    assert crpps_distance(pa, pb) == pytest.approx(1.0)
-    assert crpps_distance(pb, pa) == pytest.approx(1.0)
+    # crpps: common horizon = the shorter plan's last dt, so A keeps (0,0),(1,0) and B,
+    # translated by (-3,-4), is (0,0),(1,0): Frechet distance 0
+    assert crpps_distance(pa, pb) == pytest.approx(0.0)
+    assert crpps_distance(pb, pa) == pytest.approx(0.0)
+
+
+def test_crpps_compares_the_common_horizon_only():
+    # A: 3 s plan straight along x at 10 m/s; B: 2 s plan, same start, drifting 1 m left
+    # per second. Common horizon 2 s: A (0,0),(10,0),(20,0); B (0,0),(10,1),(20,2).
+    # Discrete Frechet = max over the coupling = 2 (the end points); A's (30,0) is ignored
+    # (whole plans would give at least |(30,0) - (20,2)| = 10.2).
+    a = np.array([[0, 0, 0], [1, 10, 0], [2, 20, 0], [3, 30, 0]], dtype=float)
+    b = np.array([[0, 5, 5], [1, 15, 6], [2, 25, 7]], dtype=float)
+    assert crpps_distance(a, b) == pytest.approx(2.0)
+    assert crpps_distance(b, a) == pytest.approx(2.0)
 
 
 def test_both_see_nothing_is_one_and_one_side_only_is_zero():
