@@ -8,9 +8,12 @@ The schema is documented in `docs/results.md`; bump `RESULT_VERSION` on any inco
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Literal
 
 from pydantic import BaseModel, ConfigDict
+
+from safety_case.model import Case
 
 RESULT_FORMAT = "casewatch-result"
 RESULT_VERSION = 1
@@ -55,6 +58,8 @@ class CaseNode(_Record):
 
 
 class CaseInfo(_Record):
+    """The safety case as a run records it: structure and texts, no verdicts."""
+
     path: str
     digest: str  # sha256 of the YAML bytes
     module: str
@@ -63,6 +68,33 @@ class CaseInfo(_Record):
     channels: list[str]
     period: float
     nodes: list[CaseNode]
+
+    @classmethod
+    def from_case(cls, case: Case, root_id: str, formula_of: Mapping[str, str]) -> CaseInfo:
+        """Record `case`; `formula_of` maps node ids to the ids of their monitored formulas."""
+        return cls(
+            path=case.path,
+            digest=case.digest,
+            module=case.module.name,
+            brief=case.module.brief,
+            root_id=root_id,
+            channels=list(case.monitor.channels),
+            period=case.monitor.period,
+            nodes=[
+                CaseNode(
+                    id=n.id,
+                    type=n.type.value,
+                    text=n.text,
+                    supported_by=list(n.supported_by),
+                    in_context_of=list(n.in_context_of),
+                    challenges=list(n.challenges),
+                    undeveloped=n.undeveloped,
+                    url=n.url,
+                    formula_id=formula_of.get(n.id),
+                )
+                for n in case.nodes.values()
+            ],
+        )
 
 
 class StreamDefect(_Record):

@@ -23,7 +23,6 @@ from evaluator.intervals import RunLength
 from evaluator.result import (
     ArbitrationInterval,
     CaseInfo,
-    CaseNode,
     DataGap,
     Episode,
     RunResult,
@@ -63,30 +62,7 @@ class _Clock:
 
 
 def case_info(case: Case, spec: CompiledSpec) -> CaseInfo:
-    formula_of = {f.node_id: f.id for f in spec.formulas}
-    return CaseInfo(
-        path=case.path,
-        digest=case.digest,
-        module=case.module.name,
-        brief=case.module.brief,
-        root_id=spec.root_id,
-        channels=list(case.monitor.channels),
-        period=case.monitor.period,
-        nodes=[
-            CaseNode(
-                id=n.id,
-                type=n.type.value,
-                text=n.text,
-                supported_by=list(n.supported_by),
-                in_context_of=list(n.in_context_of),
-                challenges=list(n.challenges),
-                undeveloped=n.undeveloped,
-                url=n.url,
-                formula_id=formula_of.get(n.id),
-            )
-            for n in case.nodes.values()
-        ],
-    )
+    return CaseInfo.from_case(case, spec.root_id, {f.node_id: f.id for f in spec.formulas})
 
 
 def evaluate_stream(

@@ -266,29 +266,8 @@ _REFERENCE_NODES: list[tuple[str, str, str, list[str], list[str], list[str], obj
 
 def case_info_from_case(case: Case) -> CaseInfo:
     """The `CaseInfo` a run of a loaded `Case` records (structure and texts, no verdicts)."""
-    return CaseInfo(
-        path=case.path,
-        digest=case.digest,
-        module=case.module.name,
-        brief=case.module.brief,
-        root_id=case.root_id(),
-        channels=list(case.monitor.channels),
-        period=case.monitor.period,
-        nodes=[
-            CaseNode(
-                id=n.id,
-                type=n.type.value,
-                text=n.text,
-                supported_by=list(n.supported_by),
-                in_context_of=list(n.in_context_of),
-                challenges=list(n.challenges),
-                undeveloped=n.undeveloped,
-                url=n.url,
-                formula_id=n.id if (n.spi is not None or n.hazard is not None) else None,
-            )
-            for n in case.nodes.values()
-        ],
-    )
+    bound = {n.id: n.id for n in case.nodes.values() if n.spi is not None or n.hazard is not None}
+    return CaseInfo.from_case(case, case.root_id(), bound)
 
 
 def reference_case(*, hostile: bool = False) -> CaseInfo:
