@@ -36,6 +36,14 @@ def main() -> int:
     for log in summary["per_log"]:
         report = Path(log["out_dir"]) / "report.html"
         print(f"  {log['verdict']:>11}  {report.resolve()}")
+    truth = summary.get("ground_truth")
+    if truth:
+        print("\nHazard detection against the labels (all logs):")
+        for row in [*truth["per_hazard"], truth["overall"]]:
+            p = "n/a" if row["precision"] is None else f"{row['precision']:.1%}"
+            r = "n/a" if row["recall"] is None else f"{row['recall']:.1%}"
+            print(f"  {row['hazard']:>5}: {row['true_positives']} TP, {row['false_positives']} FP, "
+                  f"{row['false_negatives']} FN; precision {p}, recall {r}")
     print(f"Fleet summary: {(OUT / 'summary.json').resolve()}")
     return 0
 

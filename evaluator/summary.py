@@ -26,6 +26,14 @@ class FormulaCount(BaseModel):
     ticks_no_data: int
 
 
+class HazardCount(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    hazard: str
+    true_positives: int
+    false_positives: int
+    false_negatives: int
+
+
 class LogSummary(BaseModel):
     model_config = ConfigDict(extra="forbid")
     stream: str
@@ -38,6 +46,7 @@ class LogSummary(BaseModel):
     defects: int = 0
     seconds: float = 0.0  # wall time spent on this log
     formulas: list[FormulaCount] = []
+    ground_truth: list[HazardCount] | None = None  # when the log was judged with labels
 
 
 def summarise_result(result: RunResult, out_dir: str, seconds: float) -> LogSummary:
@@ -62,7 +71,39 @@ def summarise_result(result: RunResult, out_dir: str, seconds: float) -> LogSumm
             )
             for f in result.formulas
         ],
+        ground_truth=None if result.ground_truth is None else [
+            HazardCount(hazard=h.hazard, true_positives=h.true_positives,
+                        false_positives=h.false_positives, false_negatives=h.false_negatives)
+            for h in result.ground_truth.per_hazard
+        ],
     )
+
+
+def _ratio(num: int, den: int) -> float | None:
+    return round(num / den, 6) if den else None
+
+
+def _ground_truth(logs: list[LogSummary]) -> dict[str, object] | None:
+    """TP/FP/FN added up over the logs that had labels; precision and recall from the sums."""
+    labelled = [log for log in logs if log.ground_truth is not None]
+    if not labelled:
+        return None
+    sums: dict[str, list[int]] = {}
+    for log in labelled:
+        for h in log.ground_truth or []:
+            row = sums.setdefault(h.hazard, [0, 0, 0])
+            row[0] += h.true_positives
+            row[1] += h.false_positives
+            row[2] += h.false_negatives
+
+    def score(name: str, tp: int, fp: int, fn: int) -> dict[str, object]:
+        return {"hazard": name, "true_positives": tp, "false_positives": fp,
+                "false_negatives": fn, "precision": _ratio(tp, tp + fp),
+                "recall": _ratio(tp, tp + fn)}
+
+    per_hazard = [score(name, *row) for name, row in sorted(sums.items())]
+    total = [sum(row[i] for row in sums.values()) for i in range(3)]
+    return {"logs": len(labelled), "per_hazard": per_hazard, "overall": score("all", *total)}
 
 
 def summarise(logs: list[LogSummary], case_path: str, case_digest: str) -> dict[str, object]:
@@ -101,6 +142,7 @@ def summarise(logs: list[LogSummary], case_path: str, case_digest: str) -> dict[
         "hours": round(hours, 6),
         "frames": sum(log.frames for log in judged),
         "verdicts": verdicts,
+        "ground_truth": _ground_truth(judged),
         "formulas": sorted(per_formula.values(), key=lambda e: str(e["formula_id"])),
         "per_log": [log.model_dump() for log in logs],
     }

@@ -153,3 +153,8 @@ def test_many_logs_write_one_result_each_and_a_summary(tmp_path, jobs):
     assert sn1["episodes_per_hour"] == pytest.approx(2 / (15 / 3600), rel=1e-6)
     a = json.loads((out / "a" / "result.json").read_text())
     assert a["ground_truth"]["overall"]["false_negatives"] == 1
+    # only log a has labels: its one label (1-2 s) is missed, nothing fired
+    truth = summary["ground_truth"]
+    assert truth["logs"] == 1
+    assert truth["overall"] == {"hazard": "all", "true_positives": 0, "false_positives": 0,
+                                "false_negatives": 1, "precision": None, "recall": 0.0}
