@@ -129,9 +129,12 @@ def boxes_intersect(
 
 
 class _Movers:
-    """Footprints moving on a common time grid, (M, N) arrays: centres x, y, heading as
-    (cos, sin), chunk circles (M, C) with the footprint radius included, and per mover the
-    radius, box half extents (NaN for polygons), convexity and body-frame polygon."""
+    """Footprints moving on a common time grid of L points: (M, L) centres and headings as
+    (cos, sin); their CHUNK-point runs (stored (CHUNK, M * C), flattened over movers so that
+    candidates gather columns) with bounding circles (M, C) including the footprint radius; the
+    bounding box of each whole sweep; per mover the radius, box half extents (NaN for
+    polygons), convexity and body-frame polygon. Egos also get a lateral separating axis per
+    run (`lateral=True`)."""
 
     __slots__ = (
         "all_boxes",
@@ -143,24 +146,20 @@ class _Movers:
         "chunk_x",
         "chunk_y",
         "convex",
-        "cos",
         "cosf",
         "footprints",
         "half",
-        "hi_x",
-        "hi_y",
+        "hi",
         "hl",
         "hl_or_nan",
         "hw",
         "hw_or_nan",
-        "lo_x",
-        "lo_y",
+        "lo",
         "radius",
         "run_cos",
         "run_sin",
         "run_x",
         "run_y",
-        "sin",
         "sinf",
         "x",
         "xf",
@@ -168,43 +167,48 @@ class _Movers:
         "yf",
     )  # fmt: skip
 
-    def __init__(self, centres: np.ndarray, direction: tuple[np.ndarray, np.ndarray],
-                 radius: np.ndarray,
-                 half: np.ndarray, convex: np.ndarray, footprints: list[np.ndarray],
-                 lateral: bool = True):  # fmt: skip
-        self.x = centres[..., 0]
-        self.y = centres[..., 1]
-        self.cos, self.sin = direction
-        # Flat copies: candidates are gathered with `take` on (mover * N + time) indices,
+    def __init__(self, x: np.ndarray, y: np.ndarray, cos: np.ndarray, sin: np.ndarray,
+                 radius: np.ndarray, half: np.ndarray, convex: np.ndarray,
+                 footprints: Sequence[np.ndarray], lateral: bool = False):  # fmt: skip
+        m, n = x.shape
+        self.x = x
+        self.y = y
+        # Flat copies: candidates are gathered with `take` on (mover * L + time) indices,
         # several times faster than 2-D fancy indexing.
-        self.xf = self.x.ravel()
-        self.yf = self.y.ravel()
-        self.cosf = self.cos.ravel()
-        self.sinf = self.sin.ravel()
-        # (M * C, CHUNK) runs of the grid, flattened over movers for row gathers
-        run_x = _runs(self.x)
-        run_y = _runs(self.y)
-        self.chunk_x, self.chunk_y, rad = _chunk_circles(run_x, run_y)
-        self.chunk_r = rad + radius[:, None]
-        # stored transposed, (CHUNK, M * C), so a column gather is contiguous per run offset
-        self.run_x = np.ascontiguousarray(run_x.reshape(-1, CHUNK).T)
-        self.run_y = np.ascontiguousarray(run_y.reshape(-1, CHUNK).T)
-        self.run_cos = np.ascontiguousarray(_runs(self.cos).reshape(-1, CHUNK).T)
-        self.run_sin = np.ascontiguousarray(_runs(self.sin).reshape(-1, CHUNK).T)
-        half_l = half[:, 0] if half is not None else np.full(len(radius), np.nan)
-        half_w = half[:, 1] if half is not None else np.full(len(radius), np.nan)
+        self.xf = x.ravel()
+        self.yf = y.ravel()
+        self.cosf = cos.ravel()
+        self.sinf = sin.ravel()
+        # All four tracks in one array, so each step below is one numpy call, not four.
+        stack = np.stack([x, y, cos, sin])
+        nc = -(-n // CHUNK)
+        if nc * CHUNK > n:  # the last run repeats the last grid point (a real one)
+            stack = np.concatenate(
+                [stack, np.repeat(stack[..., -1:], nc * CHUNK - n, axis=-1)], axis=-1
+            )
+        runs = stack.reshape(4, m * nc, CHUNK)
+        hi = runs[:2].max(axis=-1)
+        lo = runs[:2].min(axis=-1)
+        mid = 0.5 * (hi + lo)
+        off = runs[:2] - mid[..., None]
+        rad = np.sqrt((off * off).sum(axis=0).max(axis=-1))
+        self.chunk_x = mid[0].reshape(m, nc)
+        self.chunk_y = mid[1].reshape(m, nc)
+        self.chunk_r = rad.reshape(m, nc) + radius[:, None]
+        # bounding box of each whole sweep, footprint included: (2, M) lower and upper corners
+        self.lo = lo.reshape(2, m, nc).min(axis=-1) - radius
+        self.hi = hi.reshape(2, m, nc).max(axis=-1) + radius
+        # (CHUNK, M * C): a column gather is contiguous per run offset
+        self.run_x, self.run_y, self.run_cos, self.run_sin = np.ascontiguousarray(
+            runs.transpose(0, 2, 1)
+        )
         self.radius = radius
-        # bounding box of the whole sweep, footprint included
-        self.lo_x = self.x.min(axis=1) - radius
-        self.hi_x = self.x.max(axis=1) + radius
-        self.lo_y = self.y.min(axis=1) - radius
-        self.hi_y = self.y.max(axis=1) + radius
         self.half = half
-        self.hl = np.ascontiguousarray(half[:, 0]) if half is not None else None
-        self.hw = np.ascontiguousarray(half[:, 1]) if half is not None else None
-        self.hl_or_nan = half_l
-        self.hw_or_nan = half_w
-        self.all_boxes = half is not None and not np.isnan(half[:, 0]).any()
+        self.hl_or_nan = np.ascontiguousarray(half[:, 0])
+        self.hw_or_nan = np.ascontiguousarray(half[:, 1])
+        self.all_boxes = not np.isnan(self.hl_or_nan).any()
+        self.hl = self.hl_or_nan
+        self.hw = self.hw_or_nan
         self.convex = convex
         self.footprints = footprints
         if lateral:
@@ -213,13 +217,12 @@ class _Movers:
             # of a run's footprints separates every pair within it, so this is a
             # conservative, orientation-aware prefilter (parallel traffic in the next lane
             # passes the circle tests but not this one).
-            nc = run_x.shape[1]
             self.axis_x = -self.run_sin[0]
             self.axis_y = self.run_cos[0]
             self.axis_lo, self.axis_hi = self.run_interval(
-                np.arange(self.run_x.shape[1]),
-                np.repeat(half_l, nc),
-                np.repeat(half_w, nc),
+                np.arange(m * nc),
+                np.repeat(self.hl_or_nan, nc),
+                np.repeat(self.hw_or_nan, nc),
                 np.repeat(radius, nc),
                 self.axis_x,
                 self.axis_y,
@@ -248,16 +251,28 @@ class _Movers:
         return (centre - rad).min(axis=0), (centre + rad).max(axis=0)
 
 
-def _egos(plans: Sequence[np.ndarray], egos: Sequence[Ego]) -> _Movers:
-    centres = np.stack([p[:, 1:3] for p in plans])
-    heading = _directions(centres, np.array([e.yaw for e in egos]))
+def _egos(plans: Sequence[np.ndarray], egos: Sequence[Ego], length: int) -> _Movers:
+    """The ego sweeps on the longest grid (L points). A shorter plan is padded by repeating its
+    last point: zero-length segments keep its last heading, so its real points get exactly
+    the poses of its own grid, and the padding (never tested) stays inside its real sweep."""
+    if all(len(p) == length for p in plans):
+        centres = np.stack([p[:, 1:3] for p in plans])
+    else:
+        centres = np.empty((len(plans), length, 2))
+        for a, p in enumerate(plans):
+            centres[a, : len(p)] = p[:, 1:3]
+            centres[a, len(p) :] = p[-1, 1:3]
+    cos, sin = _directions(centres, np.array([e.yaw for e in egos]))
     return _Movers(
-        centres,
-        heading,
+        centres[..., 0],
+        centres[..., 1],
+        cos,
+        sin,
         np.array([e.radius for e in egos]),
         np.array([e.half if e.half is not None else (np.nan, np.nan) for e in egos]),
         np.array([e.convex for e in egos]),
         [e.footprint for e in egos],
+        lateral=True,
     )
 
 
@@ -268,82 +283,106 @@ def _reachable(objects: Objects, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     pos = objects.pos
     r = objects.radii
     if objects.pred.shape[1]:
-        px = objects.pred[:, :, 1]
-        py = objects.pred[:, :, 2]
+        # (K, 2, P) contiguous: numpy reduces a long last axis far faster than a middle one
+        pxy = np.ascontiguousarray(objects.pred[:, :, 1:3].transpose(0, 2, 1))
         if (objects.pred_len == 0).any():  # rows without prediction hold padding zeros
-            none = (objects.pred_len == 0)[:, None]
-            px = np.where(none, pos[:, 0:1], px)
-            py = np.where(none, pos[:, 1:2], py)
-        x0 = np.minimum(px.min(axis=1), pos[:, 0])
-        x1 = np.maximum(px.max(axis=1), pos[:, 0])
-        y0 = np.minimum(py.min(axis=1), pos[:, 1])
-        y1 = np.maximum(py.max(axis=1), pos[:, 1])
+            none = (objects.pred_len == 0)[:, None, None]
+            pxy = np.where(none, pos[:, :, None], pxy)
+        p0 = np.minimum(pxy.min(axis=2), pos) - r[:, None]
+        p1 = np.maximum(pxy.max(axis=2), pos) + r[:, None]
     else:
-        x0 = x1 = pos[:, 0]
-        y0 = y1 = pos[:, 1]
-    return (x0 - r <= hi[0]) & (x1 + r >= lo[0]) & (y0 - r <= hi[1]) & (y1 + r >= lo[1])
+        p0 = pos - r[:, None]
+        p1 = pos + r[:, None]
+    return ((p0 <= hi) & (p1 >= lo)).all(axis=1)
 
 
 def _objects(
-    worlds: Sequence[Objects], keep: Sequence[np.ndarray], times: np.ndarray
-) -> tuple[_Movers, np.ndarray]:
-    """The kept objects of all world models on the grid, and each one's world index."""
-    pos = np.concatenate([o.pos[m] for o, m in zip(worlds, keep, strict=True)])
-    pred_shapes = {o.pred.shape[1] for o in worlds}
-    if len(pred_shapes) == 1:
-        # Same padded prediction length everywhere (the usual case): one interpolation.
-        pred = np.concatenate([o.pred[m] for o, m in zip(worlds, keep, strict=True)])
-        plen = np.concatenate([o.pred_len[m] for o, m in zip(worlds, keep, strict=True)])
+    worlds: Sequence[Objects], lo: np.ndarray, hi: np.ndarray, times: np.ndarray
+) -> tuple[_Movers, np.ndarray] | None:
+    """The objects of all world models that can reach the box [lo, hi] holding every ego sweep,
+    on the grid `times`, and each one's world index; None when no object can."""
+    keep = [_reachable(o, lo, hi) for o in worlds]
+    counts = [int(np.count_nonzero(m)) for m in keep]
+    if not any(counts):
+        return None
+    if len(worlds) == 1:
+        o, m = worlds[0], keep[0]
+        every = counts[0] == len(o)
+        pos = o.pos if every else o.pos[m]
+        pred = o.pred if every else o.pred[m]
+        plen = o.pred_len if every else o.pred_len[m]
         centres = interpolate_tracks(pos, pred, plen, times)
+        yaw = o.yaw if every else o.yaw[m]
+        radius = o.radii if every else o.radii[m]
+        half = o.half if every else o.half[m]
+        convex = o.convex if every else o.convex[m]
+        footprints = o.footprints if every else o.footprints[m]
+        owner = np.zeros(counts[0], dtype=np.intp)
     else:
-        centres = np.concatenate(
-            [
-                interpolate_tracks(o.pos[m], o.pred[m], o.pred_len[m], times)
-                for o, m in zip(worlds, keep, strict=True)
-            ]
-        )
-    yaw = np.concatenate([o.yaw[m] for o, m in zip(worlds, keep, strict=True)])
-    owner = np.repeat(np.arange(len(worlds)), [int(m.sum()) for m in keep])
-    movers = _Movers(
-        centres,
-        _directions(centres, yaw),
-        np.concatenate([o.radii[m] for o, m in zip(worlds, keep, strict=True)]),
-        np.concatenate([o.half[m] for o, m in zip(worlds, keep, strict=True)]),
-        np.concatenate([o.convex[m] for o, m in zip(worlds, keep, strict=True)]),
-        [fp for o, m in zip(worlds, keep, strict=True) for fp in o.footprints[m]],
-        lateral=False,
-    )
+        pairs = list(zip(worlds, keep, strict=True))
+        pos = np.concatenate([o.pos[m] for o, m in pairs])
+        if len({o.pred.shape[1] for o in worlds}) == 1:
+            # Same padded prediction length everywhere (the usual case): one interpolation.
+            pred = np.concatenate([o.pred[m] for o, m in pairs])
+            plen = np.concatenate([o.pred_len[m] for o, m in pairs])
+            centres = interpolate_tracks(pos, pred, plen, times)
+        else:
+            centres = np.concatenate(
+                [interpolate_tracks(o.pos[m], o.pred[m], o.pred_len[m], times) for o, m in pairs]
+            )
+        yaw = np.concatenate([o.yaw[m] for o, m in pairs])
+        radius = np.concatenate([o.radii[m] for o, m in pairs])
+        half = np.concatenate([o.half[m] for o, m in pairs])
+        convex = np.concatenate([o.convex[m] for o, m in pairs])
+        # a list: worlds pad their polygons to different vertex counts
+        footprints = [fp for o, m in pairs for fp in o.footprints[m]]
+        owner = np.repeat(np.arange(len(worlds)), counts)
+    cos, sin = _directions(centres, yaw)
+    movers = _Movers(centres[..., 0], centres[..., 1], cos, sin, radius, half, convex, footprints)
     return movers, owner
 
 
 def _exact(
-    eg: _Movers, ob: _Movers, i: np.ndarray, k: np.ndarray, fi: np.ndarray, fk: np.ndarray
+    eg: _Movers,
+    ob: _Movers,
+    i: np.ndarray,
+    k: np.ndarray,
+    fi: np.ndarray,
+    fk: np.ndarray,
+    fh: np.ndarray,
 ) -> np.ndarray:
-    """Exact footprint tests of ego i against object k, at the flat grid indices fi = i * N + n
-    and fk = k * N + m: (C,) bool."""
+    """Exact footprint tests of ego i against object k: (C,) bool. fi = i * L + n and
+    fk = k * L + m are flat grid indices of the ego and object poses; fh = k * L + m' indexes
+    the object heading (m' = m except at the last point of a shorter grid, see score_grid)."""
     if eg.all_boxes and ob.all_boxes:
         return boxes_intersect(
             ob.xf.take(fk) - eg.xf.take(fi), ob.yf.take(fk) - eg.yf.take(fi),
             eg.cosf.take(fi), eg.sinf.take(fi), eg.hl.take(i), eg.hw.take(i),
-            ob.cosf.take(fk), ob.sinf.take(fk), ob.hl.take(k), ob.hw.take(k),
+            ob.cosf.take(fh), ob.sinf.take(fh), ob.hl.take(k), ob.hw.take(k),
         )  # fmt: skip
     ehalf = eg.half[i]
     ohalf = ob.half[k]
     boxes = ~(np.isnan(ehalf[:, 0]) | np.isnan(ohalf[:, 0]))
     hit = np.zeros(len(k), dtype=bool)
     if boxes.any():
-        bfi, bfk = fi[boxes], fk[boxes]
+        bfi, bfk, bfh = fi[boxes], fk[boxes], fh[boxes]
         hit[boxes] = boxes_intersect(
             ob.xf.take(bfk) - eg.xf.take(bfi), ob.yf.take(bfk) - eg.yf.take(bfi),
             eg.cosf.take(bfi), eg.sinf.take(bfi), ehalf[boxes, 0], ehalf[boxes, 1],
-            ob.cosf.take(bfk), ob.sinf.take(bfk), ohalf[boxes, 0], ohalf[boxes, 1],
+            ob.cosf.take(bfh), ob.sinf.take(bfh), ohalf[boxes, 0], ohalf[boxes, 1],
         )  # fmt: skip
-    hf = np.arctan2(eg.sinf, eg.cosf)
-    ohf = np.arctan2(ob.sinf, ob.cosf)
     for row in np.nonzero(~boxes)[0]:
         # Polygon footprints are rare; one candidate at a time keeps ragged vertex counts simple.
-        a = place(eg.footprints[i[row]], np.array([eg.xf[fi[row]], eg.yf[fi[row]]]), hf[fi[row]])
-        b = place(ob.footprints[k[row]], np.array([ob.xf[fk[row]], ob.yf[fk[row]]]), ohf[fk[row]])
+        a = place(
+            eg.footprints[i[row]],
+            np.array([eg.xf[fi[row]], eg.yf[fi[row]]]),
+            np.arctan2(eg.sinf[fi[row]], eg.cosf[fi[row]]),
+        )
+        b = place(
+            ob.footprints[k[row]],
+            np.array([ob.xf[fk[row]], ob.yf[fk[row]]]),
+            np.arctan2(ob.sinf[fh[row]], ob.cosf[fh[row]]),
+        )
         if eg.convex[i[row]] and ob.convex[k[row]]:
             hit[row] = convex_intersects(a[None], b[None])[0]
         else:
@@ -357,54 +396,92 @@ def score_grid(
     worlds: Sequence[Objects],
     pet_ref: float,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(ss, ttc, pet), each (I, J): plans I (all on the same time grid, >= 2 points) with their
-    egos against world models J (each with >= 1 object).
+    """(ss, ttc, pet), each (I, J): plans I (>= 2 points each) with their egos against world
+    models J (each with >= 1 object).
+
+    The plans' time grids must be prefixes of the longest one (one grid, or stacks planning
+    the same steps over different horizons). Everything is computed once on the longest grid
+    (L points); plan i only uses its first N_i points, for its ego and for the objects, whose
+    poses on a prefix grid are those of the long grid except the heading at the last point
+    (spi-reference: the last point keeps the last segment's heading), which is the long
+    grid's heading at N_i - 2.
 
     TTC first (equal times only); PET then only needs time pairs with
     |t_n - t_m| < pet_ref * min(1, ttc / H), since larger ones cannot lower the score.
     """
-    times = plans[0][:, 0]
-    horizon = float(times[-1])
+    lengths = np.array([len(p) for p in plans])
+    longest = int(lengths.argmax())
+    times = plans[longest][:, 0]
+    n_pts = len(times)
+    horizon = times[lengths - 1]  # (I,)
     n_i, n_j = len(plans), len(worlds)
-    eg = _egos(plans, egos)
+    eg = _egos(plans, egos, n_pts)
     ttc = np.full((n_i, n_j), np.inf)
-    # Prefilter 0: objects that can come near any ego sweep at all, before interpolating.
-    box_lo = np.array([eg.lo_x.min(), eg.lo_y.min()])
-    box_hi = np.array([eg.hi_x.max(), eg.hi_y.max()])
-    keep = [_reachable(o, box_lo, box_hi) for o in worlds]
-    if not any(m.any() for m in keep):
-        return np.ones((n_i, n_j)), ttc, np.full((n_i, n_j), np.inf)
-    ob, owner = _objects(worlds, keep, times)
     pet = np.full((n_i, n_j), np.inf)
+    # Prefilter 0: objects that can come near any ego sweep at all, before interpolating.
+    found = _objects(worlds, eg.lo.min(axis=1), eg.hi.max(axis=1), times)
+    if found is None:
+        return np.ones((n_i, n_j)), ttc, pet
+    ob, owner = found
     # Prefilter 1: bounding boxes of the whole sweeps, (ego i, object k) pairs that can meet.
     pi, pk = np.nonzero(
-        (ob.lo_x[None] <= eg.hi_x[:, None])
-        & (ob.hi_x[None] >= eg.lo_x[:, None])
-        & (ob.lo_y[None] <= eg.hi_y[:, None])
-        & (ob.hi_y[None] >= eg.lo_y[:, None])
+        ((ob.lo[:, None, :] <= eg.hi[:, :, None]) & (ob.hi[:, None, :] >= eg.lo[:, :, None])).all(
+            axis=0
+        )
     )
     if len(pi) == 0:
         return np.ones((n_i, n_j)), ttc, pet
+    uniform = bool((lengths == n_pts).all())
+    # Per candidate pair: its plan's length, and the last index whose object heading is the
+    # long grid's own (see above).
+    plen = lengths.take(pi)
     # TTC: the diagonal n = m, bounding circles, then the exact test.
     dx = ob.x[pk] - eg.x[pi]
     dy = ob.y[pk] - eg.y[pi]
-    reach = eg.radius[pi] + ob.radius[pk]
-    cp, cn = np.nonzero(dx * dx + dy * dy <= (reach * reach)[:, None])
+    reach = eg.radius.take(pi) + ob.radius.take(pk)
+    near = dx * dx + dy * dy <= (reach * reach)[:, None]
+    if not uniform:
+        near &= np.arange(n_pts) < plen[:, None]
+    cp, cn = np.nonzero(near)
     colliding = np.zeros(len(pi), dtype=bool)
     if len(cp):
-        n_pts = len(times)
-        hit = _exact(eg, ob, pi[cp], pk[cp], pi[cp] * n_pts + cn, pk[cp] * n_pts + cn)
+        i = pi.take(cp)
+        k = pk.take(cp)
+        fk = k * n_pts + cn
+        fh = fk if uniform else k * n_pts + np.minimum(cn, plen.take(cp) - 2)
+        hit = _exact(eg, ob, i, k, i * n_pts + cn, fk, fh)
         if hit.any():
-            np.minimum.at(ttc, (pi[cp[hit]], owner[pk[cp[hit]]]), times[cn[hit]])
+            np.minimum.at(ttc, (i[hit], owner.take(k[hit])), times.take(cn[hit]))
             colliding[cp[hit]] = True
-    limit = pet_ref * np.minimum(1.0, ttc / horizon)
+    limit = pet_ref * np.minimum(1.0, ttc / horizon[:, None])
     # PET: only pairs that never meet at equal times, within their time limit.
-    lim = np.where(colliding, -np.inf, limit[pi, owner[pk]])
-    keep = lim > 0
-    if keep.any():
-        _pet(eg, ob, owner, times, pi[keep], pk[keep], lim[keep], pet)
-    ss = np.minimum(1.0, np.minimum(ttc / horizon, pet / pet_ref))
+    lim = np.where(colliding, -np.inf, limit[pi, owner.take(pk)])
+    keep = np.flatnonzero(lim > 0)
+    if len(keep):
+        _pet(eg, ob, owner, times, pi.take(keep), pk.take(keep), lim.take(keep), plen.take(keep),
+             uniform, pet)  # fmt: skip
+    ss = np.minimum(1.0, np.minimum(ttc / horizon[:, None], pet / pet_ref))
     return ss, ttc, pet
+
+
+_GAPS: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+
+
+def _chunk_gaps(times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(C, C) smallest time difference between two runs of the grid (negative when their
+    ranges overlap) and (C,) first index of each run; cached per grid (grids repeat)."""
+    key = times.tobytes()
+    got = _GAPS.get(key)
+    if got is None:
+        n_pts = len(times)
+        starts = np.arange(-(-n_pts // CHUNK)) * CHUNK
+        t_lo = times[starts]
+        t_hi = times[np.minimum(starts + CHUNK - 1, n_pts - 1)]
+        gap = np.maximum(t_lo[:, None] - t_hi[None, :], t_lo[None, :] - t_hi[:, None])
+        if len(_GAPS) > 64:
+            _GAPS.clear()
+        got = _GAPS[key] = (gap, starts)
+    return got
 
 
 def _pet(
@@ -415,21 +492,24 @@ def _pet(
     pi: np.ndarray,
     pk: np.ndarray,
     limit: np.ndarray,
+    plen: np.ndarray,
+    uniform: bool,
     pet: np.ndarray,
 ) -> None:
     """Lower pet[i, j] to the smallest |t_n - t_m| < limit at which ego i (time n) meets
-    object k of world j (time m), for the candidate pairs (pi, pk) with their limits."""
-    n_pts = eg.x.shape[1]
+    object k of world j (time m), for the candidate pairs (pi, pk) with their limits and
+    their plans' lengths (n, m < plen; `uniform`: every plan spans the whole grid)."""
+    n_pts = len(times)
     nc = eg.chunk_x.shape[1]
-    starts = np.arange(nc) * CHUNK
-    t_lo = times[starts]
-    t_hi = times[np.minimum(starts + CHUNK - 1, n_pts - 1)]
-    gap = np.maximum(t_lo[:, None] - t_hi[None, :], t_lo[None, :] - t_hi[:, None])
+    gap, starts = _chunk_gaps(times)
     # (pair, ego chunk, object chunk); gap < 0 means overlapping time ranges
     dx = eg.chunk_x[pi][:, :, None] - ob.chunk_x[pk][:, None, :]
     dy = eg.chunk_y[pi][:, :, None] - ob.chunk_y[pk][:, None, :]
     reach = eg.chunk_r[pi][:, :, None] + ob.chunk_r[pk][:, None, :]
-    near = (dx * dx + dy * dy <= reach * reach) & (gap[None] < limit[:, None, None])
+    near = (dx * dx + dy * dy <= reach * reach) & (gap < limit[:, None, None])
+    if not uniform:
+        inside = starts < plen[:, None]  # runs that start inside the plan's grid
+        near &= inside[:, :, None] & inside[:, None, :]
     cp, ca, cb = np.nonzero(near)
     if len(cp) == 0:
         return
@@ -437,18 +517,25 @@ def _pet(
     k = pk.take(cp)
     er = i * nc + ca
     orow = k * nc + cb
+    hl = ob.hl_or_nan.take(k)
+    if not uniform:
+        # A run holding the last point of a shorter grid has there a heading the long grid's
+        # run does not show: project that run by its bounding radius (conservative).
+        last = plen.take(cp) - 1
+        cut = (last < n_pts - 1) & (last // CHUNK == cb)
+        if cut.any():
+            hl = np.where(cut, np.nan, hl)
     # Lateral separating axis of the ego run: drop chunk pairs it separates.
     lo, hi = ob.run_interval(
-        orow, ob.hl_or_nan.take(k), ob.hw_or_nan.take(k), ob.radius.take(k),
-        eg.axis_x.take(er), eg.axis_y.take(er),
-    )  # fmt: skip
+        orow, hl, ob.hw_or_nan.take(k), ob.radius.take(k), eg.axis_x.take(er), eg.axis_y.take(er)
+    )
     sel = np.flatnonzero((lo <= eg.axis_hi.take(er)) & (hi >= eg.axis_lo.take(er)))
     if len(sel) == 0:
         return
     cp, ca, cb, i, k, er, orow = (v.take(sel) for v in (cp, ca, cb, i, k, er, orow))
     # Each remaining chunk pair compares its CHUNK ego points with its CHUNK object points by
-    # broadcasting (C, CHUNK, CHUNK); only survivors become flat candidate indices.
-    # (CHUNK, CHUNK, C) with the long candidate axis innermost: numpy is slow on tiny inner axes
+    # broadcasting (CHUNK, CHUNK, C), the long candidate axis innermost (numpy is slow on tiny
+    # inner axes); only survivors become flat candidate indices.
     ex = eg.run_x.take(er, axis=1)[:, None, :]
     ey = eg.run_y.take(er, axis=1)[:, None, :]
     ox = ob.run_x.take(orow, axis=1)[None, :, :]
@@ -461,19 +548,24 @@ def _pet(
         return
     # Padded run entries repeat the last grid point; n = m pairs cannot hit here (these objects
     # never meet the ego at equal times), so neither needs filtering.
-    last = n_pts - 1
-    n = np.minimum(ca.take(c) * CHUNK + a, last)
-    m = np.minimum(cb.take(c) * CHUNK + b, last)
+    n = np.minimum(ca.take(c) * CHUNK + a, n_pts - 1)
+    m = np.minimum(cb.take(c) * CHUNK + b, n_pts - 1)
     dt = np.abs(times.take(n) - times.take(m))
-    sel = np.flatnonzero(dt < limit.take(cp.take(c)))
+    cpc = cp.take(c)
+    ok = dt < limit.take(cpc)
+    if not uniform:
+        own = plen.take(cpc)
+        ok &= (n < own) & (m < own)
+    sel = np.flatnonzero(ok)
     i = i.take(c).take(sel)
     k = k.take(c).take(sel)
     n = n.take(sel)
     m = m.take(sel)
-    dt = dt.take(sel)
-    hit = _exact(eg, ob, i, k, i * n_pts + n, k * n_pts + m)
+    fk = k * n_pts + m
+    fh = fk if uniform else k * n_pts + np.minimum(m, plen.take(cpc.take(sel)) - 2)
+    hit = _exact(eg, ob, i, k, i * n_pts + n, fk, fh)
     if hit.any():
-        np.minimum.at(pet, (i[hit], owner[k[hit]]), dt[hit])
+        np.minimum.at(pet, (i[hit], owner.take(k[hit])), dt.take(sel)[hit])
 
 
 def safety_score(
@@ -490,6 +582,24 @@ def safety_score(
     return float(ss[0, 0]), float(ttc[0, 0]), float(pet[0, 0])
 
 
+def _prefix_groups(plans: dict[str, np.ndarray]) -> list[list[str]]:
+    """Channels grouped so that within a group every plan's time grid is a prefix of the
+    group's longest plan (one `score_grid` pass each). Longest first, so a group's first
+    member holds its grid."""
+    groups: list[list[str]] = []
+    heads: list[np.ndarray] = []
+    for c in sorted(plans, key=lambda c: -len(plans[c])):
+        dt = plans[c][:, 0]
+        for g, head in zip(groups, heads, strict=True):
+            if np.array_equal(head[: len(dt)], dt):
+                g.append(c)
+                break
+        else:
+            groups.append([c])
+            heads.append(dt)
+    return groups
+
+
 def safety_matrix(
     channels: list[str], states: dict[str, ChannelState], pet_ref: float
 ) -> dict[tuple[str, str], float | None]:
@@ -498,7 +608,7 @@ def safety_matrix(
     out: dict[tuple[str, str], float | None] = {}
     present = [c for c in channels if c in states]
     worlds = [j for j in present if len(states[j].objects)]
-    grids: dict[bytes, list[str]] = {}
+    scored: dict[str, np.ndarray] = {}
     for i in channels:
         for j in channels:
             out[(i, j)] = None
@@ -510,13 +620,13 @@ def safety_matrix(
         for j in present:
             out[(i, j)] = 1.0
         if len(plan) >= 2 and worlds:
-            grids.setdefault(plan[:, 0].tobytes(), []).append(i)
-    for members in grids.values():
+            scored[i] = plan
+    if not scored:
+        return out
+    world_objects = [states[j].objects for j in worlds]
+    for members in _prefix_groups(scored):
         ss, _, _ = score_grid(
-            [states[i].plan for i in members],
-            [states[i].ego for i in members],
-            [states[j].objects for j in worlds],
-            pet_ref,
+            [scored[i] for i in members], [states[i].ego for i in members], world_objects, pet_ref
         )
         for a, i in enumerate(members):
             for b, j in enumerate(worlds):

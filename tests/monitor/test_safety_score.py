@@ -238,3 +238,86 @@ def test_fast_search_matches_brute_force(scene_data):
     ref_ss, ref_ttc = brute_force(s.plan, s.ego, s.objects, PET_REF)
     assert ttc == ref_ttc
     assert ss == pytest.approx(ref_ss, abs=1e-12)
+
+
+@settings(max_examples=40, deadline=None)
+@given(random_scene(), random_scene(), st.integers(2, 14))
+def test_prefix_grids_in_one_pass_match_separate_plans(first, second, cut):
+    """safety_matrix scores plans whose grids are prefixes of the longest one (stacks planning
+    over different horizons) in one pass on the long grid; every ss_ij must equal the
+    single-plan score, whose search is checked against brute force above. The short plan's
+    last point is where the object headings of the two grids differ."""
+    plan_a, objects_a = first
+    plan_b = [list(p) for p in second[0][: max(2, min(cut, len(second[0])))]]
+    # b plans on a's grid (a prefix of it), from its own path
+    n_b = min(len(plan_b), len(plan_a))
+    plan_b = [[plan_a[n][0], plan_b[n][1], plan_b[n][2]] for n in range(n_b)]
+    f = frame(
+        0.0,
+        {
+            "a": channel(ego(0, 0, 0, 4, 2), plan=plan_a, objects=objects_a),
+            "b": channel(ego(0, 0, 0.3, 5, 2), plan=plan_b, objects=second[1]),
+        },
+    )
+    matrix = safety_matrix(["a", "b"], f.channels, PET_REF)
+    for i in ("a", "b"):
+        for j in ("a", "b"):
+            si, sj = f.channels[i], f.channels[j]
+            single, _, _ = safety_score(si.plan, si.ego, sj.objects, PET_REF)
+            assert matrix[(i, j)] == pytest.approx(single, abs=1e-12), (i, j)
+
+
+def _with_long_plan(plan_a, objects_a):
+    """Channel a with its plan and objects; channel b plans far away over 1.0 s on the same
+    0.1 s grid (a's grid is a prefix of b's) and sees nothing, so (a, a) shares the long-grid
+    pass with b."""
+    far = straight_plan(0, 100, 10, 0, 11)
+    return frame(
+        0.0,
+        {
+            "a": channel(ego(0, 0, 0, 2, 2), plan=plan_a, objects=objects_a),
+            "b": channel(ego(0, 100, 0, 4, 2), plan=far),
+        },
+    ).channels
+
+
+def test_short_plan_ignores_the_long_grid_beyond_its_horizon():
+    # Plan a: 0.2 s at 20 m/s, ego 2 x 2 at (0, 0), (2, 0), (4, 0). The object (4 x 1, moving
+    # down x = 0 at 20 m/s, y = 4, 2, 0 at t = 0, 0.1, 0.2) never meets the ego at equal times
+    # (t = 0.1: object x in [-0.5, 0.5], ego x in [1, 3]); its t = 0.1 pose (y in [0, 4])
+    # overlaps the ego's t = 0 pose (y in [-1, 1]): pet = 0.1, ss_aa = 0.1 / 2 = 0.05.
+    # Afterwards it drives to (4, 0), the end of plan a, and stops there (t = 0.4): on the
+    # long grid of the shared pass that is an equal-time hit with a padded ego pose (t = 0.4,
+    # which would give ttc = 0.4 >= H and ss = 1) and an overlap at dt = 0 (ss = 0); both lie
+    # beyond plan a's horizon and must not count.
+    plan = straight_plan(0, 0, 20, 0, 3)
+    path = [[0.0, 0.0, 4.0], [0.1, 0.0, 2.0], [0.2, 0.0, 0.0], [0.3, 2.0, 0.0], [0.4, 4.0, 0.0]]
+    o = obj(1, 0, 4, -math.pi / 2, 4, 1, prediction=path)
+    channels = _with_long_plan(plan, [o])
+    matrix = safety_matrix(["a", "b"], channels, PET_REF)
+    assert matrix[("a", "a")] == pytest.approx(0.05, abs=1e-12)
+    assert matrix[("b", "b")] == 1.0 and matrix[("a", "b")] == 1.0
+    assert matrix[("b", "a")] == 1.0  # b drives at y = 100
+
+
+def test_object_heading_at_the_end_of_a_short_grid():
+    # Plan a (H = 0.2 s): ego 2 x 2 at (3, -3), (3, -1.5), (3, 0). The object, a thin 8 x 0.5
+    # box, moves along +x to (0, 0) at t = 0.2 s (heading 0), then turns up +y.
+    # On a's grid its last pose keeps the last segment's heading 0: it spans x in [-4, 4] at
+    # t = 0.2 and meets the ego (x in [2, 4]) at equal times, so ttc = 0.2 = H and ss_aa = 1.
+    # With the long grid's heading there (pi/2, towards the next point) it would miss at
+    # t = 0.2 and meet the ego's t = 0.2 pose with its t = 0.1 pose (x up to -1.5 + 4 = 2.5):
+    # pet = 0.1, ss = 0.1 / 2 = 0.05.
+    plan = [[0.0, 3.0, -3.0], [0.1, 3.0, -1.5], [0.2, 3.0, 0.0]]
+    path = [[0.0, -3.0, 0.0], [0.1, -1.5, 0.0], [0.2, 0.0, 0.0]]
+    path += [[round(0.1 * n, 1), 0.0, 1.5 * (n - 2)] for n in range(3, 11)]
+    o = obj(1, -3, 0, 0.0, 8, 0.5, prediction=path)
+    assert safety_score(*_single(plan, o), PET_REF)[0] == 1.0
+    matrix = safety_matrix(["a", "b"], _with_long_plan(plan, [o]), PET_REF)
+    assert matrix[("a", "a")] == 1.0
+
+
+def _single(plan, o):
+    s = frame(0.0, {"a": channel(ego(3, -3, math.pi / 2, 2, 2), plan=plan, objects=[o])})
+    st_ = s.channels["a"]
+    return st_.plan, st_.ego, st_.objects
