@@ -16,7 +16,7 @@ from time import perf_counter
 
 import numpy as np
 
-from monitor.comfort import hcs, ppcs
+from monitor.comfort import MIN_POINTS, comfort_scores
 from monitor.frames import Frame
 from monitor.history import chpps, els_var
 from monitor.prediction import ompv
@@ -89,6 +89,8 @@ class MetricEngine:
         self._plans = {c: _Timed(p.plan_history, p.max_gap) for c in self.channels}
         self._objects = {c: _Timed(1, p.max_gap) for c in self.channels}
         self._ego = {c: _Timed(p.comfort_window, p.max_gap) for c in self.channels}
+        self._hcs_names = [channel_name("hcs", c) for c in self.channels]
+        self._ppcs_names = [channel_name("ppcs", c) for c in self.channels]
 
     def arbitration(self) -> str | None:
         """The channel recommended at the last step (argmax of ss_i), or None."""
@@ -192,27 +194,26 @@ class MetricEngine:
 
     def _comfort(self, frame: Frame, out: dict[str, float | None]) -> None:
         p = self.params
-        hv: list[float | None] = []
-        pv: list[float | None] = []
+        # hcs and ppcs of every channel in one batched computation (see comfort_scores).
+        series: list[tuple[np.ndarray, np.ndarray, np.ndarray | None]] = []
+        slots: list[str] = []
         for c in self.channels:
             s = frame.channels.get(c)
-            h: float | None = None
-            q: float | None = None
-            if s is not None:
-                hist = self._ego[c]
-                hist.push(frame.t, (s.ego.x, s.ego.y, s.ego.yaw))
-                if len(hist.items) >= p.comfort_window:
-                    arr = np.array([(ts, *v) for ts, v in hist.items])
-                    h = hcs(
-                        arr[:, 0], arr[:, 1:3], arr[:, 3], p.comfort_window, p.comfort_steepness
-                    )
-                q = ppcs(s.plan, p.comfort_steepness)
-            out[channel_name("hcs", c)] = h
-            out[channel_name("ppcs", c)] = q
-            hv.append(h)
-            pv.append(q)
-        out["hcs"] = _worst(hv, False)
-        out["ppcs"] = _worst(pv, False)
+            if s is None:
+                continue
+            hist = self._ego[c]
+            hist.push(frame.t, (s.ego.x, s.ego.y, s.ego.yaw))
+            if len(hist.items) >= p.comfort_window:
+                arr = np.array([(ts, *v) for ts, v in hist.items])[-p.comfort_window :]
+                series.append((arr[:, 0], arr[:, 1:3], arr[:, 3]))
+                slots.append(channel_name("hcs", c))
+            if len(s.plan) >= MIN_POINTS:
+                series.append((s.plan[:, 0], s.plan[:, 1:3], None))
+                slots.append(channel_name("ppcs", c))
+        for name, value in zip(slots, comfort_scores(series, p.comfort_steepness), strict=True):
+            out[name] = value
+        out["hcs"] = _worst([out[n] for n in self._hcs_names], False)
+        out["ppcs"] = _worst([out[n] for n in self._ppcs_names], False)
 
     def _safety(self, frame: Frame, out: dict[str, float | None]) -> None:
         matrix = safety_matrix(self.channels, frame.channels, self.params.pet_ref)

@@ -6,8 +6,10 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from monitor.comfort import comfort_score, hcs, nv, ppcs
+from monitor.comfort import comfort_score, comfort_scores, hcs, nv, ppcs
 
 W = 0.2
 
@@ -70,3 +72,37 @@ def test_jerk_counts():
     # peak |a_lon| = 6 * t at the last acceleration sample (t = 0.4) -> 2.4
     a_peak = 6 * 0.4
     assert got == pytest.approx(1 - (nv(a_peak, W) / 2 + nv(6.0, W)) / 2, abs=1e-6)
+
+
+@st.composite
+def comfort_series(draw):
+    """A (times, xy, yaw or None) series: 2 to 12 samples on an irregular increasing grid,
+    sometimes standing still (an undefined plan tangent)."""
+    n = draw(st.integers(2, 12))
+    t0 = draw(st.floats(-5, 100))
+    steps = draw(st.lists(st.floats(0.05, 0.3), min_size=n - 1, max_size=n - 1))
+    times = t0 + np.concatenate([[0.0], np.cumsum(steps)])
+    # smooth motion: a velocity that changes by up to 3 m/s per step
+    v0 = np.array([draw(st.floats(-20, 20)), draw(st.floats(-20, 20))])
+    dv = st.tuples(st.floats(-3, 3), st.floats(-3, 3))
+    vel = v0 + np.cumsum(np.array(draw(st.lists(dv, min_size=n, max_size=n))), axis=0)
+    xy = draw(st.floats(-100, 100)) + np.cumsum(vel * np.append(steps, 0.1)[:, None], axis=0)
+    if draw(st.booleans()):
+        xy[: n // 2] = xy[0]  # stands still first
+    yaw = np.array(draw(st.lists(st.floats(-4, 4), min_size=n, max_size=n)))
+    return times, xy, yaw if draw(st.booleans()) else None
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.lists(comfort_series(), min_size=1, max_size=5))
+def test_batched_scores_equal_one_at_a_time(series):
+    """The engine scores every hcs and ppcs series of a frame in one concatenated pass; each
+    value must be the single-series score (None below four samples)."""
+    w = 0.02  # a gentle steepness keeps NV away from saturation: peaks stay distinguishable
+    got = comfort_scores(series, w)
+    for (times, xy, yaw), value in zip(series, got, strict=True):
+        want = comfort_score(times, xy, yaw, w)
+        if want is None:
+            assert value is None
+        else:
+            assert value == pytest.approx(want, abs=1e-12)
