@@ -1,26 +1,38 @@
 """Channel models: what two imperfect driving stacks would report about the same true traffic.
 
 Each channel is seeded on its own (scenario seed and channel seed), so changing one channel's
-parameters does not change the other's noise. Per channel:
+parameters does not change the other's noise. The errors are those of a tracking stack, not of
+raw detections: they are correlated in time, because a fused localisation, an object tracker and
+a planner all filter their inputs. White noise of the same size would make consecutive ticks
+disagree with each other, which the time-based metrics (ompv, chpps, hcs, ppcs) read as faults.
 
-- localisation: white noise, a slow smooth drift (a sum of a few low-frequency sinusoids), and
-  injected faults in which the ego estimate jumps back and forth by metres for a second or two;
-- perception: a sensing range and a field of view centred forward (a channel with a field of view
-  below 360 degrees is blind behind the ego), position noise growing with range, heading, speed
-  and size noise, missed detections, short-lived ghost objects, and track-id switches; objects are
-  reported in the channel's own world frame, so its localisation error shifts them too;
-- predictions: constant velocity and heading, `prediction_points` points every
-  `prediction_step` seconds;
-- the ego plan: the ego's true future path over the channel's horizon, shifted by the channel's
-  localisation error and distorted smoothly (a lateral offset growing with the square of the
-  look-ahead time and a speed bias that stretches the path).
+- Ego motion: SUMO changes a vehicle's acceleration from one step to the next and draws junction
+  paths as polylines. The channels see the ego path low-passed (a centred Gaussian kernel of
+  `EGO_SMOOTHING` seconds), which is how a real vehicle with actuator lag moves.
+- Localisation: truth + a smooth jitter + a slow drift (sums of sinusoids) + injected faults in
+  which the ego estimate jumps back and forth by metres for a second or two.
+- Perception: a sensing range and a field of view centred forward (below 360 degrees the channel
+  is blind behind the ego). Each true vehicle has a per-channel track error: position, heading,
+  and velocity (along and across the vehicle's true heading) errors that are smooth random
+  processes with correlation time `track_tau`, plus a constant size bias. Missed detections come
+  in short runs (`miss_len` ticks), ghosts live a fraction of a second, track ids rarely switch.
+  Objects are reported in the channel's own world frame, so its localisation error shifts them.
+- Predictions: constant velocity from the tracked velocity vector, `prediction_points` points
+  from `prediction_step` to `prediction_points * prediction_step` seconds. Both channels use the
+  same points (ots compares them index by index) and cover at least their plan horizon (an object
+  whose prediction has ended "stays at its last point" in the safety score).
+- Plan: the ego's smoothed true future path over the channel's horizon, shifted by the channel's
+  localisation error and distorted by a lateral and a longitudinal offset that grow with the
+  square of the look-ahead time and vary slowly in time (second-order low-pass processes).
 
-The per-tick work is vectorised over vehicles and plan/prediction points with numpy; the only
-Python loop is over frames (and over the few visible objects for the id bookkeeping).
+The per-tick work is vectorised over vehicles and plan/prediction points with numpy; the random
+processes are drawn for the whole run when the model is built, so a tick's report does not
+depend on which ticks were asked for before (apart from the track-id bookkeeping).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -39,6 +51,17 @@ PREDICTION_DECIMALS = 2
 EGO_DECIMALS = 4
 OBJECT_DECIMALS = 3
 
+#: Standard deviation (s) of the Gaussian kernel that turns SUMO's ego path into a vehicle's
+#: path: SUMO's car-following model steps the acceleration (jerk of tens of m/s^3 in one step)
+#: and draws junction paths as polylines. At 0.4 s an acceleration step of 7 m/s^2 becomes a
+#: jerk of about 7 m/s^3; positions move by a few centimetres (a^2 sigma^2 / 2 at most ~0.3 m
+#: while braking at 4 m/s^2).
+EGO_SMOOTHING = 0.4
+
+#: Plan and object speeds below this (m/s) scale the plan distortion and the velocity errors
+#: down linearly: a stopped planner plans to stay, a tracker knows a stopped car is stopped.
+STANDSTILL_SPEED = 3.0
+
 
 @dataclass(frozen=True)
 class ChannelParams:
@@ -48,11 +71,15 @@ class ChannelParams:
     seed: int
     range_m: float
     fov_deg: float  # total field of view centred on the ego's heading; 360 = all around
-    pos_sigma: float  # object position noise at zero range; doubles at the sensing range
-    yaw_sigma: float
-    speed_sigma: float
-    size_sigma: float  # relative (fraction of length and width)
-    p_miss: float  # probability that a visible object is not reported in a tick
+    pos_sigma: float  # track position error per axis at zero range; doubles at the range
+    pos_white: float  # white measurement noise on top of the track error, per axis
+    yaw_sigma: float  # track heading error
+    speed_sigma: float  # track velocity error along the object's heading (m/s)
+    lat_speed_sigma: float  # track velocity error across the object's heading (m/s)
+    size_sigma: float  # relative bias of length and width, constant per track
+    track_tau: float  # correlation time of the track errors
+    p_miss: float  # share of ticks in which a visible object is not reported
+    miss_len: float  # mean length of a run of missed ticks
     ghost_rate: float  # expected ghost objects appearing per second
     ghost_life: tuple[float, float]  # lifetime range (s)
     p_id_switch: float  # probability per object and tick that its track id changes
@@ -62,35 +89,34 @@ class ChannelParams:
     loc_drift_period: tuple[float, float]  # periods of the drift components (s)
     loc_yaw_sigma: float
     ego_speed_sigma: float
-    plan_horizon: float
-    plan_lateral: float  # std of the lateral plan offset at the end of the horizon
-    plan_speed_bias: float  # std of the relative stretch of the planned path
-    plan_period: tuple[float, float]  # periods of the plan distortion processes (s)
+    plan_horizon: float  # at most prediction_points * prediction_step
+    plan_lateral: float  # std of the lateral plan offset at the end of the horizon (m)
+    plan_longitudinal: float  # std of the along-path plan offset at the end of the horizon (m)
+    plan_tau: float  # time constant of the plan distortion processes (s)
     prediction_points: int = 30
     prediction_step: float = 0.1
-    loc_jitter_period: tuple[float, float] = (1.5, 6.0)
+    loc_jitter_period: tuple[float, float] = (3.0, 10.0)
 
 
-#: The all-round channel (the study's LAV stack: 360-degree perception, 5 s plan). Its 30
-#: prediction points are 0.2 s apart so they cover its plan: an object whose prediction ends
-#: "stays at its last point" for the safety score, which would put phantom obstacles in a
-#: longer plan.
+#: The all-round channel (the study's LAV stack: 360-degree LiDAR perception).
 LAV = ChannelParams(
-    name="lav", seed=101, range_m=60.0, fov_deg=360.0, pos_sigma=0.20, yaw_sigma=0.03,
-    speed_sigma=0.3, size_sigma=0.05, p_miss=0.04, ghost_rate=0.08, ghost_life=(0.3, 1.0),
-    p_id_switch=0.002, track_timeout=1.0, loc_sigma=0.05, loc_drift=0.15,
-    loc_drift_period=(20.0, 60.0), loc_yaw_sigma=0.005, ego_speed_sigma=0.1,
-    plan_horizon=5.0, plan_lateral=0.3, plan_speed_bias=0.03, plan_period=(4.0, 15.0),
-    prediction_step=0.2,
+    name="lav", seed=101, range_m=60.0, fov_deg=360.0, pos_sigma=0.08, pos_white=0.02,
+    yaw_sigma=0.01, speed_sigma=0.10, lat_speed_sigma=0.03, size_sigma=0.04, track_tau=1.0,
+    p_miss=0.02, miss_len=3.0, ghost_rate=0.03, ghost_life=(0.3, 1.0), p_id_switch=0.001,
+    track_timeout=1.0, loc_sigma=0.02, loc_drift=0.06, loc_drift_period=(20.0, 60.0),
+    loc_yaw_sigma=0.004, ego_speed_sigma=0.05, plan_horizon=3.0, plan_lateral=0.25,
+    plan_longitudinal=0.30, plan_tau=5.0,
 )
 
-#: The forward-looking channel (the study's TransFuser stack: blind behind, 3 s plan).
+#: The forward-looking channel (the study's TransFuser stack: camera-based, blind behind, a
+#: shorter plan).
 TFUSE = ChannelParams(
-    name="tfuse", seed=202, range_m=50.0, fov_deg=200.0, pos_sigma=0.30, yaw_sigma=0.05,
-    speed_sigma=0.5, size_sigma=0.08, p_miss=0.07, ghost_rate=0.15, ghost_life=(0.2, 0.8),
-    p_id_switch=0.005, track_timeout=0.5, loc_sigma=0.08, loc_drift=0.20,
-    loc_drift_period=(15.0, 45.0), loc_yaw_sigma=0.008, ego_speed_sigma=0.15,
-    plan_horizon=3.0, plan_lateral=0.2, plan_speed_bias=0.04, plan_period=(3.0, 10.0),
+    name="tfuse", seed=202, range_m=50.0, fov_deg=200.0, pos_sigma=0.12, pos_white=0.03,
+    yaw_sigma=0.015, speed_sigma=0.15, lat_speed_sigma=0.05, size_sigma=0.07, track_tau=0.8,
+    p_miss=0.03, miss_len=3.0, ghost_rate=0.05, ghost_life=(0.2, 0.8), p_id_switch=0.002,
+    track_timeout=0.5, loc_sigma=0.03, loc_drift=0.08, loc_drift_period=(15.0, 45.0),
+    loc_yaw_sigma=0.006, ego_speed_sigma=0.08, plan_horizon=2.5, plan_lateral=0.20,
+    plan_longitudinal=0.30, plan_tau=4.0, loc_jitter_period=(3.0, 8.0),
 )
 
 
@@ -104,6 +130,51 @@ def smooth_process(
     phases = rng.uniform(0.0, 2.0 * np.pi, components)
     amp = std * np.sqrt(2.0 / components)
     return amp * np.sin(2.0 * np.pi * times[:, None] / periods[None, :] + phases).sum(axis=1)
+
+
+def lowpass_noise(
+    rng: np.random.Generator, n: int, dt: float, tau: float, shape: tuple[int, ...] = (),
+) -> np.ndarray:
+    """(n, *shape) unit-variance zero-mean noise, low-passed by two first-order stages of time
+    constant `tau` in series (a critically damped second-order filter: smooth, no overshoot).
+
+    With phi = exp(-dt / tau) the output is b_k = sum_m (m + 1) phi^m w_{k-m} for white w, of
+    variance sum_m (m + 1)^2 phi^(2m) = (1 + phi^2) / (1 - phi^2)^3; dividing by its square root
+    gives unit variance. A warm-up of 6 tau starts the series in its stationary state.
+    """
+    phi = math.exp(-dt / tau)
+    warm = math.ceil(6.0 * tau / dt)
+    white = rng.standard_normal((warm + n, *shape))
+    a = np.zeros(shape)
+    b = np.zeros(shape)
+    out = np.empty((n, *shape))
+    for k in range(warm + n):
+        a = phi * a + white[k]
+        b = phi * b + a
+        if k >= warm:
+            out[k - warm] = b
+    return out / math.sqrt((1.0 + phi**2) / (1.0 - phi**2) ** 3)
+
+
+def gaussian_smooth(values: np.ndarray, sigma_ticks: float) -> np.ndarray:
+    """Centred Gaussian low-pass of `values` along axis 0 (truncated at 4 sigma).
+
+    The ends are padded by point reflection (2 v_0 - v_k), which keeps a straight line
+    straight, so the smoothed path neither bends nor slows down at the start or end of the run.
+    """
+    if sigma_ticks <= 0:
+        return values.copy()
+    h = max(1, math.ceil(4.0 * sigma_ticks))
+    h = min(h, len(values) - 1)
+    if h < 1:
+        return values.copy()
+    k = np.arange(-h, h + 1)
+    kernel = np.exp(-0.5 * (k / sigma_ticks) ** 2)
+    kernel /= kernel.sum()
+    head = 2.0 * values[0] - values[1 : h + 1][::-1]
+    tail = 2.0 * values[-1] - values[-h - 1 : -1][::-1]
+    padded = np.concatenate([head, values, tail])
+    return np.convolve(padded, kernel, mode="valid")
 
 
 def fault_offsets(
@@ -134,22 +205,44 @@ def fault_offsets(
 
 
 @dataclass
+class EgoMotion:
+    """The ego's physical path: SUMO's path low-passed (see `EGO_SMOOTHING`)."""
+
+    x: np.ndarray
+    y: np.ndarray
+    yaw: np.ndarray
+    speed: np.ndarray
+
+
+def ego_motion(gt: GroundTruth, sigma: float = EGO_SMOOTHING) -> EgoMotion:
+    """Smooth the ego's SUMO path with a centred Gaussian kernel of `sigma` seconds."""
+    e = gt.ego_index
+    ticks = sigma / (gt.times[1] - gt.times[0]) if len(gt.times) > 1 else 0.0
+    x = gaussian_smooth(gt.x[:, e], ticks)
+    y = gaussian_smooth(gt.y[:, e], ticks)
+    yaw = gaussian_smooth(np.unwrap(gt.yaw[:, e]), ticks)
+    yaw = (yaw + np.pi) % (2.0 * np.pi) - np.pi
+    return EgoMotion(x, y, yaw, gaussian_smooth(gt.speed[:, e], ticks))
+
+
+@dataclass
 class Localization:
     """A channel's ego estimate for every tick (world frame)."""
 
     x: np.ndarray
     y: np.ndarray
     yaw: np.ndarray
-    offset: np.ndarray  # (T, 2) estimate minus truth, including faults
+    offset: np.ndarray  # (T, 2) estimate minus the ego's physical path, including faults
 
 
 def localize(
-    gt: GroundTruth, params: ChannelParams, faults: tuple[LocalizationFault, ...], seed: int
+    gt: GroundTruth, params: ChannelParams, faults: tuple[LocalizationFault, ...], seed: int,
+    motion: EgoMotion | None = None,
 ) -> Localization:
-    """The channel's ego pose over the whole run: truth + white noise + drift + faults."""
+    """The channel's ego pose over the whole run: path + smooth jitter + drift + faults."""
     rng = np.random.default_rng([seed, params.seed, 1])
+    m = motion if motion is not None else ego_motion(gt)
     t = gt.times
-    e = gt.ego_index
     drift = np.stack([smooth_process(rng, t, params.loc_drift, params.loc_drift_period)
                       for _ in range(2)], axis=1)
     # a fused localisation is smooth at 10 Hz: its error is correlated from tick to tick, not
@@ -157,46 +250,83 @@ def localize(
     noise = np.stack([smooth_process(rng, t, params.loc_sigma, params.loc_jitter_period, 6)
                       for _ in range(2)], axis=1)
     offset = drift + noise + fault_offsets(rng, t, faults, params.name)
-    yaw = gt.yaw[:, e] + smooth_process(rng, t, params.loc_yaw_sigma, params.loc_jitter_period, 6)
+    yaw = m.yaw + smooth_process(rng, t, params.loc_yaw_sigma, params.loc_jitter_period, 6)
     yaw += smooth_process(rng, t, params.loc_yaw_sigma, params.loc_drift_period)
-    return Localization(gt.x[:, e] + offset[:, 0], gt.y[:, e] + offset[:, 1], yaw, offset)
+    return Localization(m.x + offset[:, 0], m.y + offset[:, 1], yaw, offset)
 
 
-def true_plan_points(gt: GroundTruth, tick: int, horizon: float, step: float) -> np.ndarray:
-    """(N, 3) [dt, x, y] of the ego's true centre over the next `horizon` seconds (truncated at
-    the end of the simulated run)."""
-    e = gt.ego_index
+def true_plan_points(
+    gt: GroundTruth, tick: int, horizon: float, step: float, motion: EgoMotion | None = None,
+) -> np.ndarray:
+    """(N, 3) [dt, x, y] of the ego's physical centre path over the next `horizon` seconds
+    (truncated at the end of the simulated run)."""
+    m = motion if motion is not None else ego_motion(gt)
     k = round(step / (gt.times[1] - gt.times[0]))
     n = round(horizon / step) + 1
     idx = tick + k * np.arange(n)
     idx = idx[idx < len(gt.times)]
     dt = gt.times[idx] - gt.times[tick]
-    return np.column_stack([dt, gt.x[idx, e], gt.y[idx, e]])
+    return np.column_stack([dt, m.x[idx], m.y[idx]])
+
+
+def markov_misses(
+    rng: np.random.Generator, shape: tuple[int, int], share: float, mean_len: float,
+) -> np.ndarray:
+    """(T, V) booleans: runs of missed ticks with mean length `mean_len` covering about
+    `share` of the ticks (a two-state Markov chain started in its stationary state)."""
+    out = np.zeros(shape, dtype=bool)
+    if share <= 0.0:
+        return out
+    p_end = 1.0 / max(mean_len, 1.0)
+    p_start = min(1.0, share * p_end / (1.0 - share))
+    u = rng.random(shape)
+    state = rng.random(shape[1]) < share
+    for k in range(shape[0]):
+        state = np.where(state, u[k] >= p_end, u[k] < p_start)
+        out[k] = state
+    return out
 
 
 class ChannelModel:
-    """Turns ground truth into one channel's per-frame report, tick by tick (stateful tracks)."""
+    """Turns ground truth into one channel's per-frame report (stateful only in its track ids)."""
 
     def __init__(
         self, gt: GroundTruth, params: ChannelParams, faults: tuple[LocalizationFault, ...],
         seed: int,
     ) -> None:
+        p = params
+        horizon = p.prediction_points * p.prediction_step
+        if p.plan_horizon > horizon + 1e-9:
+            raise ValueError(
+                f"channel {p.name}: plan horizon {p.plan_horizon} s is longer than its "
+                f"predictions ({horizon:g} s); objects would stop at the end of their "
+                "prediction and stand in the plan's way"
+            )
         self.gt = gt
-        self.p = params
-        self.loc = localize(gt, params, faults, seed)
+        self.p = p
+        self.motion = ego_motion(gt)
+        self.loc = localize(gt, p, faults, seed, self.motion)
+        n_t, n_v = gt.x.shape
+        dt = float(gt.times[1] - gt.times[0]) if n_t > 1 else 0.1
         self.rng = np.random.default_rng([seed, params.seed, 2])
         plan_rng = np.random.default_rng([seed, params.seed, 3])
-        self.plan_lat = smooth_process(plan_rng, gt.times, params.plan_lateral, params.plan_period)
-        self.plan_stretch = smooth_process(
-            plan_rng, gt.times, params.plan_speed_bias, params.plan_period
-        )
+        track_rng = np.random.default_rng([seed, params.seed, 4])
+        self.plan_lat = p.plan_lateral * lowpass_noise(plan_rng, n_t, dt, p.plan_tau)
+        self.plan_lon = p.plan_longitudinal * lowpass_noise(plan_rng, n_t, dt, p.plan_tau)
+        # per-(tick, vehicle) track errors, unit variance; scaled when reported
+        self.err_pos = lowpass_noise(track_rng, n_t, dt, p.track_tau, (n_v, 2))
+        self.err_vel = lowpass_noise(track_rng, n_t, dt, p.track_tau, (n_v, 2))
+        self.err_yaw = lowpass_noise(track_rng, n_t, dt, p.track_tau, (n_v,))
+        self.size_bias = 1.0 + p.size_sigma * track_rng.standard_normal((n_v, 2))
+        self.missed = markov_misses(track_rng, (n_t, n_v), p.p_miss, p.miss_len)
+        self.switch = track_rng.random((n_t, n_v)) < p.p_id_switch
         self.track: dict[int, str] = {}
         self.last_seen: dict[int, float] = {}
         self.next_id = 1
         self.ghosts: list[dict[str, Any]] = []
-        ego = gt.ego_index
-        self.others = np.ones(len(gt.ids), dtype=bool)
-        self.others[ego] = False
+        self.others = np.ones(n_v, dtype=bool)
+        self.others[gt.ego_index] = False
+        self.pred_dt = p.prediction_step * np.arange(1, p.prediction_points + 1)
 
     def _new_id(self) -> str:
         tid = str(self.next_id)
@@ -205,7 +335,7 @@ class ChannelModel:
 
     def ego(self, tick: int) -> dict[str, float]:
         gt, e, p = self.gt, self.gt.ego_index, self.p
-        speed = gt.speed[tick, e] + self.rng.normal(0.0, p.ego_speed_sigma)
+        speed = self.motion.speed[tick] + self.rng.normal(0.0, p.ego_speed_sigma)
         yaw = self.loc.yaw[tick]
         return {
             "x": self.loc.x[tick], "y": self.loc.y[tick], "yaw": yaw,
@@ -214,44 +344,50 @@ class ChannelModel:
         }
 
     def plan(self, tick: int) -> np.ndarray:
-        """(N, 3) plan: true future path, stretched, bent sideways, shifted by localisation."""
-        gt, e = self.gt, self.gt.ego_index
-        pts = true_plan_points(gt, tick, self.p.plan_horizon, 0.1)
-        start = pts[0, 1:]
-        rel = pts[:, 1:] - start
-        yaw = gt.yaw[tick, e]
-        normal = np.array([-np.sin(yaw), np.cos(yaw)])
-        frac = pts[:, 0] / self.p.plan_horizon
-        bent = (start + rel * (1.0 + self.plan_stretch[tick])
-                + (self.plan_lat[tick] * frac**2)[:, None] * normal[None, :])
-        pts[:, 1:] = bent + self.loc.offset[tick]
+        """(N, 3) plan: the physical future path, offset along and across itself by amounts that
+        grow with (dt / H)^2, shifted by the localisation error."""
+        m = self.motion
+        pts = true_plan_points(self.gt, tick, self.p.plan_horizon, 0.1, m)
+        idx = tick + np.arange(len(pts))
+        yaw = m.yaw[idx]
+        frac = (pts[:, 0] / self.p.plan_horizon) ** 2
+        scale = min(1.0, max(0.0, float(m.speed[tick])) / STANDSTILL_SPEED)
+        lon = scale * self.plan_lon[tick] * frac
+        lat = scale * self.plan_lat[tick] * frac
+        pts[:, 1] += lon * np.cos(yaw) - lat * np.sin(yaw) + self.loc.offset[tick, 0]
+        pts[:, 2] += lon * np.sin(yaw) + lat * np.cos(yaw) + self.loc.offset[tick, 1]
         return pts
 
     def objects(self, tick: int) -> list[dict[str, Any]]:
-        gt, p, rng = self.gt, self.p, self.rng
-        e = gt.ego_index
+        gt, p, rng, m = self.gt, self.p, self.rng, self.motion
         t = gt.times[tick]
-        ex, ey, eyaw = gt.x[tick, e], gt.y[tick, e], gt.yaw[tick, e]
+        ex, ey, eyaw = gt.x[tick, gt.ego_index], gt.y[tick, gt.ego_index], m.yaw[tick]
         dx, dy = gt.x[tick] - ex, gt.y[tick] - ey
         dist = np.hypot(dx, dy)
         bearing = (np.arctan2(dy, dx) - eyaw + np.pi) % (2.0 * np.pi) - np.pi
         with np.errstate(invalid="ignore"):
             visible = (self.others & (dist <= p.range_m)
                        & (np.abs(bearing) <= np.radians(p.fov_deg) / 2.0 + 1e-9))
-        visible &= rng.random(len(visible)) >= p.p_miss
+        visible &= ~self.missed[tick]
         idx = np.flatnonzero(visible)
         n = len(idx)
         sigma = p.pos_sigma * (1.0 + dist[idx] / p.range_m)
         off = self.loc.offset[tick]
-        x = gt.x[tick, idx] + off[0] + rng.normal(0.0, 1.0, n) * sigma
-        y = gt.y[tick, idx] + off[1] + rng.normal(0.0, 1.0, n) * sigma
-        yaw = gt.yaw[tick, idx] + rng.normal(0.0, p.yaw_sigma, n)
-        speed = np.maximum(gt.speed[tick, idx] + rng.normal(0.0, p.speed_sigma, n), 0.0)
-        length = gt.length[idx] * (1.0 + rng.normal(0.0, p.size_sigma, n))
-        width = gt.width[idx] * (1.0 + rng.normal(0.0, p.size_sigma, n))
-        switch = rng.random(n) < p.p_id_switch
+        err = self.err_pos[tick, idx] * sigma[:, None] + rng.normal(0.0, p.pos_white, (n, 2))
+        x = gt.x[tick, idx] + off[0] + err[:, 0]
+        y = gt.y[tick, idx] + off[1] + err[:, 1]
+        true_yaw = gt.yaw[tick, idx]
+        yaw = true_yaw + p.yaw_sigma * self.err_yaw[tick, idx]
+        speed = gt.speed[tick, idx]
+        moving = np.clip(speed / STANDSTILL_SPEED, 0.0, 1.0)
+        v_lon = speed + moving * p.speed_sigma * self.err_vel[tick, idx, 0]
+        v_lat = moving * p.lat_speed_sigma * self.err_vel[tick, idx, 1]
+        c, s = np.cos(true_yaw), np.sin(true_yaw)
+        vx, vy = v_lon * c - v_lat * s, v_lon * s + v_lat * c
+        length = gt.length[idx] * self.size_bias[idx, 0]
+        width = gt.width[idx] * self.size_bias[idx, 1]
         ids = []
-        for j, sw in zip(idx.tolist(), switch.tolist(), strict=True):
+        for j, sw in zip(idx.tolist(), self.switch[tick, idx].tolist(), strict=True):
             lost = t - self.last_seen.get(j, -np.inf) > p.track_timeout
             if j not in self.track or lost or sw:
                 self.track[j] = self._new_id()
@@ -259,30 +395,33 @@ class ChannelModel:
             ids.append(self.track[j])
         cls = [gt.cls[j] for j in idx.tolist()]
 
-        # ghosts: appear at a random spot in the field of view and ride along with the ego
+        # ghosts: a false track at a random spot in the field of view that rides along with the
+        # ego (same velocity) for a fraction of a second
         if rng.random() < p.ghost_rate * 0.1:
-            life = rng.uniform(*p.ghost_life)
             half = np.radians(p.fov_deg) / 2.0
             self.ghosts.append({
-                "id": self._new_id(), "until": t + life,
+                "id": self._new_id(), "until": t + rng.uniform(*p.ghost_life),
                 "r": rng.uniform(5.0, p.range_m * 0.8), "b": rng.uniform(-half, half),
+                "dyaw": rng.normal(0.0, 0.1), "length": rng.uniform(0.8, 4.5),
+                "width": rng.uniform(0.6, 2.0),
             })
         self.ghosts = [g for g in self.ghosts if g["until"] >= t]
         if self.ghosts:
-            r = np.array([g["r"] for g in self.ghosts])
-            b = np.array([g["b"] for g in self.ghosts]) + eyaw
-            m = len(self.ghosts)
-            x = np.concatenate([x, ex + off[0] + r * np.cos(b) + rng.normal(0, 0.3, m)])
-            y = np.concatenate([y, ey + off[1] + r * np.sin(b) + rng.normal(0, 0.3, m)])
-            yaw = np.concatenate([yaw, eyaw + rng.normal(0.0, 0.3, m)])
-            speed = np.concatenate([speed, np.full(m, gt.speed[tick, e])])
-            length = np.concatenate([length, rng.uniform(0.8, 4.5, m)])
-            width = np.concatenate([width, rng.uniform(0.6, 2.0, m)])
+            g_r = np.array([g["r"] for g in self.ghosts])
+            g_b = np.array([g["b"] for g in self.ghosts]) + eyaw
+            g_yaw = eyaw + np.array([g["dyaw"] for g in self.ghosts])
+            ev = max(0.0, float(m.speed[tick]))
+            x = np.concatenate([x, ex + off[0] + g_r * np.cos(g_b)])
+            y = np.concatenate([y, ey + off[1] + g_r * np.sin(g_b)])
+            yaw = np.concatenate([yaw, g_yaw])
+            vx = np.concatenate([vx, np.full(len(g_r), ev * np.cos(eyaw))])
+            vy = np.concatenate([vy, np.full(len(g_r), ev * np.sin(eyaw))])
+            length = np.concatenate([length, [g["length"] for g in self.ghosts]])
+            width = np.concatenate([width, [g["width"] for g in self.ghosts]])
             ids += [g["id"] for g in self.ghosts]
-            cls += ["unknown"] * m
+            cls += ["unknown"] * len(g_r)
 
-        vx, vy = speed * np.cos(yaw), speed * np.sin(yaw)
-        dts = p.prediction_step * np.arange(p.prediction_points)
+        dts = self.pred_dt
         px = x[:, None] + vx[:, None] * dts[None, :]
         py = y[:, None] + vy[:, None] * dts[None, :]
         pred = np.stack([np.broadcast_to(dts, px.shape), px, py], axis=2)
@@ -296,7 +435,7 @@ class ChannelModel:
         ]
 
     def frame(self, tick: int) -> dict[str, Any]:
-        """The channel's entry of a casewatch frame at `tick` (floats rounded to 3 decimals)."""
+        """The channel's entry of a casewatch frame at `tick` (floats rounded, see *_DECIMALS)."""
         ego = {k: round(float(v), EGO_DECIMALS) for k, v in self.ego(tick).items()}
         return {"ego": ego, "plan": np.round(self.plan(tick), EGO_DECIMALS).tolist(),
                 "objects": self.objects(tick)}

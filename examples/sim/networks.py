@@ -36,6 +36,9 @@ class GridSpec:
     lanes: int = 2
     speed: float = 13.89
     tls_cycle: int = 50  # s; short enough that a red light stops traffic for at most ~25 s
+    # m/s^2: netgenerate limits the speed through a turn to this average lateral acceleration
+    # (its default, 5.5, is a racing line; 2.5 is a comfortable urban turn)
+    turn_lateral_acceleration: float = 2.5
 
 
 def sumo_tool(name: str) -> str:
@@ -100,6 +103,7 @@ def build_grid(spec: GridSpec, out_dir: Path) -> Path:
         "--tls.default-type", "static",
         "--tls.cycle.time", str(spec.tls_cycle),
         "--no-turnarounds", "true",
+        "--junctions.limit-turn-speed", f"{spec.turn_lateral_acceleration}",
         "-o", str(net),
     ])
     return net

@@ -103,28 +103,30 @@ HIGHWAY_TAILGATING = Scenario(
     seed=11,
     duration=120.0,
     ego=VehicleSpec("ego", "ego", HW, 400.0, 1, 24.0, lc_mode=512, max_speed=30.0),
-    vehicles=(VehicleSpec("lead", "lead", HW, 470.0, 1, 24.0, lc_mode=512, max_speed=25.0),),
+    vehicles=(VehicleSpec("lead", "lead", HW, 445.0, 1, 24.0, lc_mode=512, max_speed=25.0),),
     actions=(
-        Action(8.0, "ego", "tau", 0.45), Action(8.0, "ego", "min_gap", 1.0),
+        Action(8.0, "ego", "tau", 0.3), Action(8.0, "ego", "min_gap", 1.0),
+        Action(8.0, "ego", "max_speed", 33.0),
         Action(28.0, "lead", "slow_down", 10.0, 2.0),
         Action(40.0, "lead", "max_speed", 26.0), Action(40.0, "lead", "slow_down", 26.0, 8.0),
         Action(50.0, "ego", "tau", 1.6), Action(50.0, "ego", "min_gap", 2.5),
         Action(58.0, "ego", "max_speed", 22.0),
         Action(60.0, "lead", "lane", 2, 16.0),
         Action(76.0, "lead", "lane", 1, 44.0),
-        Action(80.0, "ego", "max_speed", 30.0),
-        Action(86.0, "ego", "tau", 0.45), Action(86.0, "ego", "min_gap", 1.0),
-        Action(96.0, "lead", "slow_down", 8.0, 2.2),
-        Action(104.0, "lead", "slow_down", 24.0, 6.0),
+        Action(80.0, "ego", "max_speed", 33.0),
+        Action(86.0, "ego", "tau", 0.3), Action(86.0, "ego", "min_gap", 1.0),
+        Action(110.0, "lead", "slow_down", 8.0, 2.2),
+        Action(114.0, "lead", "slow_down", 24.0, 6.0),
     ),
-    background=Background(initial=45, flow_per_hour=1500.0),
+    background=Background(initial=100, flow_per_hour=1500.0),
     faults=(LocalizationFault("tfuse", 70.0, 71.6, 3.5),),
 )
 
 HIGHWAY_TAILGATED = Scenario(
     name="highway-tailgated",
     description=(
-        "Three-lane highway. The ego cruises at 22 m/s; a faster car behind it closes up "
+        "Three-lane highway. The ego cruises at 22 m/s behind and left of a car in the right "
+        "lane; a faster car behind it closes up "
         "(tau 0.35 s, minGap 1 m) and stays in lane, backs off, closes up again, then "
         "overtakes; the ego moves to the right lane at the end. The tfuse channel is blind "
         "behind the ego, so only lav sees the tailgater. One localisation fault in lav."
@@ -135,6 +137,9 @@ HIGHWAY_TAILGATED = Scenario(
     ego=VehicleSpec("ego", "ego", HW, 400.0, 1, 22.0, lc_mode=512, max_speed=22.0),
     vehicles=(
         VehicleSpec("tailgater", "aggressive", HW, 340.0, 1, 22.0, lc_mode=512, max_speed=32.0),
+        # a car cruising ahead in the right lane at the ego's speed: traffic in front that both
+        # channels see (faster background traffic soon leaves the ego alone on the road ahead)
+        VehicleSpec("cruiser", "lead", HW, 435.0, 0, 22.0, lc_mode=512, max_speed=22.0),
     ),
     actions=(
         Action(10.0, "tailgater", "tau", 0.35), Action(10.0, "tailgater", "min_gap", 1.0),
@@ -144,7 +149,7 @@ HIGHWAY_TAILGATED = Scenario(
         Action(95.0, "tailgater", "tau", 1.2), Action(95.0, "tailgater", "min_gap", 2.5),
         Action(104.0, "ego", "lane", 0, 16.0),
     ),
-    background=Background(initial=40, flow_per_hour=1400.0),
+    background=Background(initial=100, flow_per_hour=1400.0),
     faults=(LocalizationFault("lav", 88.0, 89.8, 4.0),),
 )
 
@@ -160,10 +165,10 @@ URBAN_GRID = Scenario(
     duration=150.0,
     ego=VehicleSpec("ego", "ego", URBAN_ROUTE, 15.0, 1, 8.0, lc_mode=513, max_speed=13.89),
     vehicles=(
-        VehicleSpec("lead", "lead", URBAN_ROUTE, 45.0, 1, 8.0, lc_mode=513, max_speed=13.0),
+        VehicleSpec("lead", "lead", URBAN_ROUTE, 45.0, 1, 8.0, lc_mode=513, max_speed=11.5),
     ),
     actions=(
-        Action(5.0, "ego", "tau", 0.4), Action(5.0, "ego", "min_gap", 1.0),
+        Action(5.0, "ego", "tau", 0.3), Action(5.0, "ego", "min_gap", 1.0),
         Action(110.0, "ego", "tau", 1.5), Action(110.0, "ego", "min_gap", 2.5),
     ),
     background=Background(initial=160),
@@ -178,9 +183,10 @@ HIGHWAY_SHORT = Scenario(
     seed=5,
     duration=20.0,
     ego=VehicleSpec("ego", "ego", HW, 380.0, 1, 24.0, lc_mode=512, max_speed=30.0),
-    vehicles=(VehicleSpec("lead", "lead", HW, 460.0, 1, 24.0, lc_mode=512, max_speed=25.0),),
+    vehicles=(VehicleSpec("lead", "lead", HW, 425.0, 1, 24.0, lc_mode=512, max_speed=25.0),),
     actions=(
-        Action(3.0, "ego", "tau", 0.45), Action(3.0, "ego", "min_gap", 1.0),
+        Action(3.0, "ego", "tau", 0.3), Action(3.0, "ego", "min_gap", 1.0),
+        Action(3.0, "ego", "max_speed", 33.0),
         Action(12.0, "lead", "slow_down", 15.0, 4.0),
     ),
     background=Background(initial=20, flow_per_hour=800.0),

@@ -25,18 +25,25 @@ from examples.sim.networks import GridSpec, HighwaySpec, build_grid, build_highw
 from examples.sim.scenarios import Scenario, VehicleSpec
 
 STEP = 0.1
+#: Seconds a lane change takes (SUMO's simple continuous lane-change model). SUMO's default, 0,
+#: moves a vehicle across the lane (3.2 m) within one step: every lane change would read as a
+#: teleport to a tracker (a missed prediction, a phantom conflict) and as tens of m/s^2 of
+#: lateral acceleration in the comfort metrics.
+LANE_CHANGE_DURATION = 3.0
 
 #: vType definitions; lengths and widths are what the frames report as true footprints.
 VTYPES = """
-  <vType id="ego" vClass="passenger" length="4.6" width="1.9" accel="2.6" decel="4.5"
-         tau="1.5" minGap="2.5" sigma="0" speedFactor="1.0"/>
+  <vType id="ego" vClass="passenger" length="4.6" width="1.9" accel="1.5" decel="3.0"
+         emergencyDecel="9.0" carFollowModel="IDM" tau="1.5" minGap="2.5" sigma="0"
+         speedFactor="1.0" lcOvertakeRight="1"/>
   <vType id="lead" vClass="passenger" length="4.5" width="1.8" accel="2.6" decel="7.5"
          apparentDecel="4.5" emergencyDecel="9.0"
-         tau="1.4" minGap="2.5" sigma="0.2" speedFactor="1.0"/>
+         tau="1.4" minGap="2.5" sigma="0.2" speedFactor="1.0" lcOvertakeRight="1"/>
   <vType id="aggressive" vClass="passenger" length="4.7" width="1.85" accel="3.0" decel="5.0"
-         tau="1.2" minGap="2.5" sigma="0.1" speedFactor="1.2"/>
+         tau="1.2" minGap="2.5" sigma="0.1" speedFactor="1.2" lcOvertakeRight="1"/>
   <vType id="car" vClass="passenger" length="4.5" width="1.8" accel="2.6" decel="4.5"
-         tau="1.4" minGap="2.5" sigma="0.4" speedFactor="normc(1.0,0.1,0.8,1.2)"/>
+         tau="1.4" minGap="2.5" sigma="0.4" speedFactor="normc(1.0,0.1,0.8,1.2)"
+         lcOvertakeRight="1"/>
   <vType id="truck" vClass="truck" length="12.0" width="2.5" accel="1.3" decel="4.0"
          tau="1.6" minGap="3.0" sigma="0.3" maxSpeed="25"/>
 """
@@ -117,7 +124,7 @@ def _background_highway(sc: Scenario, rng: np.random.Generator, length: float) -
     placed: list[tuple[float, int]] = []
     n = 0
     while n < sc.background.initial:
-        pos = float(rng.uniform(20.0, min(length - 200.0, 2500.0)))
+        pos = float(rng.uniform(20.0, length - 200.0))
         lane = int(rng.integers(0, 3))
         near_scripted = any(abs(pos - p) < 120.0 and lane == ln for p, ln in scripted)
         crowded = any(abs(pos - p) < 25.0 and lane == ln for p, ln in placed)
@@ -219,6 +226,7 @@ def run(sc: Scenario, work_dir: Path | None = None, extra_time: float = 5.5) -> 
         "--seed", str(sc.seed), "--no-step-log", "true", "--no-warnings", "true",
         "--collision.action", "warn", "--time-to-teleport", "-1",
         "--default.action-step-length", f"{STEP}",
+        "--lanechange.duration", f"{LANE_CHANGE_DURATION}",
     ])
     ego = sc.ego.id
     steps = round((sc.duration + extra_time) / STEP) + 1

@@ -6,15 +6,24 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+import pytest
 
-from examples.sim.channels import LAV, TFUSE, ChannelModel, fault_offsets
+from examples.sim.channels import (
+    LAV,
+    TFUSE,
+    ChannelModel,
+    fault_offsets,
+    gaussian_smooth,
+    lowpass_noise,
+    markov_misses,
+)
 from examples.sim.scenarios import LocalizationFault
 from examples.sim.simulate import GroundTruth, sumo_to_centre
 
-QUIET = {"pos_sigma": 0.0, "yaw_sigma": 0.0, "speed_sigma": 0.0, "size_sigma": 0.0,
-         "p_miss": 0.0, "ghost_rate": 0.0, "p_id_switch": 0.0, "loc_sigma": 0.0,
-         "loc_drift": 0.0, "loc_yaw_sigma": 0.0, "ego_speed_sigma": 0.0,
-         "plan_lateral": 0.0, "plan_speed_bias": 0.0}
+QUIET = {"pos_sigma": 0.0, "pos_white": 0.0, "yaw_sigma": 0.0, "speed_sigma": 0.0,
+         "lat_speed_sigma": 0.0, "size_sigma": 0.0, "p_miss": 0.0, "ghost_rate": 0.0,
+         "p_id_switch": 0.0, "loc_sigma": 0.0, "loc_drift": 0.0, "loc_yaw_sigma": 0.0,
+         "ego_speed_sigma": 0.0, "plan_lateral": 0.0, "plan_longitudinal": 0.0}
 
 
 def _truth() -> GroundTruth:
@@ -44,25 +53,78 @@ def test_tfuse_is_blind_behind_and_lav_sees_all_around() -> None:
     assert [o["x"] for o in tfuse.objects(0)] == [20.0]
 
 
-def test_prediction_is_constant_velocity_over_30_points() -> None:
+def test_prediction_is_constant_velocity_over_30_points_of_0_1_s() -> None:
     gt = _truth()
-    for params, last_dt in ((TFUSE, 2.9), (LAV, 5.8)):
+    for params in (TFUSE, LAV):
         obj = ChannelModel(gt, replace(params, **QUIET), (), seed=1).objects(10)
         ahead = next(o for o in obj if o["x"] > 0)
         pred = np.array(ahead["prediction"])
         assert pred.shape == (30, 3)
-        # at t = 1.0 the car is at x = 20 + 10 * 1.0 = 30; tfuse: 29 steps of 0.1 s -> 2.9 s,
-        # x = 30 + 29 = 59; lav: 29 steps of 0.2 s -> 5.8 s, x = 30 + 58 = 88
+        # at t = 1.0 the car is at x = 20 + 10 * 1.0 = 30; points at dt = 0.1 .. 3.0, the same
+        # for both channels (ots compares them index by index): x = 30 + 10 * dt
         assert ahead["x"] == 30.0
-        np.testing.assert_allclose(pred[-1], [last_dt, 30.0 + 10.0 * last_dt, 0.0])
+        np.testing.assert_allclose(pred[:, 0], 0.1 * np.arange(1, 31), atol=1e-9)
+        np.testing.assert_allclose(pred[:, 1], 30.0 + 10.0 * pred[:, 0], atol=1e-9)
+        np.testing.assert_allclose(pred[:, 2], 0.0, atol=1e-9)
 
 
 def test_quiet_plan_is_true_future_path_over_the_horizon() -> None:
     gt = _truth()
-    plan = ChannelModel(gt, replace(TFUSE, **QUIET), (), seed=1).plan(0)
-    # 3.0 s horizon at 0.1 s -> 31 points; ego at 10 m/s -> x = 10 * dt
-    assert plan.shape == (31, 3)
-    np.testing.assert_allclose(plan[:, 1], 10.0 * plan[:, 0], atol=1e-9)
+    for params, points in ((TFUSE, 26), (LAV, 31)):
+        plan = ChannelModel(gt, replace(params, **QUIET), (), seed=1).plan(0)
+        # tfuse 2.5 s, lav 3.0 s at 0.1 s -> 26 / 31 points; ego at 10 m/s -> x = 10 * dt
+        # (the Gaussian smoothing of the ego path keeps a straight line straight)
+        assert plan.shape == (points, 3)
+        np.testing.assert_allclose(plan[:, 1], 10.0 * plan[:, 0], atol=1e-9)
+        np.testing.assert_allclose(plan[:, 2], 0.0, atol=1e-9)
+
+
+def test_plan_horizon_longer_than_predictions_is_refused() -> None:
+    # an object whose prediction ends stays at its last point: a 3.5 s plan against 3.0 s of
+    # prediction would meet phantom obstacles, so the model refuses the combination
+    with pytest.raises(ValueError, match=r"plan horizon 3\.5 s is longer"):
+        ChannelModel(_truth(), replace(LAV, plan_horizon=3.5), (), seed=1)
+
+
+def test_plans_change_little_from_one_tick_to_the_next() -> None:
+    """Plan distortion is a slow process: two plans 0.1 s apart, compared at the same absolute
+    times, differ by centimetres (the old white/stretch model moved them by tens of cm)."""
+    gt = _truth()
+    quiet_loc = {k: 0.0 for k in ("loc_sigma", "loc_drift", "loc_yaw_sigma")}
+    model = ChannelModel(gt, replace(LAV, **quiet_loc), (), seed=3)
+    a, b = model.plan(20), model.plan(21)
+    # b's point n is at the absolute time of a's point n + 1
+    gap = np.hypot(*(a[1:, 1:] - b[:-1, 1:]).T)
+    assert gap.max() < 0.05
+    # while the distortion itself is not zero (0.25 / 0.30 m std at the horizon)
+    assert np.hypot(*(a[-1, 1:] - [10.0 * (2.0 + 3.0), 0.0])) > 1e-3
+
+
+def test_lowpass_noise_has_unit_variance_and_small_steps() -> None:
+    x = lowpass_noise(np.random.default_rng(0), 20000, 0.1, 1.0)
+    # unit variance by construction (sample std of a correlated series: a few % off)
+    assert abs(x.std() - 1.0) < 0.1
+    # second-order low-pass: a 0.1 s step is about dt / tau = 0.1 of the std (white: 1.41)
+    assert np.diff(x).std() < 0.15
+
+
+def test_gaussian_smooth_keeps_lines_and_rounds_steps() -> None:
+    t = np.arange(100) * 0.1
+    line = 3.0 + 2.0 * t
+    np.testing.assert_allclose(gaussian_smooth(line, 4.0), line, atol=1e-9)
+    # a step of acceleration (0 -> 2 m/s^2 at t = 5 s): raw jerk 2 / 0.1 = 20 m/s^3 in one
+    # tick; smoothed with sigma = 0.4 s its peak is about 2 / (0.4 sqrt(2 pi)) = 2.0 m/s^3
+    x = np.where(t < 5.0, 0.0, (t - 5.0) ** 2)
+    jerk = np.diff(gaussian_smooth(x, 4.0), 3) / 0.1**3
+    assert 1.5 < np.abs(jerk[5:-5]).max() < 2.5
+
+
+def test_missed_detections_come_in_runs_with_the_given_share() -> None:
+    miss = markov_misses(np.random.default_rng(0), (20000, 4), 0.03, 3.0)
+    assert abs(miss.mean() - 0.03) < 0.005
+    starts = (miss[1:] & ~miss[:-1]).sum()
+    # mean run length = missed ticks / runs, about 3
+    assert 2.5 < miss[1:].sum() / starts < 3.5
 
 
 def test_fault_offsets_jump_by_the_amplitude_only_inside_the_fault() -> None:
