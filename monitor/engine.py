@@ -18,7 +18,7 @@ import numpy as np
 
 from monitor.comfort import MIN_POINTS, comfort_scores
 from monitor.frames import Frame
-from monitor.history import chpps, els_var
+from monitor.history import chpps_pairs, chpps_score, els_var, frechet_many
 from monitor.prediction import ompv
 from monitor.safety_score import arbitrate, safety_matrix
 from monitor.similarity import crpps_distance, ego_similarities, ets, object_similarities
@@ -164,33 +164,46 @@ class MetricEngine:
     def _motion_prediction(self, frame: Frame, out: dict[str, float | None]) -> None:
         p = self.params
         t = frame.t
-        for metric in ("chpps", "ompv"):
-            values: list[float | None] = []
-            for c in self.channels:
-                s = frame.channels.get(c)
-                v: float | None = None
-                if s is not None:
-                    if metric == "chpps":
-                        store = self._plans[c]
-                        if len(s.plan):
-                            stored = (
-                                [(t - ts, plan) for ts, plan in reversed(store.items)]
-                                if store.recent(t)
-                                else []
-                            )
-                            v = chpps(s.plan, stored, p.trajectory_decay)
-                            store.push(t, s.plan)
-                    else:
-                        prev = self._objects[c]
-                        if prev.recent(t):
-                            tp, objs = prev.items[-1]
-                            v = ompv(
-                                objs, t - tp, s.objects, p.prediction_tolerance, p.pairing_gate
-                            )
-                        prev.push(t, s.objects)
+        # chpps: the Fréchet inputs of every channel first, then one GEOS call for them all.
+        pairs: list[tuple[np.ndarray, np.ndarray]] = []
+        pending: list[tuple[str, int, list[float]]] = []
+        chpps_values: dict[str, float | None] = dict.fromkeys(self.channels)
+        ompv_values: dict[str, float | None] = dict.fromkeys(self.channels)
+        for c in self.channels:
+            s = frame.channels.get(c)
+            if s is None:
+                continue
+            store = self._plans[c]
+            if len(s.plan):
+                cur_dt = s.plan[:, 0].tolist()
+                if store.recent(t):
+                    items = store.items
+                    got, weights = chpps_pairs(
+                        s.plan,
+                        [(t - ts, plan) for ts, (plan, _) in reversed(items)],
+                        p.trajectory_decay,
+                        cur_dt,
+                        [dts for _, (_, dts) in reversed(items)],
+                    )
+                    if got:
+                        pending.append((c, len(pairs), weights))
+                        pairs.extend(got)
+                store.push(t, (s.plan, cur_dt))
+            prev = self._objects[c]
+            if prev.recent(t):
+                tp, objs = prev.items[-1]
+                ompv_values[c] = ompv(
+                    objs, t - tp, s.objects, p.prediction_tolerance, p.pairing_gate
+                )
+            prev.push(t, s.objects)
+        if pairs:
+            distances = frechet_many(pairs)
+            for c, start, weights in pending:
+                chpps_values[c] = chpps_score(distances[start : start + len(weights)], weights)
+        for metric, values in (("chpps", chpps_values), ("ompv", ompv_values)):
+            for c, v in values.items():
                 out[channel_name(metric, c)] = v
-                values.append(v)
-            out[metric] = _worst(values, False)
+            out[metric] = _worst(list(values.values()), False)
 
     def _comfort(self, frame: Frame, out: dict[str, float | None]) -> None:
         p = self.params

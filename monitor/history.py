@@ -26,47 +26,49 @@ def els_var(window: Sequence[float], size: int) -> float | None:
     return float(np.var(np.asarray(window[-size:], dtype=float), ddof=1))
 
 
-def frechet_many(pairs: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
+def frechet_many(pairs: Sequence[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
     """Discrete Fréchet distances of many (P, Q) point-sequence pairs, one GEOS call for all
     pairs whose sequences have at least two points."""
     out = np.empty(len(pairs))
-    multi = [k for k, (p, q) in enumerate(pairs) if len(p) > 1 and len(q) > 1]
+    multi: list[int] = []
     for k, (p, q) in enumerate(pairs):
         if len(p) == 1 or len(q) == 1:
             out[k] = frechet(p, q)
+        else:
+            multi.append(k)
     if multi:
         ps = [pairs[k][0] for k in multi]
         qs = [pairs[k][1] for k in multi]
-        la = shapely.linestrings(
-            np.concatenate(ps), indices=np.repeat(np.arange(len(ps)), [len(p) for p in ps])
-        )
-        lb = shapely.linestrings(
-            np.concatenate(qs), indices=np.repeat(np.arange(len(qs)), [len(q) for q in qs])
-        )
-        out[multi] = shapely.frechet_distance(la, lb)
+        rows = np.arange(len(multi))
+        la = shapely.linestrings(np.concatenate(ps), indices=rows.repeat([len(p) for p in ps]))
+        lb = shapely.linestrings(np.concatenate(qs), indices=rows.repeat([len(q) for q in qs]))
+        if len(multi) == len(pairs):
+            out = shapely.frechet_distance(la, lb)
+        else:
+            out[multi] = shapely.frechet_distance(la, lb)
     return out
 
 
-def chpps(
-    current: np.ndarray, stored: Sequence[tuple[float, np.ndarray]], decay: float
-) -> float | None:
-    """Channel Planned Path Similarity.
-
-    `current` (N, 3) plan; `stored` the earlier plans, most recent first, as (age [s], plan).
-    Stored plan j (rank j = 1 most recent) is shifted into the current time base (dt - age),
-    both plans are clipped to their common time range, f_j = inv(fd). Score = weighted mean
-    with w_j = k^(j-1) over the stored plans that overlap; None when none overlaps.
-    """
-    if len(current) == 0:
-        return None
-    cur_dt = current[:, 0].tolist()  # bisect on lists: far cheaper than numpy calls per plan
+def chpps_pairs(
+    current: np.ndarray,
+    stored: Sequence[tuple[float, np.ndarray]],
+    decay: float,
+    current_dt: list[float] | None = None,
+    stored_dt: Sequence[list[float]] | None = None,
+) -> tuple[list[tuple[np.ndarray, np.ndarray]], list[float]]:
+    """The Fréchet inputs of `chpps` and their weights: for each stored plan (age, plan), most
+    recent first, that overlaps the current plan, the two point sequences cut to their common
+    time range and w_j = k^(j-1). `current_dt` / `stored_dt` are the plans' dt columns as
+    lists when the caller already has them (the engine keeps them with the stored plans)."""
+    cur_dt = current[:, 0].tolist() if current_dt is None else current_dt
     c0, c1 = cur_dt[0], cur_dt[-1]
     pairs: list[tuple[np.ndarray, np.ndarray]] = []
     weights: list[float] = []
     for rank, (age, plan) in enumerate(stored):
         if len(plan) == 0:
             continue
-        sdt = plan[:, 0].tolist()
+        # bisect on lists: far cheaper than numpy calls per plan
+        sdt = plan[:, 0].tolist() if stored_dt is None else stored_dt[rank]
         lo = max(c0, sdt[0] - age) - TIME_EPS
         hi = min(c1, sdt[-1] - age) + TIME_EPS
         if lo > hi:
@@ -81,8 +83,29 @@ def chpps(
         pairs.append((current[a:b, 1:3], plan[sa:sb, 1:3]))
         # Decision: j is the rank among stored plans (1 = most recent), skipped ones included.
         weights.append(decay**rank)
-    if not pairs:
-        return None
-    f = 1.0 / (1.0 + frechet_many(pairs))
+    return pairs, weights
+
+
+def chpps_score(distances: np.ndarray, weights: Sequence[float]) -> float:
+    """sum_j w_j inv(fd_j) / sum_j w_j."""
+    f = 1.0 / (1.0 + distances)
     w = np.asarray(weights)
     return float(f @ w / w.sum())
+
+
+def chpps(
+    current: np.ndarray, stored: Sequence[tuple[float, np.ndarray]], decay: float
+) -> float | None:
+    """Channel Planned Path Similarity.
+
+    `current` (N, 3) plan; `stored` the earlier plans, most recent first, as (age [s], plan).
+    Stored plan j (rank j = 1 most recent) is shifted into the current time base (dt - age),
+    both plans are clipped to their common time range, f_j = inv(fd). Score = weighted mean
+    with w_j = k^(j-1) over the stored plans that overlap; None when none overlaps.
+    """
+    if len(current) == 0:
+        return None
+    pairs, weights = chpps_pairs(current, stored, decay)
+    if not pairs:
+        return None
+    return chpps_score(frechet_many(pairs), weights)

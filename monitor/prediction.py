@@ -27,10 +27,12 @@ def interpolate_tracks(
     if p > 1 and bool((pred_len == p).all()) and bool((dt == dt[0]).all()):
         # Common case: every object predicted on the same time grid, one searchsorted.
         g = dt[0]
-        i1 = np.clip(np.searchsorted(g, times, side="right") - 1, 0, p - 2)
-        f1 = np.clip((times - g[i1]) / (g[i1 + 1] - g[i1]), 0.0, 1.0)[None, :, None]
+        # np.minimum/np.maximum rather than np.clip: same values, a fraction of the overhead
+        i1 = np.minimum(np.maximum(np.searchsorted(g, times, side="right") - 1, 0), p - 2)
+        g0 = g.take(i1)
+        f1 = np.minimum(np.maximum((times - g0) / (g.take(i1 + 1) - g0), 0.0), 1.0)
         a = xy[:, i1]
-        out = a + (xy[:, i1 + 1] - a) * f1
+        out = a + (xy[:, i1 + 1] - a) * f1[None, :, None]
         if g[0] > 0 and times[0] < g[0]:
             before = times < g[0]
             lead = (times[before] / g[0])[None, :, None]

@@ -321,15 +321,11 @@ def _objects(
     else:
         pairs = list(zip(worlds, keep, strict=True))
         pos = np.concatenate([o.pos[m] for o, m in pairs])
-        if len({o.pred.shape[1] for o in worlds}) == 1:
-            # Same padded prediction length everywhere (the usual case): one interpolation.
-            pred = np.concatenate([o.pred[m] for o, m in pairs])
-            plen = np.concatenate([o.pred_len[m] for o, m in pairs])
-            centres = interpolate_tracks(pos, pred, plen, times)
-        else:
-            centres = np.concatenate(
-                [interpolate_tracks(o.pos[m], o.pred[m], o.pred_len[m], times) for o, m in pairs]
-            )
+        # One interpolation per world: each world usually predicts on one shared grid (the
+        # interpolation's fast path), but grids differ between stacks.
+        centres = np.concatenate(
+            [interpolate_tracks(o.pos[m], o.pred[m], o.pred_len[m], times) for o, m in pairs]
+        )
         yaw = np.concatenate([o.yaw[m] for o, m in pairs])
         radius = np.concatenate([o.radii[m] for o, m in pairs])
         half = np.concatenate([o.half[m] for o, m in pairs])
