@@ -129,12 +129,13 @@ def boxes_intersect(
 
 
 class _Movers:
-    """Footprints moving on a common time grid of L points: (M, L) centres and headings as
-    (cos, sin); their CHUNK-point runs (stored (CHUNK, M * C), flattened over movers so that
-    candidates gather columns) with bounding circles (M, C) including the footprint radius; the
-    bounding box of each whole sweep; per mover the radius, box half extents (NaN for
-    polygons), convexity and body-frame polygon. Egos also get a lateral separating axis per
-    run (`lateral=True`)."""
+    """Footprints moving on a common time grid of L points, egos (rows 0 .. I-1) and objects
+    (rows I ..) in one set of arrays, so that every setup step below is one numpy call for
+    both: (M, L) centres and headings as (cos, sin); their CHUNK-point runs (stored
+    (CHUNK, M * C), flattened over movers so that candidates gather columns) with bounding
+    circles (M, C) including the footprint radius; the bounding box of each whole sweep; per
+    mover the radius, box half extents (NaN for polygons), convexity and body-frame polygon;
+    per ego run a lateral separating axis."""
 
     __slots__ = (
         "all_boxes",
@@ -151,9 +152,7 @@ class _Movers:
         "half",
         "hi",
         "hl",
-        "hl_or_nan",
         "hw",
-        "hw_or_nan",
         "lo",
         "radius",
         "run_cos",
@@ -167,10 +166,13 @@ class _Movers:
         "yf",
     )  # fmt: skip
 
-    def __init__(self, x: np.ndarray, y: np.ndarray, cos: np.ndarray, sin: np.ndarray,
-                 radius: np.ndarray, half: np.ndarray, convex: np.ndarray,
-                 footprints: Sequence[np.ndarray], lateral: bool = False):  # fmt: skip
-        m, n = x.shape
+    def __init__(self, centres: np.ndarray, fallback: np.ndarray, radius: np.ndarray,
+                 half: np.ndarray, convex: np.ndarray, footprints: Sequence[np.ndarray],
+                 n_egos: int):  # fmt: skip
+        m, n = centres.shape[:2]
+        cos, sin = _directions(centres, fallback)
+        x = centres[..., 0]
+        y = centres[..., 1]
         self.x = x
         self.y = y
         # Flat copies: candidates are gathered with `take` on (mover * L + time) indices,
@@ -204,29 +206,27 @@ class _Movers:
         )
         self.radius = radius
         self.half = half
-        self.hl_or_nan = np.ascontiguousarray(half[:, 0])
-        self.hw_or_nan = np.ascontiguousarray(half[:, 1])
-        self.all_boxes = not np.isnan(self.hl_or_nan).any()
-        self.hl = self.hl_or_nan
-        self.hw = self.hw_or_nan
+        self.hl = np.ascontiguousarray(half[:, 0])  # NaN for polygons
+        self.hw = np.ascontiguousarray(half[:, 1])
+        self.all_boxes = not np.isnan(self.hl).any()
         self.convex = convex
         self.footprints = footprints
-        if lateral:
-            # Per run: the unit normal of its first point's heading (the lateral axis) and the
-            # interval that the run's footprints cover on it. A separating axis for the union
-            # of a run's footprints separates every pair within it, so this is a
-            # conservative, orientation-aware prefilter (parallel traffic in the next lane
-            # passes the circle tests but not this one).
-            self.axis_x = -self.run_sin[0]
-            self.axis_y = self.run_cos[0]
-            self.axis_lo, self.axis_hi = self.run_interval(
-                np.arange(m * nc),
-                np.repeat(self.hl_or_nan, nc),
-                np.repeat(self.hw_or_nan, nc),
-                np.repeat(radius, nc),
-                self.axis_x,
-                self.axis_y,
-            )
+        # Per ego run: the unit normal of its first point's heading (the lateral axis) and the
+        # interval that the run's footprints cover on it. A separating axis for the union of a
+        # run's footprints separates every pair within it, so this is a conservative,
+        # orientation-aware prefilter (parallel traffic in the next lane passes the circle
+        # tests but not this one).
+        ego_runs = n_egos * nc
+        self.axis_x = -self.run_sin[0, :ego_runs]
+        self.axis_y = self.run_cos[0, :ego_runs]
+        self.axis_lo, self.axis_hi = self.run_interval(
+            np.arange(ego_runs),
+            np.repeat(self.hl[:n_egos], nc),
+            np.repeat(self.hw[:n_egos], nc),
+            np.repeat(radius[:n_egos], nc),
+            self.axis_x,
+            self.axis_y,
+        )
 
     def run_interval(
         self,
@@ -251,29 +251,18 @@ class _Movers:
         return (centre - rad).min(axis=0), (centre + rad).max(axis=0)
 
 
-def _egos(plans: Sequence[np.ndarray], egos: Sequence[Ego], length: int) -> _Movers:
-    """The ego sweeps on the longest grid (L points). A shorter plan is padded by repeating its
-    last point: zero-length segments keep its last heading, so its real points get exactly
-    the poses of its own grid, and the padding (never tested) stays inside its real sweep."""
+def _ego_centres(plans: Sequence[np.ndarray], length: int) -> np.ndarray:
+    """(I, L, 2) ego sweeps on the longest grid (L points). A shorter plan is padded by
+    repeating its last point: zero-length segments keep its last heading, so its real points
+    get exactly the poses of its own grid, and the padding (never tested) stays inside its
+    real sweep."""
     if all(len(p) == length for p in plans):
-        centres = np.stack([p[:, 1:3] for p in plans])
-    else:
-        centres = np.empty((len(plans), length, 2))
-        for a, p in enumerate(plans):
-            centres[a, : len(p)] = p[:, 1:3]
-            centres[a, len(p) :] = p[-1, 1:3]
-    cos, sin = _directions(centres, np.array([e.yaw for e in egos]))
-    return _Movers(
-        centres[..., 0],
-        centres[..., 1],
-        cos,
-        sin,
-        np.array([e.radius for e in egos]),
-        np.array([e.half if e.half is not None else (np.nan, np.nan) for e in egos]),
-        np.array([e.convex for e in egos]),
-        [e.footprint for e in egos],
-        lateral=True,
-    )
+        return np.stack([p[:, 1:3] for p in plans])
+    centres = np.empty((len(plans), length, 2))
+    for a, p in enumerate(plans):
+        centres[a, : len(p)] = p[:, 1:3]
+        centres[a, len(p) :] = p[-1, 1:3]
+    return centres
 
 
 def _reachable(objects: Objects, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
@@ -296,90 +285,105 @@ def _reachable(objects: Objects, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     return ((p0 <= hi) & (p1 >= lo)).all(axis=1)
 
 
-def _objects(
-    worlds: Sequence[Objects], lo: np.ndarray, hi: np.ndarray, times: np.ndarray
+def _movers(
+    plans: Sequence[np.ndarray],
+    egos: Sequence[Ego],
+    worlds: Sequence[Objects],
+    times: np.ndarray,
 ) -> tuple[_Movers, np.ndarray] | None:
-    """The objects of all world models that can reach the box [lo, hi] holding every ego sweep,
-    on the grid `times`, and each one's world index; None when no object can."""
+    """Egos and the objects that can reach the box holding every ego sweep, on the grid
+    `times`, with each mover's world index (-1 for egos); None when no object can."""
+    n_pts = len(times)
+    ego_c = _ego_centres(plans, n_pts)
+    ego_r = np.array([e.radius for e in egos])
+    reach = ego_r.max()
+    ex = ego_c[..., 0]
+    ey = ego_c[..., 1]
+    lo = np.array([ex.min() - reach, ey.min() - reach])
+    hi = np.array([ex.max() + reach, ey.max() + reach])
     keep = [_reachable(o, lo, hi) for o in worlds]
     counts = [int(np.count_nonzero(m)) for m in keep]
     if not any(counts):
         return None
-    if len(worlds) == 1:
-        o, m = worlds[0], keep[0]
-        every = counts[0] == len(o)
-        pos = o.pos if every else o.pos[m]
-        pred = o.pred if every else o.pred[m]
-        plen = o.pred_len if every else o.pred_len[m]
-        centres = interpolate_tracks(pos, pred, plen, times)
-        yaw = o.yaw if every else o.yaw[m]
-        radius = o.radii if every else o.radii[m]
-        half = o.half if every else o.half[m]
-        convex = o.convex if every else o.convex[m]
-        footprints = o.footprints if every else o.footprints[m]
-        owner = np.zeros(counts[0], dtype=np.intp)
-    else:
-        pairs = list(zip(worlds, keep, strict=True))
-        pos = np.concatenate([o.pos[m] for o, m in pairs])
-        # One interpolation per world: each world usually predicts on one shared grid (the
-        # interpolation's fast path), but grids differ between stacks.
-        centres = np.concatenate(
-            [interpolate_tracks(o.pos[m], o.pred[m], o.pred_len[m], times) for o, m in pairs]
-        )
-        yaw = np.concatenate([o.yaw[m] for o, m in pairs])
-        radius = np.concatenate([o.radii[m] for o, m in pairs])
-        half = np.concatenate([o.half[m] for o, m in pairs])
-        convex = np.concatenate([o.convex[m] for o, m in pairs])
+    pairs = [(o, m) for o, m in zip(worlds, keep, strict=True) if m.any()]
+    every = [m.all() for _, m in pairs]
+    # One interpolation per world: each world usually predicts on one shared grid (the
+    # interpolation's fast path), but grids differ between stacks.
+    tracks = [
+        interpolate_tracks(o.pos, o.pred, o.pred_len, times)
+        if e
+        else interpolate_tracks(o.pos[m], o.pred[m], o.pred_len[m], times)
+        for (o, m), e in zip(pairs, every, strict=True)
+    ]
+
+    def cat(field: str, ego_part: np.ndarray) -> np.ndarray:
+        parts = [ego_part]
+        for (o, m), e in zip(pairs, every, strict=True):
+            v = getattr(o, field)
+            parts.append(v if e else v[m])
+        return np.concatenate(parts)
+
+    movers = _Movers(
+        np.concatenate([ego_c, *tracks]),
+        cat("yaw", np.array([e.yaw for e in egos])),
+        cat("radii", ego_r),
+        cat("half", np.array([e.half if e.half is not None else (np.nan, np.nan) for e in egos])),
+        cat("convex", np.array([e.convex for e in egos])),
         # a list: worlds pad their polygons to different vertex counts
-        footprints = [fp for o, m in pairs for fp in o.footprints[m]]
-        owner = np.repeat(np.arange(len(worlds)), counts)
-    cos, sin = _directions(centres, yaw)
-    movers = _Movers(centres[..., 0], centres[..., 1], cos, sin, radius, half, convex, footprints)
+        [e.footprint for e in egos]
+        + [
+            fp
+            for (o, m), e in zip(pairs, every, strict=True)
+            for fp in (o.footprints if e else o.footprints[m])
+        ],
+        len(plans),
+    )
+    owner = np.repeat(np.arange(-1, len(worlds)), [len(plans), *counts])
     return movers, owner
 
 
 def _exact(
-    eg: _Movers,
-    ob: _Movers,
+    mv: _Movers,
     i: np.ndarray,
     k: np.ndarray,
     fi: np.ndarray,
     fk: np.ndarray,
     fh: np.ndarray,
 ) -> np.ndarray:
-    """Exact footprint tests of ego i against object k: (C,) bool. fi = i * L + n and
-    fk = k * L + m are flat grid indices of the ego and object poses; fh = k * L + m' indexes
-    the object heading (m' = m except at the last point of a shorter grid, see score_grid)."""
-    if eg.all_boxes and ob.all_boxes:
+    """Exact footprint tests of ego i against object k (mover rows): (C,) bool. fi = i * L + n
+    and fk = k * L + m are flat grid indices of the ego and object poses; fh = k * L + m'
+    indexes the object heading (m' = m except at the last point of a shorter grid, see
+    score_grid)."""
+    if mv.all_boxes:
         return boxes_intersect(
-            ob.xf.take(fk) - eg.xf.take(fi), ob.yf.take(fk) - eg.yf.take(fi),
-            eg.cosf.take(fi), eg.sinf.take(fi), eg.hl.take(i), eg.hw.take(i),
-            ob.cosf.take(fh), ob.sinf.take(fh), ob.hl.take(k), ob.hw.take(k),
+            mv.xf.take(fk) - mv.xf.take(fi), mv.yf.take(fk) - mv.yf.take(fi),
+            mv.cosf.take(fi), mv.sinf.take(fi), mv.hl.take(i), mv.hw.take(i),
+            mv.cosf.take(fh), mv.sinf.take(fh), mv.hl.take(k), mv.hw.take(k),
         )  # fmt: skip
-    ehalf = eg.half[i]
-    ohalf = ob.half[k]
+    ehalf = mv.half[i]
+    ohalf = mv.half[k]
     boxes = ~(np.isnan(ehalf[:, 0]) | np.isnan(ohalf[:, 0]))
     hit = np.zeros(len(k), dtype=bool)
     if boxes.any():
         bfi, bfk, bfh = fi[boxes], fk[boxes], fh[boxes]
         hit[boxes] = boxes_intersect(
-            ob.xf.take(bfk) - eg.xf.take(bfi), ob.yf.take(bfk) - eg.yf.take(bfi),
-            eg.cosf.take(bfi), eg.sinf.take(bfi), ehalf[boxes, 0], ehalf[boxes, 1],
-            ob.cosf.take(bfh), ob.sinf.take(bfh), ohalf[boxes, 0], ohalf[boxes, 1],
+            mv.xf.take(bfk) - mv.xf.take(bfi), mv.yf.take(bfk) - mv.yf.take(bfi),
+            mv.cosf.take(bfi), mv.sinf.take(bfi), ehalf[boxes, 0], ehalf[boxes, 1],
+            mv.cosf.take(bfh), mv.sinf.take(bfh), ohalf[boxes, 0], ohalf[boxes, 1],
         )  # fmt: skip
     for row in np.nonzero(~boxes)[0]:
         # Polygon footprints are rare; one candidate at a time keeps ragged vertex counts simple.
         a = place(
-            eg.footprints[i[row]],
-            np.array([eg.xf[fi[row]], eg.yf[fi[row]]]),
-            np.arctan2(eg.sinf[fi[row]], eg.cosf[fi[row]]),
+            mv.footprints[i[row]],
+            np.array([mv.xf[fi[row]], mv.yf[fi[row]]]),
+            np.arctan2(mv.sinf[fi[row]], mv.cosf[fi[row]]),
         )
         b = place(
-            ob.footprints[k[row]],
-            np.array([ob.xf[fk[row]], ob.yf[fk[row]]]),
-            np.arctan2(ob.sinf[fh[row]], ob.cosf[fh[row]]),
+            mv.footprints[k[row]],
+            np.array([mv.xf[fk[row]], mv.yf[fk[row]]]),
+            np.arctan2(mv.sinf[fh[row]], mv.cosf[fh[row]]),
         )
-        if eg.convex[i[row]] and ob.convex[k[row]]:
+        if mv.convex[i[row]] and mv.convex[k[row]]:
             hit[row] = convex_intersects(a[None], b[None])[0]
         else:
             hit[row] = shapely.intersects(shapely.polygons(a), shapely.polygons(b))
@@ -411,30 +415,25 @@ def score_grid(
     n_pts = len(times)
     horizon = times[lengths - 1]  # (I,)
     n_i, n_j = len(plans), len(worlds)
-    eg = _egos(plans, egos, n_pts)
     ttc = np.full((n_i, n_j), np.inf)
     pet = np.full((n_i, n_j), np.inf)
     # Prefilter 0: objects that can come near any ego sweep at all, before interpolating.
-    found = _objects(worlds, eg.lo.min(axis=1), eg.hi.max(axis=1), times)
+    found = _movers(plans, egos, worlds, times)
     if found is None:
         return np.ones((n_i, n_j)), ttc, pet
-    ob, owner = found
+    mv, owner = found
     # Prefilter 1: bounding boxes of the whole sweeps, (ego i, object k) pairs that can meet.
-    pi, pk = np.nonzero(
-        ((ob.lo[:, None, :] <= eg.hi[:, :, None]) & (ob.hi[:, None, :] >= eg.lo[:, :, None])).all(
-            axis=0
-        )
-    )
+    elo, ehi = mv.lo[:, :n_i, None], mv.hi[:, :n_i, None]
+    pi, pk = np.nonzero(((mv.lo[:, None, n_i:] <= ehi) & (mv.hi[:, None, n_i:] >= elo)).all(axis=0))
     if len(pi) == 0:
         return np.ones((n_i, n_j)), ttc, pet
+    pk += n_i  # mover rows
     uniform = bool((lengths == n_pts).all())
-    # Per candidate pair: its plan's length, and the last index whose object heading is the
-    # long grid's own (see above).
-    plen = lengths.take(pi)
+    plen = lengths.take(pi)  # per candidate pair: its plan's length
     # TTC: the diagonal n = m, bounding circles, then the exact test.
-    dx = ob.x[pk] - eg.x[pi]
-    dy = ob.y[pk] - eg.y[pi]
-    reach = eg.radius.take(pi) + ob.radius.take(pk)
+    dx = mv.x[pk] - mv.x[pi]
+    dy = mv.y[pk] - mv.y[pi]
+    reach = mv.radius.take(pi) + mv.radius.take(pk)
     near = dx * dx + dy * dy <= (reach * reach)[:, None]
     if not uniform:
         near &= np.arange(n_pts) < plen[:, None]
@@ -445,7 +444,7 @@ def score_grid(
         k = pk.take(cp)
         fk = k * n_pts + cn
         fh = fk if uniform else k * n_pts + np.minimum(cn, plen.take(cp) - 2)
-        hit = _exact(eg, ob, i, k, i * n_pts + cn, fk, fh)
+        hit = _exact(mv, i, k, i * n_pts + cn, fk, fh)
         if hit.any():
             np.minimum.at(ttc, (i[hit], owner.take(k[hit])), times.take(cn[hit]))
             colliding[cp[hit]] = True
@@ -454,7 +453,7 @@ def score_grid(
     lim = np.where(colliding, -np.inf, limit[pi, owner.take(pk)])
     keep = np.flatnonzero(lim > 0)
     if len(keep):
-        _pet(eg, ob, owner, times, pi.take(keep), pk.take(keep), lim.take(keep), plen.take(keep),
+        _pet(mv, owner, times, pi.take(keep), pk.take(keep), lim.take(keep), plen.take(keep),
              uniform, pet)  # fmt: skip
     ss = np.minimum(1.0, np.minimum(ttc / horizon[:, None], pet / pet_ref))
     return ss, ttc, pet
@@ -481,8 +480,7 @@ def _chunk_gaps(times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _pet(
-    eg: _Movers,
-    ob: _Movers,
+    mv: _Movers,
     owner: np.ndarray,
     times: np.ndarray,
     pi: np.ndarray,
@@ -496,12 +494,12 @@ def _pet(
     object k of world j (time m), for the candidate pairs (pi, pk) with their limits and
     their plans' lengths (n, m < plen; `uniform`: every plan spans the whole grid)."""
     n_pts = len(times)
-    nc = eg.chunk_x.shape[1]
+    nc = mv.chunk_x.shape[1]
     gap, starts = _chunk_gaps(times)
     # (pair, ego chunk, object chunk); gap < 0 means overlapping time ranges
-    dx = eg.chunk_x[pi][:, :, None] - ob.chunk_x[pk][:, None, :]
-    dy = eg.chunk_y[pi][:, :, None] - ob.chunk_y[pk][:, None, :]
-    reach = eg.chunk_r[pi][:, :, None] + ob.chunk_r[pk][:, None, :]
+    dx = mv.chunk_x[pi][:, :, None] - mv.chunk_x[pk][:, None, :]
+    dy = mv.chunk_y[pi][:, :, None] - mv.chunk_y[pk][:, None, :]
+    reach = mv.chunk_r[pi][:, :, None] + mv.chunk_r[pk][:, None, :]
     near = (dx * dx + dy * dy <= reach * reach) & (gap < limit[:, None, None])
     if not uniform:
         inside = starts < plen[:, None]  # runs that start inside the plan's grid
@@ -513,7 +511,7 @@ def _pet(
     k = pk.take(cp)
     er = i * nc + ca
     orow = k * nc + cb
-    hl = ob.hl_or_nan.take(k)
+    hl = mv.hl.take(k)
     if not uniform:
         # A run holding the last point of a shorter grid has there a heading the long grid's
         # run does not show: project that run by its bounding radius (conservative).
@@ -522,21 +520,21 @@ def _pet(
         if cut.any():
             hl = np.where(cut, np.nan, hl)
     # Lateral separating axis of the ego run: drop chunk pairs it separates.
-    lo, hi = ob.run_interval(
-        orow, hl, ob.hw_or_nan.take(k), ob.radius.take(k), eg.axis_x.take(er), eg.axis_y.take(er)
+    lo, hi = mv.run_interval(
+        orow, hl, mv.hw.take(k), mv.radius.take(k), mv.axis_x.take(er), mv.axis_y.take(er)
     )
-    sel = np.flatnonzero((lo <= eg.axis_hi.take(er)) & (hi >= eg.axis_lo.take(er)))
+    sel = np.flatnonzero((lo <= mv.axis_hi.take(er)) & (hi >= mv.axis_lo.take(er)))
     if len(sel) == 0:
         return
     cp, ca, cb, i, k, er, orow = (v.take(sel) for v in (cp, ca, cb, i, k, er, orow))
     # Each remaining chunk pair compares its CHUNK ego points with its CHUNK object points by
     # broadcasting (CHUNK, CHUNK, C), the long candidate axis innermost (numpy is slow on tiny
     # inner axes); only survivors become flat candidate indices.
-    ex = eg.run_x.take(er, axis=1)[:, None, :]
-    ey = eg.run_y.take(er, axis=1)[:, None, :]
-    ox = ob.run_x.take(orow, axis=1)[None, :, :]
-    oy = ob.run_y.take(orow, axis=1)[None, :, :]
-    r = ob.radius.take(k) + eg.radius.take(i)
+    ex = mv.run_x.take(er, axis=1)[:, None, :]
+    ey = mv.run_y.take(er, axis=1)[:, None, :]
+    ox = mv.run_x.take(orow, axis=1)[None, :, :]
+    oy = mv.run_y.take(orow, axis=1)[None, :, :]
+    r = mv.radius.take(k) + mv.radius.take(i)
     dx = ox - ex
     dy = oy - ey
     a, b, c = np.nonzero(dx * dx + dy * dy <= r * r)
@@ -559,7 +557,7 @@ def _pet(
     m = m.take(sel)
     fk = k * n_pts + m
     fh = fk if uniform else k * n_pts + np.minimum(m, plen.take(cpc.take(sel)) - 2)
-    hit = _exact(eg, ob, i, k, i * n_pts + n, fk, fh)
+    hit = _exact(mv, i, k, i * n_pts + n, fk, fh)
     if hit.any():
         np.minimum.at(pet, (i[hit], owner.take(k[hit])), dt.take(sel)[hit])
 
