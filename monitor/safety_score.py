@@ -36,27 +36,33 @@ def _directions(centres: np.ndarray, fallback: np.ndarray) -> tuple[np.ndarray, 
     point keeps the last segment's); a zero-length segment keeps the previous heading, and
     before any motion the `fallback` heading (the vehicle's yaw) holds.
 
-    centres (..., T, 2), fallback (...). Unit vectors, not angles: no arctan2/cos/sin needed.
+    centres (M, T, 2), fallback (M,). Unit vectors, not angles: no arctan2/cos/sin needed.
     """
     seg_x = centres[..., 1:, 0] - centres[..., :-1, 0]
     seg_y = centres[..., 1:, 1] - centres[..., :-1, 1]
     length = np.hypot(seg_x, seg_y)
     ok = length > 1e-9
+    shape = centres.shape[:-1]
+    cos = np.empty(shape)
+    sin = np.empty(shape)
     if ok.all():
-        c = seg_x / length
-        s = seg_y / length
+        np.divide(seg_x, length, out=cos[..., :-1])
+        np.divide(seg_y, length, out=sin[..., :-1])
     else:
         safe = np.where(ok, length, 1.0)
-        c = seg_x / safe
-        s = seg_y / safe
         t = seg_x.shape[-1]
+        # index of the last moving segment up to each one (-1: none yet), as a flat index
         last = np.maximum.accumulate(np.where(ok, np.arange(t), -1), axis=-1)
         moved = last >= 0
-        idx = np.maximum(last, 0)
-        fb = np.asarray(fallback, dtype=float)[..., None]
-        c = np.where(moved, np.take_along_axis(c, idx, axis=-1), np.cos(fb))
-        s = np.where(moved, np.take_along_axis(s, idx, axis=-1), np.sin(fb))
-    return np.concatenate([c, c[..., -1:]], axis=-1), np.concatenate([s, s[..., -1:]], axis=-1)
+        flat = (np.maximum(last, 0) + np.arange(len(seg_x))[:, None] * t).ravel()
+        fb = np.asarray(fallback, dtype=float)[:, None]
+        cos[..., :-1] = np.where(moved, (seg_x / safe).ravel().take(flat).reshape(moved.shape),
+                                 np.cos(fb))  # fmt: skip
+        sin[..., :-1] = np.where(moved, (seg_y / safe).ravel().take(flat).reshape(moved.shape),
+                                 np.sin(fb))  # fmt: skip
+    cos[..., -1] = cos[..., -2]
+    sin[..., -1] = sin[..., -2]
+    return cos, sin
 
 
 def convex_intersects(a: np.ndarray, b: np.ndarray) -> np.ndarray:
