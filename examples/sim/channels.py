@@ -52,11 +52,11 @@ EGO_DECIMALS = 4
 OBJECT_DECIMALS = 3
 
 #: Standard deviation (s) of the Gaussian kernel that turns SUMO's ego path into a vehicle's
-#: path: SUMO's car-following model steps the acceleration (jerk of tens of m/s^3 in one step)
-#: and draws junction paths as polylines. At 0.4 s an acceleration step of 7 m/s^2 becomes a
-#: jerk of about 7 m/s^3; positions move by a few centimetres (a^2 sigma^2 / 2 at most ~0.3 m
-#: while braking at 4 m/s^2).
-EGO_SMOOTHING = 0.4
+#: path: SUMO's car-following models step the acceleration (jerk of tens of m/s^3 in one step)
+#: and draw junction paths as polylines. At 0.6 s an acceleration step of 7 m/s^2 becomes a
+#: jerk of about 7 / (0.6 sqrt(2 pi)) = 4.7 m/s^3. Under a constant acceleration a the smoothed
+#: path leads (a > 0) or trails (braking) SUMO's by a sigma^2 / 2: 0.54 m at 3 m/s^2.
+EGO_SMOOTHING = 0.6
 
 #: Plan and object speeds below this (m/s) scale the plan distortion and the velocity errors
 #: down linearly: a stopped planner plans to stay, a tracker knows a stopped car is stopped.
@@ -71,7 +71,8 @@ class ChannelParams:
     seed: int
     range_m: float
     fov_deg: float  # total field of view centred on the ego's heading; 360 = all around
-    pos_sigma: float  # track position error per axis at zero range; doubles at the range
+    pos_sigma: float  # track position error per axis at zero range
+    pos_range_growth: float  # relative growth of the position error at the sensing range
     pos_white: float  # white measurement noise on top of the track error, per axis
     yaw_sigma: float  # track heading error
     speed_sigma: float  # track velocity error along the object's heading (m/s)
@@ -100,23 +101,23 @@ class ChannelParams:
 
 #: The all-round channel (the study's LAV stack: 360-degree LiDAR perception).
 LAV = ChannelParams(
-    name="lav", seed=101, range_m=60.0, fov_deg=360.0, pos_sigma=0.08, pos_white=0.02,
-    yaw_sigma=0.01, speed_sigma=0.10, lat_speed_sigma=0.03, size_sigma=0.04, track_tau=1.0,
-    p_miss=0.02, miss_len=3.0, ghost_rate=0.03, ghost_life=(0.3, 1.0), p_id_switch=0.001,
-    track_timeout=1.0, loc_sigma=0.02, loc_drift=0.06, loc_drift_period=(20.0, 60.0),
-    loc_yaw_sigma=0.004, ego_speed_sigma=0.05, plan_horizon=3.0, plan_lateral=0.25,
-    plan_longitudinal=0.30, plan_tau=5.0,
+    name="lav", seed=101, range_m=60.0, fov_deg=360.0, pos_sigma=0.08, pos_range_growth=0.5,
+    pos_white=0.02, yaw_sigma=0.01, speed_sigma=0.08, lat_speed_sigma=0.03, size_sigma=0.04,
+    track_tau=1.0, p_miss=0.02, miss_len=3.0, ghost_rate=0.03, ghost_life=(0.3, 1.0),
+    p_id_switch=0.001, track_timeout=1.0, loc_sigma=0.02, loc_drift=0.06,
+    loc_drift_period=(20.0, 60.0), loc_yaw_sigma=0.004, ego_speed_sigma=0.05, plan_horizon=3.0,
+    plan_lateral=0.25, plan_longitudinal=0.30, plan_tau=5.0,
 )
 
 #: The forward-looking channel (the study's TransFuser stack: camera-based, blind behind, a
 #: shorter plan).
 TFUSE = ChannelParams(
-    name="tfuse", seed=202, range_m=50.0, fov_deg=200.0, pos_sigma=0.12, pos_white=0.03,
-    yaw_sigma=0.015, speed_sigma=0.15, lat_speed_sigma=0.05, size_sigma=0.07, track_tau=0.8,
-    p_miss=0.03, miss_len=3.0, ghost_rate=0.05, ghost_life=(0.2, 0.8), p_id_switch=0.002,
-    track_timeout=0.5, loc_sigma=0.03, loc_drift=0.08, loc_drift_period=(15.0, 45.0),
-    loc_yaw_sigma=0.006, ego_speed_sigma=0.08, plan_horizon=2.5, plan_lateral=0.20,
-    plan_longitudinal=0.30, plan_tau=4.0, loc_jitter_period=(3.0, 8.0),
+    name="tfuse", seed=202, range_m=50.0, fov_deg=200.0, pos_sigma=0.08, pos_range_growth=0.5,
+    pos_white=0.03, yaw_sigma=0.015, speed_sigma=0.10, lat_speed_sigma=0.05, size_sigma=0.07,
+    track_tau=0.8, p_miss=0.03, miss_len=3.0, ghost_rate=0.05, ghost_life=(0.2, 0.8),
+    p_id_switch=0.002, track_timeout=0.5, loc_sigma=0.03, loc_drift=0.08,
+    loc_drift_period=(15.0, 45.0), loc_yaw_sigma=0.006, ego_speed_sigma=0.08, plan_horizon=2.5,
+    plan_lateral=0.20, plan_longitudinal=0.30, plan_tau=4.0, loc_jitter_period=(3.0, 8.0),
 )
 
 
@@ -371,7 +372,7 @@ class ChannelModel:
         visible &= ~self.missed[tick]
         idx = np.flatnonzero(visible)
         n = len(idx)
-        sigma = p.pos_sigma * (1.0 + dist[idx] / p.range_m)
+        sigma = p.pos_sigma * (1.0 + p.pos_range_growth * dist[idx] / p.range_m)
         off = self.loc.offset[tick]
         err = self.err_pos[tick, idx] * sigma[:, None] + rng.normal(0.0, p.pos_white, (n, 2))
         x = gt.x[tick, idx] + off[0] + err[:, 0]

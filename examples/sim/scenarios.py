@@ -147,7 +147,7 @@ HIGHWAY_TAILGATED = Scenario(
         Action(60.0, "tailgater", "tau", 0.35), Action(60.0, "tailgater", "min_gap", 1.0),
         Action(95.0, "tailgater", "lane", 2, 25.0),
         Action(95.0, "tailgater", "tau", 1.2), Action(95.0, "tailgater", "min_gap", 2.5),
-        Action(104.0, "ego", "lane", 0, 16.0),
+        Action(104.0, "ego", "lane", 0, 16.0), Action(104.0, "ego", "max_speed", 30.0),
     ),
     background=Background(initial=100, flow_per_hour=1400.0),
     faults=(LocalizationFault("lav", 88.0, 89.8, 4.0),),
