@@ -23,7 +23,9 @@ def els_var(window: Sequence[float], size: int) -> float | None:
     """Sample variance (divisor n - 1) of the last `size` ELS values; None until full."""
     if len(window) < size:
         return None
-    return float(np.var(np.asarray(window[-size:], dtype=float), ddof=1))
+    x = np.array(window[-size:], dtype=float)
+    d = x - x.sum() / size  # np.var's own arithmetic, without its Python-level wrapper
+    return float((d * d).sum() / (size - 1))
 
 
 def frechet_many(pairs: Sequence[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
