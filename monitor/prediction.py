@@ -3,6 +3,8 @@ safety score."""
 
 from __future__ import annotations
 
+from bisect import bisect_right
+
 import numpy as np
 
 from monitor.frames import Objects
@@ -69,6 +71,31 @@ def interpolate_tracks(
     return np.where(have[:, None, None], inside, out)
 
 
+def _shared_grid(pred: np.ndarray, pred_len: np.ndarray) -> np.ndarray | None:
+    """The prediction time grid when every object is predicted on the same one (>= 2 points),
+    else None."""
+    p = pred.shape[1]
+    if p < 2 or not (pred_len == p).all():
+        return None
+    dt = pred[:, :, 0]
+    return dt[0] if (dt == dt[0]).all() else None
+
+
+def positions_at(pos: np.ndarray, pred: np.ndarray, pred_len: np.ndarray, t: float) -> np.ndarray:
+    """Object positions (K, 2) at one time `t` after the frame time: `interpolate_tracks` at a
+    single time, with the same arithmetic (the shared-grid case on Python scalars)."""
+    g = _shared_grid(pred, pred_len) if len(pos) else None
+    if g is None:
+        return interpolate_tracks(pos, pred, pred_len, np.array([t]))[:, 0]
+    grid = g.tolist()
+    if grid[0] > 0 and t < grid[0]:
+        return pos + (pred[:, 0, 1:3] - pos) * (t / grid[0])
+    i1 = min(max(bisect_right(grid, t) - 1, 0), len(grid) - 2)
+    f1 = min(max((t - grid[i1]) / (grid[i1 + 1] - grid[i1]), 0.0), 1.0)
+    a = pred[:, i1, 1:3]
+    return a + (pred[:, i1 + 1, 1:3] - a) * f1
+
+
 def ompv(prev: Objects, elapsed: float, cur: Objects, tolerance: float, gate: float) -> float:
     """Share of objects that followed their prediction: N1 / N2 (1.0 when N2 = 0).
 
@@ -81,29 +108,30 @@ def ompv(prev: Objects, elapsed: float, cur: Objects, tolerance: float, gate: fl
     n_prev, n_cur = len(prev), len(cur)
     if n_prev == 0:
         return 1.0 if n_cur == 0 else 0.0  # every current object is new: a miss
-    reaches = (prev.pred_len == 0) | (
-        prev.pred[np.arange(n_prev), np.maximum(prev.pred_len - 1, 0), 0] >= elapsed - 1e-9
-        if prev.pred.shape[1]
-        else np.zeros(n_prev, dtype=bool)
-    )
-    predicted = interpolate_tracks(prev.pos, prev.pred, prev.pred_len, np.array([elapsed]))[:, 0]
+    plen = prev.pred_len
+    if prev.pred.shape[1]:
+        last_dt = prev.pred[np.arange(n_prev), np.maximum(plen - 1, 0), 0]
+        reaches = (plen == 0) | (last_dt >= elapsed - 1e-9)
+    else:
+        reaches = plen == 0
+    predicted = positions_at(prev.pos, prev.pred, plen, elapsed)
     index_cur = {oid: i for i, oid in enumerate(cur.ids)}
     tracked = n_cur > 0 and any(oid in index_cur for oid in prev.ids)
     if tracked or n_cur == 0:
         # Decision: a channel tracks when at least one id carries over between the two ticks.
-        pi = np.array([i for i, oid in enumerate(prev.ids) if oid in index_cur], dtype=int)
-        ci = np.array([index_cur[prev.ids[i]] for i in pi], dtype=int)
+        pairs = [(i, index_cur[oid]) for i, oid in enumerate(prev.ids) if oid in index_cur]
+        pi = np.array([i for i, _ in pairs], dtype=int)
+        ci = np.array([c for _, c in pairs], dtype=int)
     else:
         # No stable ids: the nearest current object to each predicted position, within the gate.
         cand = np.nonzero(reaches)[0]
         pa, ci, _ = pair_objects(predicted[cand], cur.pos, gate)
         pi = cand[pa]
-    matched_cur = np.zeros(n_cur, dtype=bool)
-    matched_cur[ci] = True
-    n_new = int(n_cur - matched_cur.sum())
+    n_new = n_cur - len(set(ci.tolist()))
     if len(pi):
-        err = np.hypot(*(predicted[pi] - cur.pos[ci]).T)
-        n1 = int(np.sum(reaches[pi] & (err <= tolerance)))
+        diff = predicted[pi] - cur.pos[ci]
+        err = np.hypot(diff[:, 0], diff[:, 1])
+        n1 = int(np.count_nonzero(reaches[pi] & (err <= tolerance)))
     else:
         n1 = 0
     return n1 / (n_prev + n_new)

@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from monitor.prediction import interpolate_tracks, ompv
+from monitor.prediction import interpolate_tracks, ompv, positions_at
 from tests.monitor.builders import channel, ego, frame, obj
 
 TOL = 1.0
@@ -72,3 +74,34 @@ def test_interpolate_shared_grid_fast_path_matches_general():
     np.testing.assert_allclose(a[0], [[0, 0], [0.5, 0], [2, 0.5], [3, 1]], atol=1e-12)
     np.testing.assert_allclose(b[0], a[0].tolist(), atol=1e-12)
     np.testing.assert_allclose(b[1], [[0, 0], [0.5, 0], [1, 0], [1, 0]], atol=1e-12)
+
+
+@st.composite
+def predicted_objects(draw):
+    """1 to 4 objects sharing one prediction grid (ompv's scalar fast path) or not (general
+    path): grid start 0 or later, steps 0.05 .. 0.3 s, random points."""
+    k = draw(st.integers(1, 4))
+    n = draw(st.integers(2, 8))
+    start = draw(st.sampled_from([0.0, 0.1, 0.25]))
+    steps = draw(st.lists(st.floats(0.05, 0.3), min_size=n - 1, max_size=n - 1))
+    grid = [start, *(start + np.cumsum(steps)).tolist()]
+    shared = draw(st.booleans())
+    items = []
+    for i in range(k):
+        c = st.floats(-50, 50)
+        x, y = draw(c), draw(c)
+        pts = [[t, draw(c), draw(c)] for t in grid]
+        items.append(obj(i, x, y, prediction=pts if shared or i == 0 else pts[:-1]))
+    return objects(*items), grid
+
+
+@settings(max_examples=80, deadline=None)
+@given(predicted_objects(), st.floats(0.0, 3.0))
+def test_positions_at_one_time_equal_the_track_interpolation(data, t):
+    """ompv moves the previous objects to one time with `positions_at`, on Python scalars when
+    the objects share a grid; it must give `interpolate_tracks`' values (before the first
+    point, inside, after the end)."""
+    objs, _ = data
+    want = interpolate_tracks(objs.pos, objs.pred, objs.pred_len, np.array([t]))[:, 0]
+    got = positions_at(objs.pos, objs.pred, objs.pred_len, t)
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
