@@ -21,9 +21,9 @@ from typing import Any
 import numpy as np
 
 from examples.sim import labels as lab
-from examples.sim.channels import ChannelModel
+from examples.sim.channels import EGO_SMOOTHING, ChannelModel
 from examples.sim.scenarios import Scenario
-from examples.sim.simulate import STEP, GroundTruth, run
+from examples.sim.simulate import LANE_CHANGE_DURATION, STEP, GroundTruth, run
 
 FORMAT = "casewatch-frames"
 VERSION = 1
@@ -45,6 +45,9 @@ def header(sc: Scenario) -> dict[str, Any]:
             "duration": sc.duration,
             "channel_params": {c.name: asdict(c) for c in sc.channels},
             "faults": [asdict(f) for f in sc.faults],
+            # the channels see SUMO's ego path through this Gaussian low-pass (s); SUMO's lane
+            # changes take this long (s)
+            "ego_smoothing": EGO_SMOOTHING, "lane_change_duration": LANE_CHANGE_DURATION,
             "labels": {"time_gap_threshold": lab.TIME_GAP_THRESHOLD,
                        "min_speed": lab.MIN_SPEED, "min_duration": lab.MIN_DURATION,
                        "merge_gap": lab.MERGE_GAP},

@@ -94,10 +94,11 @@ URBAN_ROUTE = _LOOP + _LOOP
 HIGHWAY_TAILGATING = Scenario(
     name="highway-tailgating",
     description=(
-        "Three-lane highway. The ego closes up behind a lead car (tau 0.45 s, minGap 1 m), the "
-        "lead brakes hard and speeds up again (stop-and-go wave); the ego backs off, the lead "
-        "changes to the left lane, overtakes and cuts back in, and the ego tailgates it again "
-        "through a second hard braking. One localisation fault in the tfuse channel."
+        "Three-lane highway. The ego closes up behind a lead car (desired time headway 0.3 s, "
+        "minGap 1 m), the lead brakes hard and speeds up again (stop-and-go wave); the ego "
+        "backs off, the lead changes to the left lane, drives ahead and cuts back in, and the "
+        "ego closes up and tailgates it again through a second hard braking. One localisation "
+        "fault in the tfuse channel."
     ),
     network="highway",
     seed=11,
@@ -125,11 +126,11 @@ HIGHWAY_TAILGATING = Scenario(
 HIGHWAY_TAILGATED = Scenario(
     name="highway-tailgated",
     description=(
-        "Three-lane highway. The ego cruises at 22 m/s behind and left of a car in the right "
-        "lane; a faster car behind it closes up "
-        "(tau 0.35 s, minGap 1 m) and stays in lane, backs off, closes up again, then "
-        "overtakes; the ego moves to the right lane at the end. The tfuse channel is blind "
-        "behind the ego, so only lav sees the tailgater. One localisation fault in lav."
+        "Three-lane highway. The ego cruises at 22 m/s beside and behind a car in the right "
+        "lane; a faster car behind it closes up (tau 0.35 s, minGap 1 m) and stays in lane, "
+        "backs off, closes up again, then overtakes; the ego moves to the right lane at the "
+        "end and closes up to the car there. The tfuse channel is blind behind the ego, so "
+        "only lav sees the tailgater. One localisation fault in lav."
     ),
     network="highway",
     seed=23,
@@ -158,7 +159,8 @@ URBAN_GRID = Scenario(
     description=(
         "5x5 grid of two-lane streets (150 m blocks), every junction signalised. The ego "
         "follows a lead car on a tour with turns, stops at red lights, crosses traffic, and "
-        "follows closely (tau 0.4 s, minGap 1 m) for a while. One localisation fault in tfuse."
+        "follows closely (desired time headway 0.3 s, minGap 1 m) until 110 s. One "
+        "localisation fault in tfuse."
     ),
     network="grid",
     seed=37,
