@@ -21,7 +21,7 @@ from monitor.frames import Frame
 from monitor.history import chpps_pairs, chpps_score, els_var, frechet_many
 from monitor.prediction import ompv
 from monitor.safety_score import arbitrate, safety_matrix
-from monitor.similarity import crpps_distance, ego_similarities, ets, object_similarities
+from monitor.similarity import crpps_inputs, ego_similarities, ets, object_similarities
 from safety_case.model import MetricParams
 from safety_case.signals import (
     PAIR_METRICS,
@@ -89,6 +89,8 @@ class MetricEngine:
         self._plans = {c: _Timed(p.plan_history, p.max_gap) for c in self.channels}
         self._objects = {c: _Timed(1, p.max_gap) for c in self.channels}
         self._ego = {c: _Timed(p.comfort_window, p.max_gap) for c in self.channels}
+        #: crpps Fréchet inputs per pair of the current step (None: no value), see _similarity
+        self._crpps_inputs: list[tuple[np.ndarray, np.ndarray] | None] = []
         self._hcs_names = [channel_name("hcs", c) for c in self.channels]
         self._ppcs_names = [channel_name("ppcs", c) for c in self.channels]
 
@@ -133,8 +135,9 @@ class MetricEngine:
     def _similarity(self, frame: Frame, out: dict[str, float | None]) -> None:
         p = self.params
         st = frame.channels
-        distances: list[float | None] = []
-        per_pair: dict[str, list[float | None]] = {m: [] for m in PAIR_METRICS}
+        # crpps needs a Fréchet distance: its inputs wait for the motion family's GEOS call
+        self._crpps_inputs = []
+        per_pair: dict[str, list[float | None]] = {m: [] for m in PAIR_METRICS if m != "crpps"}
         for a, b in self.pairs:
             sa, sb = st.get(a), st.get(b)
             vals: dict[str, float | None] = dict.fromkeys(PAIR_METRICS)
@@ -145,19 +148,28 @@ class MetricEngine:
                     object_similarities(sa.objects, sb.objects, p.pairing_gate, p.trajectory_decay)
                 )
                 vals["ets"] = ets(sa.plan, sb.plan, p.trajectory_decay)
-                fd = crpps_distance(sa.plan, sb.plan)
-                distances.append(fd)
-                vals["crpps"] = None if fd is None else 1.0 / (1.0 + fd)
+                self._crpps_inputs.append(crpps_inputs(sa.plan, sb.plan))
                 window.push(frame.t, vals["els"])
                 vals["els_var"] = els_var([v for _, v in window.items], p.els_window)
             else:
-                distances.append(None)
+                self._crpps_inputs.append(None)
+            del vals["crpps"]
             for m, v in vals.items():
                 out[pair_name(m, a, b)] = v
                 per_pair[m].append(v)
         for m, values in per_pair.items():
             out[m] = _worst(values, m in WORST_IS_MAX)
-        # crpps_mean = inv(mean fd); Decision: no value when any pair has none.
+
+    def _crpps(self, distances: list[float | None], out: dict[str, float | None]) -> None:
+        """crpps per pair, its worst, and crpps_mean = inv(mean fd), from the pairs' Fréchet
+        distances (None: a channel absent or a plan empty)."""
+        values: list[float | None] = []
+        for (a, b), fd in zip(self.pairs, distances, strict=True):
+            v = None if fd is None else 1.0 / (1.0 + fd)
+            out[pair_name("crpps", a, b)] = v
+            values.append(v)
+        out["crpps"] = _worst(values, False)
+        # Decision: no value when any pair has none.
         if distances and all(d is not None for d in distances):
             mean = float(np.add.reduce(np.array(distances)) / len(distances))  # np.mean's sum
             out["crpps_mean"] = 1.0 / (1.0 + mean)
@@ -165,8 +177,10 @@ class MetricEngine:
     def _motion_prediction(self, frame: Frame, out: dict[str, float | None]) -> None:
         p = self.params
         t = frame.t
-        # chpps: the Fréchet inputs of every channel first, then one GEOS call for them all.
-        pairs: list[tuple[np.ndarray, np.ndarray]] = []
+        # chpps: the Fréchet inputs of every channel first, then one GEOS call for them all,
+        # together with the crpps inputs the similarity family left (so this family's timing
+        # includes crpps's Fréchet distances).
+        pairs: list[tuple[np.ndarray, np.ndarray]] = [x for x in self._crpps_inputs if x]
         pending: list[tuple[str, int, list[float]]] = []
         chpps_values: dict[str, float | None] = dict.fromkeys(self.channels)
         ompv_values: dict[str, float | None] = dict.fromkeys(self.channels)
@@ -197,10 +211,11 @@ class MetricEngine:
                     objs, t - tp, s.objects, p.prediction_tolerance, p.pairing_gate
                 )
             prev.push(t, s.objects)
-        if pairs:
-            distances = frechet_many(pairs)
-            for c, start, weights in pending:
-                chpps_values[c] = chpps_score(distances[start : start + len(weights)], weights)
+        distances = frechet_many(pairs) if pairs else np.zeros(0)
+        for c, start, weights in pending:
+            chpps_values[c] = chpps_score(distances[start : start + len(weights)], weights)
+        crpps_fd = iter(distances.tolist())
+        self._crpps([None if x is None else next(crpps_fd) for x in self._crpps_inputs], out)
         for metric, values in (("chpps", chpps_values), ("ompv", ompv_values)):
             for c, v in values.items():
                 out[channel_name(metric, c)] = v

@@ -81,6 +81,9 @@ def convex_intersects(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 #: Grid points per chunk in the coarse (chunk-pair) prefilter of the PET search.
 CHUNK = 5
+#: Chunk pairs above which the PET search runs the lateral-axis prefilter: below, its own
+#: dozen numpy calls cost more than the point pairs it would save.
+LATERAL_MIN = 64
 
 
 def _runs(values: np.ndarray) -> np.ndarray:
@@ -160,6 +163,7 @@ class _Movers:
         "hl",
         "hw",
         "lo",
+        "n_egos",
         "radius",
         "run_cos",
         "run_sin",
@@ -217,11 +221,19 @@ class _Movers:
         self.all_boxes = not np.isnan(self.hl).any()
         self.convex = convex
         self.footprints = footprints
-        # Per ego run: the unit normal of its first point's heading (the lateral axis) and the
-        # interval that the run's footprints cover on it. A separating axis for the union of a
-        # run's footprints separates every pair within it, so this is a conservative,
-        # orientation-aware prefilter (parallel traffic in the next lane passes the circle
-        # tests but not this one).
+        self.n_egos = n_egos
+        self.axis_x = self.axis_y = self.axis_lo = self.axis_hi = None
+
+    def ego_axes(self) -> None:
+        """Per ego run: the unit normal of its first point's heading (the lateral axis) and the
+        interval that the run's footprints cover on it. A separating axis for the union of a
+        run's footprints separates every pair within it, so this is a conservative,
+        orientation-aware prefilter (parallel traffic in the next lane passes the circle tests
+        but not this one). Computed on first use: small searches skip that prefilter."""
+        if self.axis_x is not None:
+            return
+        n_egos = self.n_egos
+        nc = self.chunk_x.shape[1]
         ego_runs = n_egos * nc
         self.axis_x = -self.run_sin[0, :ego_runs]
         self.axis_y = self.run_cos[0, :ego_runs]
@@ -229,7 +241,7 @@ class _Movers:
             np.arange(ego_runs),
             np.repeat(self.hl[:n_egos], nc),
             np.repeat(self.hw[:n_egos], nc),
-            np.repeat(radius[:n_egos], nc),
+            np.repeat(self.radius[:n_egos], nc),
             self.axis_x,
             self.axis_y,
         )
@@ -517,22 +529,24 @@ def _pet(
     k = pk.take(cp)
     er = i * nc + ca
     orow = k * nc + cb
-    hl = mv.hl.take(k)
-    if not uniform:
-        # A run holding the last point of a shorter grid has there a heading the long grid's
-        # run does not show: project that run by its bounding radius (conservative).
-        last = plen.take(cp) - 1
-        cut = (last < n_pts - 1) & (last // CHUNK == cb)
-        if cut.any():
-            hl = np.where(cut, np.nan, hl)
-    # Lateral separating axis of the ego run: drop chunk pairs it separates.
-    lo, hi = mv.run_interval(
-        orow, hl, mv.hw.take(k), mv.radius.take(k), mv.axis_x.take(er), mv.axis_y.take(er)
-    )
-    sel = np.flatnonzero((lo <= mv.axis_hi.take(er)) & (hi >= mv.axis_lo.take(er)))
-    if len(sel) == 0:
-        return
-    cp, ca, cb, i, k, er, orow = (v.take(sel) for v in (cp, ca, cb, i, k, er, orow))
+    if len(cp) > LATERAL_MIN:
+        hl = mv.hl.take(k)
+        if not uniform:
+            # A run holding the last point of a shorter grid has there a heading the long
+            # grid's run does not show: project that run by its bounding radius (conservative).
+            last = plen.take(cp) - 1
+            cut = (last < n_pts - 1) & (last // CHUNK == cb)
+            if cut.any():
+                hl = np.where(cut, np.nan, hl)
+        # Lateral separating axis of the ego run: drop chunk pairs it separates.
+        mv.ego_axes()
+        lo, hi = mv.run_interval(
+            orow, hl, mv.hw.take(k), mv.radius.take(k), mv.axis_x.take(er), mv.axis_y.take(er)
+        )
+        sel = np.flatnonzero((lo <= mv.axis_hi.take(er)) & (hi >= mv.axis_lo.take(er)))
+        if len(sel) == 0:
+            return
+        cp, ca, cb, i, k, er, orow = (v.take(sel) for v in (cp, ca, cb, i, k, er, orow))
     # Each remaining chunk pair compares its CHUNK ego points with its CHUNK object points by
     # broadcasting (CHUNK, CHUNK, C), the long candidate axis innermost (numpy is slow on tiny
     # inner axes); only survivors become flat candidate indices.

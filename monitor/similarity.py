@@ -172,6 +172,18 @@ def frechet(p: np.ndarray, q: np.ndarray) -> float:
     return float(shapely.frechet_distance(shapely.linestrings(p), shapely.linestrings(q)))
 
 
+def crpps_inputs(plan_a: np.ndarray, plan_b: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """The two point sequences whose Fréchet distance is `crpps_distance` (None if a plan is
+    empty): the engine batches them with the chpps inputs into one GEOS call."""
+    if len(plan_a) == 0 or len(plan_b) == 0:
+        return None
+    horizon = min(plan_a[-1, 0], plan_b[-1, 0]) + 1e-9
+    pa = plan_a[plan_a[:, 0] <= horizon, 1:3]
+    pb = plan_b[plan_b[:, 0] <= horizon, 1:3]
+    pb = pb - pb[0] + pa[0]
+    return pa, pb
+
+
 def crpps_distance(plan_a: np.ndarray, plan_b: np.ndarray) -> float | None:
     """fd(plan_A, plan_B') with plan B translated so its first point is plan A's first point,
     both plans cut to their common horizon.
@@ -182,10 +194,5 @@ def crpps_distance(plan_a: np.ndarray, plan_b: np.ndarray) -> float | None:
     which the study truncates to the shorter plan, crpps compares the points with
     `dt <= min(horizon_A, horizon_B)`.
     """
-    if len(plan_a) == 0 or len(plan_b) == 0:
-        return None
-    horizon = min(plan_a[-1, 0], plan_b[-1, 0]) + 1e-9
-    pa = plan_a[plan_a[:, 0] <= horizon, 1:3]
-    pb = plan_b[plan_b[:, 0] <= horizon, 1:3]
-    pb = pb - pb[0] + pa[0]
-    return frechet(pa, pb)
+    inputs = crpps_inputs(plan_a, plan_b)
+    return None if inputs is None else frechet(*inputs)
