@@ -84,6 +84,9 @@ CHUNK = 5
 #: Chunk pairs above which the PET search runs the lateral-axis prefilter: below, its own
 #: dozen numpy calls cost more than the point pairs it would save.
 LATERAL_MIN = 64
+#: Objects (all worlds) above which the safety score drops those that cannot reach any ego
+#: sweep before interpolating them.
+REACH_MIN = 12
 
 
 def _runs(values: np.ndarray) -> np.ndarray:
@@ -313,18 +316,30 @@ def _movers(
     `times`, with each mover's world index (-1 for egos); None when no object can."""
     n_pts = len(times)
     ego_c = _ego_centres(plans, n_pts)
-    ego_r = np.array([e.radius for e in egos])
-    reach = ego_r.max()
-    ex = ego_c[..., 0]
-    ey = ego_c[..., 1]
-    lo = np.array([ex.min() - reach, ey.min() - reach])
-    hi = np.array([ex.max() + reach, ey.max() + reach])
-    keep = [_reachable(o, lo, hi) for o in worlds]
-    counts = [int(np.count_nonzero(m)) for m in keep]
-    if not any(counts):
-        return None
-    pairs = [(o, m) for o, m in zip(worlds, keep, strict=True) if m.any()]
-    every = [m.all() for _, m in pairs]
+    ego_half = np.array([e.half if e.half is not None else (np.nan, np.nan) for e in egos])
+    if np.isnan(ego_half).any():
+        ego_r = np.array([e.radius for e in egos])
+    else:  # the corners' distance from the centre, as Ego.radius computes it
+        ego_r = np.hypot(ego_half[:, 0], ego_half[:, 1])
+    if sum(len(o) for o in worlds) <= REACH_MIN:
+        # Few objects: interpolating them all costs less than the reachable-box test (the
+        # sweep bounding boxes drop far ones later anyway).
+        keep = [np.ones(len(o), dtype=bool) for o in worlds]
+        pairs = list(zip(worlds, keep, strict=True))
+        every = [True] * len(pairs)
+        counts = [len(o) for o in worlds]
+    else:
+        reach = ego_r.max()
+        ex = ego_c[..., 0]
+        ey = ego_c[..., 1]
+        lo = np.array([ex.min() - reach, ey.min() - reach])
+        hi = np.array([ex.max() + reach, ey.max() + reach])
+        keep = [_reachable(o, lo, hi) for o in worlds]
+        counts = [int(np.count_nonzero(m)) for m in keep]
+        if not any(counts):
+            return None
+        pairs = [(o, m) for o, m in zip(worlds, keep, strict=True) if m.any()]
+        every = [bool(m.all()) for _, m in pairs]
     # One interpolation per world: each world usually predicts on one shared grid (the
     # interpolation's fast path), but grids differ between stacks.
     tracks = [
@@ -345,7 +360,7 @@ def _movers(
         np.concatenate([ego_c, *tracks]),
         cat("yaw", np.array([e.yaw for e in egos])),
         cat("radii", ego_r),
-        cat("half", np.array([e.half if e.half is not None else (np.nan, np.nan) for e in egos])),
+        cat("half", ego_half),
         cat("convex", np.array([e.convex for e in egos])),
         # a list: worlds pad their polygons to different vertex counts
         [e.footprint for e in egos]
