@@ -63,6 +63,31 @@ def comfort_score(
     )
 
 
+class _Layout:
+    """Index arrays of a concatenation of series with the given (length, has yaw): each
+    series' first index, and the differences that straddle two series. Differences ending at
+    index e (the next series' start) straddle it: index e - 1 for first differences (`cut1`),
+    e - 2 and e - 1 for second ones (`cut2`), e - 3 .. e - 1 for jerk (`cut3`); their
+    denominators become 1 and their values are masked. Frames repeat the same layout."""
+
+    __slots__ = ("cut1", "cut2", "cut3", "has_yaw", "starts", "zeros")
+
+    def __init__(self, key: tuple[tuple[int, bool], ...]):
+        lengths = np.array([n for n, _ in key])
+        self.starts = np.zeros(len(key), dtype=np.intp)
+        np.cumsum(lengths[:-1], out=self.starts[1:])
+        bound = (self.starts + lengths)[:-1]
+        self.cut1 = bound - 1
+        self.cut2 = np.concatenate([bound - 2, bound - 1])
+        self.cut3 = np.concatenate([bound - 3, bound - 2, bound - 1])
+        # at the acceleration samples 1 .. N-2 of the concatenation
+        self.has_yaw = np.repeat([y for _, y in key], lengths)[1:-1]
+        self.zeros = np.zeros(int(lengths.max()))
+
+
+_LAYOUTS: dict[tuple[tuple[int, bool], ...], _Layout] = {}
+
+
 def comfort_scores(
     series: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray | None]], steepness: float
 ) -> list[float | None]:
@@ -82,51 +107,47 @@ def comfort_scores(
         times, xy, yaw = series[use[0]]
         out[use[0]] = comfort_score(times, xy, yaw, steepness)
         return out
-    lengths = np.array([len(series[s][0]) for s in use])
-    starts = np.zeros(len(use), dtype=np.intp)
-    np.cumsum(lengths[:-1], out=starts[1:])
-    ends = starts + lengths  # one past each series
+    key = tuple((len(series[s][0]), series[s][2] is not None) for s in use)
+    lay = _LAYOUTS.get(key)
+    if lay is None:
+        lay = _LAYOUTS[key] = _Layout(key)
+        if len(_LAYOUTS) > 64:
+            _LAYOUTS.clear()
     times = np.concatenate([series[s][0] for s in use])
     xy = np.concatenate([series[s][1] for s in use])
     # the vehicle heading where given (hcs), else a placeholder the path tangent replaces
-    has_yaw = np.repeat([series[s][2] is not None for s in use], lengths)
-    zeros = np.zeros(int(lengths.max()))
-    yaw = np.concatenate([zeros[: len(series[s][0])] if series[s][2] is None else series[s][2]
+    yaw = np.concatenate([lay.zeros[: len(series[s][0])] if series[s][2] is None else series[s][2]
                           for s in use])  # fmt: skip
-    # Differences ending at index e of the next series straddle a boundary: index e - 1 for
-    # first differences, e - 2 and e - 1 for second ones. Their denominators become 1.
-    bound = ends[:-1]
     dt = times[1:] - times[:-1]
-    dt[bound - 1] = 1.0
+    dt[lay.cut1] = 1.0
     vel = (xy[1:] - xy[:-1]) / dt[:, None]
     tm = 0.5 * (times[1:] + times[:-1])
     dtm = tm[1:] - tm[:-1]
-    dtm[np.concatenate([bound - 2, bound - 1])] = 1.0
+    dtm[lay.cut2] = 1.0
     acc = (vel[1:] - vel[:-1]) / dtm[:, None]  # acc[i] is centred on sample i + 1
     chord = xy[2:] - xy[:-2]
     norm = np.hypot(chord[:, 0], chord[:, 1])
-    tangent = ~has_yaw[1:-1]
     moving = norm > 1e-12
-    ok = moving | has_yaw[1:-1]
+    ok = moving | lay.has_yaw
     safe = np.where(moving, norm, 1.0)
     head = yaw[1:-1]
-    ux = np.where(tangent, chord[:, 0] / safe, np.cos(head))
-    uy = np.where(tangent, chord[:, 1] / safe, np.sin(head))
+    ux = np.where(lay.has_yaw, np.cos(head), chord[:, 0] / safe)
+    uy = np.where(lay.has_yaw, np.sin(head), chord[:, 1] / safe)
     # Decision (see comfort_score): no tangent, the whole acceleration is longitudinal.
     a_lon = np.where(ok, acc[:, 0] * ux + acc[:, 1] * uy, np.hypot(acc[:, 0], acc[:, 1]))
     a_lat = np.where(ok, -acc[:, 0] * uy + acc[:, 1] * ux, 0.0)
     ta = times[1:-1]
     dta = ta[1:] - ta[:-1]
-    dta[np.concatenate([bound - 3, bound - 2, bound - 1])] = 1.0
+    dta[lay.cut3] = 1.0
     j_lon = (a_lon[1:] - a_lon[:-1]) / dta
     # Peaks of |.| per series; straddling entries count as 0, which cannot raise a peak.
     peaks = np.empty((3, len(use)))
     a_abs = np.abs(np.stack([a_lon, a_lat]))
-    a_abs[:, np.concatenate([bound - 2, bound - 1])] = 0.0
-    peaks[:2] = np.maximum.reduceat(a_abs, starts, axis=1)
+    a_abs[:, lay.cut2] = 0.0
+    peaks[:2] = np.maximum.reduceat(a_abs, lay.starts, axis=1)
     j_abs = np.abs(j_lon)
-    j_abs[np.concatenate([bound - 3, bound - 2, bound - 1])] = 0.0
-    peaks[2] = np.maximum.reduceat(j_abs, starts)
+    j_abs[lay.cut3] = 0.0
+    peaks[2] = np.maximum.reduceat(j_abs, lay.starts)
     v = nv(peaks, steepness)
     score = 1.0 - ((v[0] + v[1]) / 2 + v[2]) / 2
     for s, value in zip(use, score.tolist(), strict=True):
