@@ -83,7 +83,7 @@ def convex_intersects(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 CHUNK = 5
 #: Chunk pairs above which the PET search runs the lateral-axis prefilter: below, its own
 #: dozen numpy calls cost more than the point pairs it would save.
-LATERAL_MIN = 64
+LATERAL_MIN = 128
 #: Objects (all worlds) above which the safety score drops those that cannot reach any ego
 #: sweep before interpolating them.
 REACH_MIN = 12
