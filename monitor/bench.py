@@ -1,5 +1,8 @@
 """Metric cost per frame on the reference load: `python -m monitor.bench [--frames N] [--seed S]`.
 
+`--stream FILE` measures a recorded stream (the bundled data) instead: mean / p50 / p99 per
+family.
+
 Reference load (issue 4): 2 channels, 40 objects each with 30-point predictions, 50-point
 plans, realistic highway motion (lanes, speeds 8-25 m/s, lane changes, a lead vehicle). The
 second channel sees the same world with localisation and detection noise, like a redundant
@@ -22,7 +25,7 @@ import numpy as np
 from monitor.engine import FAMILIES, MetricEngine
 from monitor.frames import Frame
 from monitor.parse import parse_frame
-from monitor.reader import decode
+from monitor.reader import decode, read_stream
 from safety_case.model import MetricParams
 
 CHANNELS = ["lav", "tfuse"]
@@ -168,12 +171,56 @@ def run(n: int, seed: int, warmup: int) -> dict[str, dict[str, float]]:
     return rows
 
 
+def stream_run(path: str, limit: int | None = None) -> dict[str, dict[str, float]]:
+    """Step an engine over a recorded stream (the bundled data): mean, p50 and p99 in ms per
+    family and in total, over its first `limit` frames (all when None). The frames are read
+    first, so reading is not measured."""
+    reader = read_stream(path)
+    frames: list[Frame] = []
+    for frame in reader:
+        frames.append(frame)
+        if limit is not None and len(frames) >= limit:
+            break
+    if not frames:
+        raise ValueError(f"{path}: no valid frame to measure")
+    gc.collect()
+    gc.freeze()
+    engine = MetricEngine(MetricParams(), reader.channels or list(frames[0].channels))
+    per_family: dict[str, list[float]] = {f: [] for f in FAMILIES}
+    total: list[float] = []
+    for frame in frames:
+        start = time.perf_counter()
+        engine.step(frame)
+        total.append(time.perf_counter() - start)
+        for f in FAMILIES:
+            per_family[f].append(engine.timings[f])
+    gc.unfreeze()
+    per_family["all metrics"] = total
+    return {
+        name: {"mean": float(np.mean(v)) * 1e3, "p50": _pct(v, 50), "p99": _pct(v, 99)}
+        for name, v in per_family.items()
+    }
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m monitor.bench", description=__doc__)
     ap.add_argument("--frames", type=int, default=500, help="measured frames (default 500)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--warmup", type=int, default=20, help="frames not measured (history fill)")
+    ap.add_argument(
+        "--stream",
+        metavar="FILE",
+        help="measure on a recorded stream instead (e.g. examples/data/*.jsonl.gz); "
+        "--frames then limits the frames read (0 = all)",
+    )
     args = ap.parse_args(argv)
+    if args.stream:
+        rows = stream_run(args.stream, args.frames or None)
+        print(f"monitor.bench: {args.stream}, first {args.frames or 'all'} frames")
+        print(f"{'family':<22} {'mean ms':>8} {'p50 ms':>8} {'p99 ms':>8}")
+        for name, r in rows.items():
+            print(f"{name:<22} {r['mean']:8.3f} {r['p50']:8.3f} {r['p99']:8.3f}")
+        return 0
     rows = run(args.frames, args.seed, args.warmup)
     print(
         f"monitor.bench: {len(CHANNELS)} channels, {N_OBJECTS} objects x {PRED_POINTS}-point "

@@ -4,7 +4,14 @@ from __future__ import annotations
 
 import json
 
-from monitor.bench import CHANNELS, reference_load_dicts, reference_load_frames, run
+from monitor.bench import (
+    CHANNELS,
+    main,
+    reference_load_dicts,
+    reference_load_frames,
+    run,
+    stream_run,
+)
 
 
 def test_reference_load_shape_and_determinism():
@@ -29,3 +36,14 @@ def test_run_reports_every_family():
         "reading (json+parse)",
     }
     assert all(r["p99"] >= r["p50"] > 0 for r in rows.values())
+
+
+def test_stream_run_measures_a_recorded_stream(tmp_path, capsys):
+    path = tmp_path / "s.jsonl"
+    path.write_text("\n".join(json.dumps(d) for d in reference_load_dicts(4, 1)) + "\n")
+    rows = stream_run(str(path), limit=3)
+    assert set(rows) == {"similarity", "motion_prediction", "comfort", "safety_score",
+                         "all metrics"}  # fmt: skip
+    assert all(r["p99"] >= r["p50"] > 0 and r["mean"] > 0 for r in rows.values())
+    assert main(["--stream", str(path), "--frames", "0"]) == 0
+    assert "all metrics" in capsys.readouterr().out
