@@ -21,9 +21,9 @@ import json
 import os
 import platform
 import re
-import resource
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -143,29 +143,34 @@ def build_replay(hours: float, files: int, folder: Path) -> tuple[list[Path], in
 
 
 def run_cli(args: list[str], stdin_files: list[Path] | None = None) -> tuple[float, int, int]:
-    """Run `casewatch ARGS` in a child process: wall seconds, peak RSS (KiB), exit code."""
+    """Run `casewatch ARGS` in a child process: wall seconds, its peak RSS (KiB), exit code.
+
+    With `stdin_files`, their decompressed frames are piped in as one live stream (headers
+    after the first dropped), so the run never sees a file and must stream.
+    """
     cmd = [sys.executable, "-m", "casewatch", *args]
-    start = time.perf_counter()
-    if stdin_files:
-        proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.DEVNULL,
-                                stderr=subprocess.PIPE)
-        assert proc.stdin is not None
-        for path in stdin_files:
-            with gzip.open(path, "rb") as fh:
-                lines = fh.read().splitlines(keepends=True)
-            if stdin_files.index(path) > 0 and lines and lines[0].startswith(b'{"header"'):
-                lines = lines[1:]
-            proc.stdin.write(b"".join(lines))
-        proc.stdin.close()
-        _, err = proc.communicate()
-    else:
-        proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-        _, err = proc.communicate()
-    wall = time.perf_counter() - start
-    rss = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
-    if proc.returncode not in (0, 1):
-        raise RuntimeError(f"casewatch {' '.join(args)} failed: {err.decode()[-2000:]}")
-    return wall, rss, proc.returncode
+    with tempfile.TemporaryFile() as err:
+        start = time.perf_counter()
+        proc = subprocess.Popen(cmd, stdin=subprocess.PIPE if stdin_files else None,
+                                stdout=subprocess.DEVNULL, stderr=err)
+        if stdin_files:
+            assert proc.stdin is not None
+            for index, path in enumerate(stdin_files):
+                with gzip.open(path, "rb") as fh:
+                    first = fh.readline()
+                    if index == 0 or not first.startswith(b'{"header"'):
+                        proc.stdin.write(first)
+                    while chunk := fh.read(1 << 20):
+                        proc.stdin.write(chunk)
+            proc.stdin.close()
+        _, status, usage = os.wait4(proc.pid, 0)
+        wall = time.perf_counter() - start
+        code = os.waitstatus_to_exitcode(status)
+        proc.returncode = code
+        if code not in (0, 1):
+            err.seek(0)
+            raise RuntimeError(f"casewatch {' '.join(args)} failed: {err.read().decode()[-2000:]}")
+    return wall, usage.ru_maxrss, code
 
 
 def offline(streams: list[Path], frames: int, hours: float, jobs: int, out: Path) -> dict:
