@@ -24,6 +24,7 @@ import re
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from pathlib import Path
 
@@ -31,6 +32,7 @@ import numpy as np
 
 from casewatch import api
 from evaluator.core import Evaluator
+from evaluator.session import peak_rss_mib
 from monitor.bench import reference_load_frames
 from monitor.engine import MetricEngine
 
@@ -142,17 +144,29 @@ def build_replay(hours: float, files: int, folder: Path) -> tuple[list[Path], in
     return out, written
 
 
-def run_cli(args: list[str], stdin_files: list[Path] | None = None) -> tuple[float, int, int]:
-    """Run `casewatch ARGS` in a child process: wall seconds, its peak RSS (KiB), exit code.
+def run_cli(args: list[str], stdin_files: list[Path] | None = None) -> tuple[float, float, int]:
+    """Run `casewatch ARGS` in a child process: wall seconds, its peak RSS (MiB), exit code.
 
     With `stdin_files`, their decompressed frames are piped in as one live stream (headers
-    after the first dropped), so the run never sees a file and must stream.
+    after the first dropped), so the run never sees a file and must stream. The peak RSS is the
+    child's own `VmHWM`, polled while it runs (getrusage would include this parent's memory,
+    counted at fork time).
     """
     cmd = [sys.executable, "-m", "casewatch", *args]
+    peak = 0.0
+
+    def poll() -> None:
+        nonlocal peak
+        while proc.poll() is None:
+            peak = max(peak, peak_rss_mib(proc.pid) or 0.0)
+            time.sleep(0.1)
+
     with tempfile.TemporaryFile() as err:
         start = time.perf_counter()
         proc = subprocess.Popen(cmd, stdin=subprocess.PIPE if stdin_files else None,
                                 stdout=subprocess.DEVNULL, stderr=err)
+        watcher = threading.Thread(target=poll, daemon=True)
+        watcher.start()
         if stdin_files:
             assert proc.stdin is not None
             for index, path in enumerate(stdin_files):
@@ -163,14 +177,13 @@ def run_cli(args: list[str], stdin_files: list[Path] | None = None) -> tuple[flo
                     while chunk := fh.read(1 << 20):
                         proc.stdin.write(chunk)
             proc.stdin.close()
-        _, status, usage = os.wait4(proc.pid, 0)
+        code = proc.wait()
         wall = time.perf_counter() - start
-        code = os.waitstatus_to_exitcode(status)
-        proc.returncode = code
+        watcher.join()
         if code not in (0, 1):
             err.seek(0)
             raise RuntimeError(f"casewatch {' '.join(args)} failed: {err.read().decode()[-2000:]}")
-    return wall, usage.ru_maxrss, code
+    return wall, peak, code
 
 
 def offline(streams: list[Path], frames: int, hours: float, jobs: int, out: Path) -> dict:
@@ -232,7 +245,7 @@ def main(argv: list[str] | None = None) -> int:
                             "--format", "none", "--quiet"], stdin_files=replay)
     single = {"jobs": 1, "frames": replay_frames, "hours": hours, "wall_s": round(wall, 2),
               "frames_per_s": round(replay_frames / wall, 1),
-              "x_real_time": round(hours * 3600 / wall, 1), "peak_rss_mib": round(rss / 1024, 1)}
+              "x_real_time": round(hours * 3600 / wall, 1), "peak_rss_mib": round(rss, 1)}
     results["offline_replay"] = [single,
                                  offline(replay, replay_frames, hours, 2, BENCH / "replay-j2")]
 

@@ -220,6 +220,7 @@ class Timings(_Record):
     stl_s: float = 0.0
     episodes_status_s: float = 0.0
     frames_per_s: float = 0.0
+    peak_rss_mib: float | None = None  # the process's peak resident memory (Linux VmHWM)
 
 
 class RunResult(_Record):

@@ -192,9 +192,26 @@ def evaluate_stream(
             stl_s=round(evaluator.stl_seconds, 6),
             episodes_status_s=round(clock.judge - evaluator.stl_seconds, 6),
             frames_per_s=round(reader.frames_read / total, 1) if total > 0 else 0.0,
+            peak_rss_mib=peak_rss_mib(),
         ),
         complete=complete,
     )
+
+
+def peak_rss_mib(pid: int | str = "self") -> float | None:
+    """Peak resident memory of a process since its exec (Linux `VmHWM`), in MiB.
+
+    Not `getrusage`: on Linux its maximum also counts the parent's memory at fork time, which
+    would charge the caller's memory to the run.
+    """
+    try:
+        with open(f"/proc/{pid}/status", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("VmHWM:"):
+                    return round(int(line.split()[1]) / 1024, 1)
+    except OSError:
+        return None
+    return None
 
 
 def _check_period(reader, case: Case, name: str) -> None:
