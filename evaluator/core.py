@@ -155,9 +155,9 @@ class Evaluator:
         """Frames are missing between `last_t` and `t`: a gap for every formula."""
         skipped = max(1, round((t - last_t) / self.period) - 1)
         for state in self.states:
-            state.gaps.missing(t - self.period, ["(no frames)"], ticks=skipped)
-            if state.gaps.current is not None and state.gaps.current.ticks == skipped:
-                state.gaps.current.start = last_t + self.period
+            state.gaps.missing(
+                t - self.period, ["(no frames)"], skipped, start=last_t + self.period
+            )
             state.ticks_no_data += skipped
             state.fresh = True
         for timeline in self.timelines.values():

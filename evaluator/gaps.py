@@ -30,10 +30,12 @@ class ClosedGap:
 class GapTracker:
     current: OpenGap | None = None
 
-    def missing(self, t: float, signals: list[str], ticks: int = 1) -> None:
-        """Record `ticks` tick(s) without value ending at `t`."""
+    def missing(
+        self, t: float, signals: list[str], ticks: int = 1, start: float | None = None
+    ) -> None:
+        """Record `ticks` tick(s) without value ending at `t` (starting at `start` if given)."""
         if self.current is None:
-            self.current = OpenGap(t, t, 0)
+            self.current = OpenGap(t if start is None else start, t, 0)
         self.current.end = t
         self.current.ticks += ticks
         self.current.missing.update(signals)

@@ -10,7 +10,7 @@ from __future__ import annotations
 import datetime as dt
 import io
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -101,49 +101,39 @@ def evaluate_stream(
     next_progress = time.perf_counter() + 1.0
     period_checked = False
     try:
-        frames = iter(reader)
-        while True:
-            t0 = time.perf_counter()
-            try:
-                frame = next(frames)
-            except StopIteration:
-                break
-            t1 = time.perf_counter()
-            if not period_checked:
-                period_checked = True
-                _check_period(reader, case, name)
-            values = engine.step(frame)
-            t2 = time.perf_counter()
-            evaluator.step(frame.t, values)
-            t3 = time.perf_counter()
-            arbitration.add(frame.t, engine.last_arbitration)
-            clock.read += t1 - t0
-            clock.metrics += t2 - t1
-            clock.judge += t3 - t2
-            if t_first is None:
-                t_first = frame.t
-            t_last = frame.t
-            if options.progress is not None and t3 >= next_progress:
-                options.progress(reader.frames_read, frame.t)
-                next_progress = t3 + 1.0
-    except StreamError as exc:
-        complete = False
+        try:
+            for frame in _timed(reader, clock):
+                t1 = time.perf_counter()
+                if not period_checked:
+                    period_checked = True
+                    _check_period(reader, case, name)
+                values = engine.step(frame)
+                t2 = time.perf_counter()
+                evaluator.step(frame.t, values)
+                t3 = time.perf_counter()
+                arbitration.add(frame.t, engine.last_arbitration)
+                clock.metrics += t2 - t1
+                clock.judge += t3 - t2
+                if t_first is None:
+                    t_first = frame.t
+                t_last = frame.t
+                if options.progress is not None and t3 >= next_progress:
+                    options.progress(reader.frames_read, frame.t)
+                    next_progress = t3 + 1.0
+        except StreamError as exc:
+            evaluator.finish()  # episodes closed so far still reach events.jsonl
+            raise InputError(f"{exc} (--strict stops at the first defect)") from None
+        except UnicodeDecodeError as exc:
+            raise InputError(f"{name}: stream is not UTF-8 text ({exc.reason})") from None
+        except KeyboardInterrupt:
+            complete = False
+        finally:
+            binary.close()
+            hashing.close()
         evaluator.finish()
+    finally:
         if log is not None:
             log.close()
-        raise InputError(f"{exc} (--strict stops at the first defect)") from None
-    except UnicodeDecodeError as exc:
-        complete = False
-        raise InputError(f"{name}: stream is not UTF-8 text ({exc.reason})") from None
-    except KeyboardInterrupt:
-        complete = False
-    finally:
-        binary.close()
-        hashing.close()
-    if complete or t_last is not None:
-        evaluator.finish()
-    if log is not None:
-        log.close()
     total = time.perf_counter() - clock.started
     stream = StreamInfo(
         path=str(source),
@@ -196,6 +186,19 @@ def evaluate_stream(
         ),
         complete=complete,
     )
+
+
+def _timed(reader, clock: _Clock) -> Iterator:
+    """The reader's frames, with the time spent reading and parsing added to `clock.read`."""
+    frames = iter(reader)
+    while True:
+        started = time.perf_counter()
+        try:
+            frame = next(frames)
+        except StopIteration:
+            return
+        clock.read += time.perf_counter() - started
+        yield frame
 
 
 def peak_rss_mib(pid: int | str = "self") -> float | None:

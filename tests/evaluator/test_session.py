@@ -8,7 +8,7 @@ import pytest
 
 from casewatch import api
 from evaluator.session import InputError, RunOptions, evaluate_stream
-from tests.evaluator.streams import write_case, write_stream
+from tests.evaluator.streams import frame, write_case, write_stream
 
 
 @pytest.fixture(scope="module")
@@ -115,3 +115,20 @@ def test_labels_score_one_tp_one_fp_one_fn(tmp_path):
     score = gt.per_hazard[0]
     assert (score.true_positives, score.false_positives, score.false_negatives) == (1, 1, 1)
     assert score.precision == pytest.approx(0.5) and score.recall == pytest.approx(0.5)
+
+
+def test_frames_missing_longer_than_max_gap_are_a_gap_for_every_formula(tmp_path):
+    """Frames 3.0-3.9 s are absent (1.1 s between 2.9 and 4.0 > max_gap 0.5 s): ten missing
+    ticks, a data gap from 3.0 to 3.9 for each formula, and no-data in the root's timeline."""
+    case, spec = api.prepare(write_case(tmp_path / "case.yaml"))
+    stream = tmp_path / "s.jsonl"
+    ticks = [i for i in range(60) if not 30 <= i <= 39]
+    stream.write_text("".join(json.dumps(frame(i)) + "\n" for i in ticks))
+    result = evaluate_stream(case, spec, stream)
+    gaps = {(g.node_id, g.start, g.end, g.ticks, tuple(g.missing)) for g in result.data_gaps}
+    assert ("Sn1", 3.0, 3.9, 10, ("(no frames)",)) in gaps
+    assert ("CSn1", 3.0, 3.9, 10, ("(no frames)",)) in gaps
+    root = next(s for s in result.status if s.node_id == "G1")
+    assert ("no-data", 3.0, 3.9, 10) in [(i.status, i.start, i.end, i.ticks) for i in root.timeline]
+    # the ELS episode (2.0-3.0 s) is cut by the missing frames: it ends at 2.9
+    assert [(e.start, e.end) for e in result.episodes if e.node_id == "Sn1"] == [(2.0, 2.9)]
