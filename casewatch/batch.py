@@ -64,6 +64,15 @@ def sibling_labels(path: Path) -> Path | None:
     return candidate if candidate.is_file() else None
 
 
+def labels_for(stream: str, labels: str | None) -> str | None:
+    """The labels file for `stream`: `--labels` as given, or with `auto` the sibling
+    NAME.labels.jsonl when it exists (never for standard input)."""
+    if labels != "auto":
+        return labels
+    found = None if stream == "-" else sibling_labels(Path(stream))
+    return str(found) if found else None
+
+
 @dataclass(frozen=True)
 class Job:
     case_path: str
@@ -117,8 +126,8 @@ def run_many(
         while name in used:
             name, n = f"{stem}-{n}", n + 1
         used.add(name)
-        label_file = str(sibling_labels(stream) or "") if labels == "auto" else labels
-        work.append(Job(case_path, str(stream), str(out_dir / name), label_file or None,
+        work.append(Job(case_path, str(stream), str(out_dir / name),
+                        labels_for(str(stream), labels),
                         strict, tuple(formats)))
     results: list[LogSummary] = []
     if jobs <= 1:

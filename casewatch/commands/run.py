@@ -91,10 +91,7 @@ def main(args: argparse.Namespace) -> int:
 def _run_single(args, case, spec, formats: tuple[str, ...]) -> int:
     stream = args.streams[0]
     live = stream == "-"
-    labels = args.labels
-    if labels == "auto":
-        found = None if live else batch.sibling_labels(Path(stream))
-        labels = str(found) if found else None
+    labels = batch.labels_for(stream, args.labels)
 
     def on_event(event: Episode | DataGap) -> None:
         if live and not args.quiet and isinstance(event, Episode):
