@@ -3,12 +3,13 @@ safety score."""
 
 from __future__ import annotations
 
-from bisect import bisect_right
-
 import numpy as np
 
 from monitor.frames import Objects
-from monitor.similarity import pair_objects
+from monitor.jit import kernel
+
+#: Pairing tie tolerance [m] (spi-reference "Object pairing"), as in monitor.similarity.
+PAIRING_EPS = 1e-9
 
 
 def interpolate_tracks(
@@ -71,29 +72,138 @@ def interpolate_tracks(
     return np.where(have[:, None, None], inside, out)
 
 
-def _shared_grid(pred: np.ndarray, pred_len: np.ndarray) -> np.ndarray | None:
-    """The prediction time grid when every object is predicted on the same one (>= 2 points),
-    else None."""
+@kernel
+def _point_at(pos, pred, pred_len, k, t, out):
+    """Position of object k at time t into out[0:2]: `interpolate_tracks`'s arithmetic for one
+    object and one time (kernel helper)."""
+    n = pred_len[k]
     p = pred.shape[1]
-    if p < 2 or not (pred_len == p).all():
-        return None
-    dt = pred[:, :, 0]
-    return dt[0] if (dt == dt[0]).all() else None
+    if n == 0 or p == 0:
+        out[0] = pos[k, 0]
+        out[1] = pos[k, 1]
+        return
+    idx = 0
+    frac = 0.0
+    if p > 1:
+        # count of real dt <= t, minus one, clipped to [0, max(n - 2, 0)]
+        for j in range(n):
+            if pred[k, j, 0] <= t:
+                idx += 1
+        idx = min(max(idx - 1, 0), max(n - 2, 0))
+        j1 = min(idx + 1, p - 1)
+        t0 = pred[k, idx, 0]
+        span = pred[k, j1, 0] - t0
+        if span > 0:
+            frac = min(max((t - t0) / span, 0.0), 1.0)
+    else:
+        j1 = 0
+    first = pred[k, 0, 0]
+    if t < first:
+        # before the first predicted point: from the current position towards it
+        lead = t / first if first > 0 else 0.0
+        out[0] = pos[k, 0] + (pred[k, 0, 1] - pos[k, 0]) * lead
+        out[1] = pos[k, 1] + (pred[k, 0, 2] - pos[k, 1]) * lead
+        return
+    ax, ay = pred[k, idx, 1], pred[k, idx, 2]
+    out[0] = ax + (pred[k, j1, 1] - ax) * frac
+    out[1] = ay + (pred[k, j1, 2] - ay) * frac
+
+
+@kernel
+def _positions_at(pos, pred, pred_len, t):  # pragma: no cover - compiled
+    """Every object's position at time t (K, 2)."""
+    k = pos.shape[0]
+    out = np.empty((k, 2))
+    for i in range(k):
+        _point_at(pos, pred, pred_len, i, t, out[i])
+    return out
 
 
 def positions_at(pos: np.ndarray, pred: np.ndarray, pred_len: np.ndarray, t: float) -> np.ndarray:
     """Object positions (K, 2) at one time `t` after the frame time: `interpolate_tracks` at a
-    single time, with the same arithmetic (the shared-grid case on Python scalars)."""
-    g = _shared_grid(pred, pred_len) if len(pos) else None
-    if g is None:
-        return interpolate_tracks(pos, pred, pred_len, np.array([t]))[:, 0]
-    grid = g.tolist()
-    if grid[0] > 0 and t < grid[0]:
-        return pos + (pred[:, 0, 1:3] - pos) * (t / grid[0])
-    i1 = min(max(bisect_right(grid, t) - 1, 0), len(grid) - 2)
-    f1 = min(max((t - grid[i1]) / (grid[i1 + 1] - grid[i1]), 0.0), 1.0)
-    a = pred[:, i1, 1:3]
-    return a + (pred[:, i1 + 1, 1:3] - a) * f1
+    single time, with the same arithmetic, in one compiled call."""
+    return _positions_at(pos, pred, pred_len, float(t))
+
+
+@kernel
+def _ompv_counts(pos, pred, pred_len, elapsed, cur, match, tolerance, gate):  # pragma: no cover
+    """(N1, N2) of ompv. `match[i]` is the current index of previous object i's id (-1: none);
+    when no entry matches and there are current objects, the channel does not track and the
+    pairing is the greedy nearest one within `gate` (spi-reference "Object pairing": candidates
+    ordered by (distance in 1e-9 m quanta, index in A, index in B))."""
+    n_prev = pos.shape[0]
+    n_cur = cur.shape[0]
+    p = pred.shape[1]
+    reaches = np.empty(n_prev, dtype=np.bool_)
+    predicted = np.empty((n_prev, 2))
+    for i in range(n_prev):
+        n = pred_len[i]
+        if p == 0:
+            reaches[i] = n == 0
+        else:
+            last = pred[i, max(n - 1, 0), 0]
+            reaches[i] = n == 0 or last >= elapsed - 1e-9
+        _point_at(pos, pred, pred_len, i, elapsed, predicted[i])
+    pi = np.empty(n_prev, dtype=np.int64)
+    ci = np.empty(n_prev, dtype=np.int64)
+    m = 0
+    tracked = False
+    for i in range(n_prev):
+        if match[i] >= 0:
+            tracked = True
+    if tracked or n_cur == 0:
+        # Decision: a channel tracks when at least one id carries over between the two ticks.
+        for i in range(n_prev):
+            if match[i] >= 0:
+                pi[m] = i
+                ci[m] = match[i]
+                m += 1
+    else:
+        # No stable ids: the nearest current object to each predicted position, within the gate.
+        nc = n_prev * n_cur
+        ca = np.empty(nc, dtype=np.int64)
+        cb = np.empty(nc, dtype=np.int64)
+        key = np.empty(nc)
+        g = 0
+        for i in range(n_prev):
+            if not reaches[i]:
+                continue
+            for j in range(n_cur):
+                dx = predicted[i, 0] - cur[j, 0]
+                dy = predicted[i, 1] - cur[j, 1]
+                d = np.sqrt(dx * dx + dy * dy)
+                if d <= gate + PAIRING_EPS:
+                    ca[g] = i
+                    cb[g] = j
+                    # Decision: distances equal to within 1e-9 m are ties (broken by index)
+                    key[g] = np.rint(d / PAIRING_EPS)
+                    g += 1
+        # candidates were made in (A, B) order: a stable sort on the key gives the lexsort order
+        order = np.argsort(key[:g], kind="mergesort")
+        used_a = np.zeros(n_prev, dtype=np.bool_)
+        used_b = np.zeros(n_cur, dtype=np.bool_)
+        for o in order:
+            a = ca[o]
+            b = cb[o]
+            if not used_a[a] and not used_b[b]:
+                used_a[a] = True
+                used_b[b] = True
+                pi[m] = a
+                ci[m] = b
+                m += 1
+    seen = np.zeros(n_cur, dtype=np.bool_)
+    distinct = 0
+    n1 = 0
+    for r in range(m):
+        c = ci[r]
+        if not seen[c]:
+            seen[c] = True
+            distinct += 1
+        i = pi[r]
+        err = np.hypot(predicted[i, 0] - cur[c, 0], predicted[i, 1] - cur[c, 1])
+        if reaches[i] and err <= tolerance:
+            n1 += 1
+    return n1, n_prev + n_cur - distinct
 
 
 def ompv(prev: Objects, elapsed: float, cur: Objects, tolerance: float, gate: float) -> float:
@@ -104,34 +214,16 @@ def ompv(prev: Objects, elapsed: float, cur: Objects, tolerance: float, gate: fl
     prediction means "stays where it is", so it always reaches). It followed when the current
     object of the same id (or, when the channel does not track, the nearest within `gate`) is
     within `tolerance`. N2 = previous objects + current objects that are new.
+
+    The id lookup stays in Python (ids are strings); the rest is one compiled call.
     """
     n_prev, n_cur = len(prev), len(cur)
     if n_prev == 0:
         return 1.0 if n_cur == 0 else 0.0  # every current object is new: a miss
-    plen = prev.pred_len
-    if prev.pred.shape[1]:
-        last_dt = prev.pred[np.arange(n_prev), np.maximum(plen - 1, 0), 0]
-        reaches = (plen == 0) | (last_dt >= elapsed - 1e-9)
-    else:
-        reaches = plen == 0
-    predicted = positions_at(prev.pos, prev.pred, plen, elapsed)
     index_cur = {oid: i for i, oid in enumerate(cur.ids)}
-    tracked = n_cur > 0 and any(oid in index_cur for oid in prev.ids)
-    if tracked or n_cur == 0:
-        # Decision: a channel tracks when at least one id carries over between the two ticks.
-        pairs = [(i, index_cur[oid]) for i, oid in enumerate(prev.ids) if oid in index_cur]
-        pi = np.array([i for i, _ in pairs], dtype=int)
-        ci = np.array([c for _, c in pairs], dtype=int)
-    else:
-        # No stable ids: the nearest current object to each predicted position, within the gate.
-        cand = np.nonzero(reaches)[0]
-        pa, ci, _ = pair_objects(predicted[cand], cur.pos, gate)
-        pi = cand[pa]
-    n_new = n_cur - len(set(ci.tolist()))
-    if len(pi):
-        diff = predicted[pi] - cur.pos[ci]
-        err = np.hypot(diff[:, 0], diff[:, 1])
-        n1 = int(np.count_nonzero(reaches[pi] & (err <= tolerance)))
-    else:
-        n1 = 0
-    return n1 / (n_prev + n_new)
+    match = np.array([index_cur.get(oid, -1) for oid in prev.ids], dtype=np.int64)
+    n1, n2 = _ompv_counts(
+        prev.pos, prev.pred, prev.pred_len, float(elapsed), cur.pos, match,
+        float(tolerance), float(gate),
+    )  # fmt: skip
+    return n1 / n2
