@@ -9,9 +9,12 @@ construction, so a_lat would always be 0.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
+
+from monitor.jit import kernel
 
 #: Minimum samples: positions -> velocity -> acceleration -> jerk needs four.
 MIN_POINTS = 4
@@ -22,6 +25,71 @@ def nv(s: np.ndarray | float, steepness: float) -> np.ndarray | float:
     return 2.0 / (1.0 + np.exp(-steepness * np.abs(s))) - 1.0
 
 
+@kernel
+def _peak_abs_update(peak: float, v: float) -> float:
+    """max(peak, |v|) with NaN sticking, as in `np.max`."""
+    if math.isnan(peak) or math.isnan(v):
+        return math.nan
+    return max(peak, abs(v))
+
+
+@kernel
+def _comfort_kernel(
+    times: np.ndarray, xy: np.ndarray, yaw: np.ndarray, has_yaw: bool, steepness: float
+) -> float:
+    """The comfort score of one series of n >= 4 samples (see `comfort_score`).
+
+    Velocities at the midpoints, accelerations centred on samples 1 .. n-2 (differentiated in
+    the world frame, then rotated onto the heading), jerk between those; peaks of |.|.
+    """
+    n = times.shape[0]
+    pa_lon = 0.0
+    pa_lat = 0.0
+    pj_lon = 0.0
+    prev_lon = 0.0
+    for i in range(n - 2):
+        # acceleration centred on sample c = i + 1
+        dt0 = times[i + 1] - times[i]
+        dt1 = times[i + 2] - times[i + 1]
+        v0x = (xy[i + 1, 0] - xy[i, 0]) / dt0
+        v0y = (xy[i + 1, 1] - xy[i, 1]) / dt0
+        v1x = (xy[i + 2, 0] - xy[i + 1, 0]) / dt1
+        v1y = (xy[i + 2, 1] - xy[i + 1, 1]) / dt1
+        dtm = 0.5 * (times[i + 2] + times[i + 1]) - 0.5 * (times[i + 1] + times[i])
+        ax = (v1x - v0x) / dtm
+        ay = (v1y - v0y) / dtm
+        if has_yaw:
+            ux = math.cos(yaw[i + 1])
+            uy = math.sin(yaw[i + 1])
+            a_lon = ax * ux + ay * uy
+            a_lat = -ax * uy + ay * ux
+        else:
+            # Path tangent at the sample: the chord from the previous to the next sample.
+            cx = xy[i + 2, 0] - xy[i, 0]
+            cy = xy[i + 2, 1] - xy[i, 1]
+            norm = math.hypot(cx, cy)
+            if norm > 1e-12:
+                ux = cx / norm
+                uy = cy / norm
+                a_lon = ax * ux + ay * uy
+                a_lat = -ax * uy + ay * ux
+            else:
+                # Decision: where the tangent is undefined (no motion), the whole acceleration
+                # counts as longitudinal; this keeps the score invariant under rotations.
+                a_lon = math.hypot(ax, ay)
+                a_lat = 0.0
+        pa_lon = _peak_abs_update(pa_lon, a_lon)
+        pa_lat = _peak_abs_update(pa_lat, a_lat)
+        if i > 0:
+            # jerk between the accelerations at samples i and i + 1
+            pj_lon = _peak_abs_update(pj_lon, (a_lon - prev_lon) / dt0)
+        prev_lon = a_lon
+    v_lon = 2.0 / (1.0 + math.exp(-steepness * abs(pa_lon))) - 1.0
+    v_lat = 2.0 / (1.0 + math.exp(-steepness * abs(pa_lat))) - 1.0
+    v_jerk = 2.0 / (1.0 + math.exp(-steepness * abs(pj_lon))) - 1.0
+    return 1.0 - ((v_lon + v_lat) / 2 + v_jerk) / 2
+
+
 def comfort_score(
     times: np.ndarray, xy: np.ndarray, yaw: np.ndarray | None, steepness: float
 ) -> float | None:
@@ -30,129 +98,29 @@ def comfort_score(
     `yaw` (n,) gives the vehicle heading at each sample; None takes the path tangent (plans).
     None when fewer than four samples.
     """
-    n = len(times)
-    if n < MIN_POINTS:
+    if len(times) < MIN_POINTS:
         return None
-    dt = times[1:] - times[:-1]
-    vel = (xy[1:] - xy[:-1]) / dt[:, None]  # at the midpoints tm
-    tm = 0.5 * (times[1:] + times[:-1])
-    acc = (vel[1:] - vel[:-1]) / (tm[1:] - tm[:-1])[:, None]  # centred on samples 1..n-2
-    if yaw is not None:
-        head = yaw[1:-1]
-        ux, uy = np.cos(head), np.sin(head)
-        a_lon = acc[:, 0] * ux + acc[:, 1] * uy
-        a_lat = -acc[:, 0] * uy + acc[:, 1] * ux
-    else:
-        # Path tangent at sample i: the chord from i-1 to i+1 (the sum of the two segments).
-        chord = xy[2:] - xy[:-2]
-        norm = np.hypot(chord[:, 0], chord[:, 1])
-        ok = norm > 1e-12
-        safe = np.where(ok, norm, 1.0)
-        ux, uy = chord[:, 0] / safe, chord[:, 1] / safe
-        # Decision: where the tangent is undefined (no motion), the whole acceleration counts as
-        # longitudinal; this keeps the score invariant under rotations of the world.
-        a_lon = np.where(ok, acc[:, 0] * ux + acc[:, 1] * uy, np.hypot(acc[:, 0], acc[:, 1]))
-        a_lat = np.where(ok, -acc[:, 0] * uy + acc[:, 1] * ux, 0.0)
-    ta = times[1:-1]
-    j_lon = (a_lon[1:] - a_lon[:-1]) / (ta[1:] - ta[:-1])
-    pa_lon = float(np.max(np.abs(a_lon)))
-    pa_lat = float(np.max(np.abs(a_lat)))
-    pj_lon = float(np.max(np.abs(j_lon)))
-    return float(
-        1.0 - ((nv(pa_lon, steepness) + nv(pa_lat, steepness)) / 2 + nv(pj_lon, steepness)) / 2
+    # without a heading, `times` stands in for the (unread) yaw argument
+    return _comfort_kernel(
+        times, xy, times if yaw is None else yaw, yaw is not None, float(steepness)
     )
-
-
-class _Layout:
-    """Index arrays of a concatenation of series with the given (length, has yaw): each
-    series' first index, and the differences that straddle two series. Differences ending at
-    index e (the next series' start) straddle it: index e - 1 for first differences (`cut1`),
-    e - 2 and e - 1 for second ones (`cut2`), e - 3 .. e - 1 for jerk (`cut3`); their
-    denominators become 1 and their values are masked. Frames repeat the same layout."""
-
-    __slots__ = ("cut1", "cut2", "cut3", "has_yaw", "starts", "zeros")
-
-    def __init__(self, key: tuple[tuple[int, bool], ...]):
-        lengths = np.array([n for n, _ in key])
-        self.starts = np.zeros(len(key), dtype=np.intp)
-        np.cumsum(lengths[:-1], out=self.starts[1:])
-        bound = (self.starts + lengths)[:-1]
-        self.cut1 = bound - 1
-        self.cut2 = np.concatenate([bound - 2, bound - 1])
-        self.cut3 = np.concatenate([bound - 3, bound - 2, bound - 1])
-        # at the acceleration samples 1 .. N-2 of the concatenation
-        self.has_yaw = np.repeat([y for _, y in key], lengths)[1:-1]
-        self.zeros = np.zeros(int(lengths.max()))
-
-
-_LAYOUTS: dict[tuple[tuple[int, bool], ...], _Layout] = {}
 
 
 def comfort_scores(
     series: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray | None]], steepness: float
 ) -> list[float | None]:
-    """`comfort_score` of many (times, xy, yaw-or-None) series in one vectorised pass.
+    """`comfort_score` of many (times, xy, yaw-or-None) series (hcs and ppcs of every channel).
 
-    A frame has four short series (hcs and ppcs of two channels); per-call numpy overhead, not
-    arithmetic, dominates at that size. The series are concatenated; differences that straddle
-    two series are computed on safe placeholders and masked out, and each series' peaks come
-    from one `maximum.reduceat`. Each value is computed by the same arithmetic as
-    `comfort_score`, element by element.
+    One kernel call per series: a call costs about a microsecond, less than packing the
+    series into one padded array would.
     """
-    out: list[float | None] = [None] * len(series)
-    use = [s for s, (t, _, _) in enumerate(series) if len(t) >= MIN_POINTS]
-    if not use:
-        return out
-    if len(use) == 1:
-        times, xy, yaw = series[use[0]]
-        out[use[0]] = comfort_score(times, xy, yaw, steepness)
-        return out
-    key = tuple((len(series[s][0]), series[s][2] is not None) for s in use)
-    lay = _LAYOUTS.get(key)
-    if lay is None:
-        lay = _LAYOUTS[key] = _Layout(key)
-        if len(_LAYOUTS) > 64:
-            _LAYOUTS.clear()
-    times = np.concatenate([series[s][0] for s in use])
-    xy = np.concatenate([series[s][1] for s in use])
-    # the vehicle heading where given (hcs), else a placeholder the path tangent replaces
-    yaw = np.concatenate([lay.zeros[: len(series[s][0])] if series[s][2] is None else series[s][2]
-                          for s in use])  # fmt: skip
-    dt = times[1:] - times[:-1]
-    dt[lay.cut1] = 1.0
-    vel = (xy[1:] - xy[:-1]) / dt[:, None]
-    tm = 0.5 * (times[1:] + times[:-1])
-    dtm = tm[1:] - tm[:-1]
-    dtm[lay.cut2] = 1.0
-    acc = (vel[1:] - vel[:-1]) / dtm[:, None]  # acc[i] is centred on sample i + 1
-    chord = xy[2:] - xy[:-2]
-    norm = np.hypot(chord[:, 0], chord[:, 1])
-    moving = norm > 1e-12
-    ok = moving | lay.has_yaw
-    safe = np.where(moving, norm, 1.0)
-    head = yaw[1:-1]
-    ux = np.where(lay.has_yaw, np.cos(head), chord[:, 0] / safe)
-    uy = np.where(lay.has_yaw, np.sin(head), chord[:, 1] / safe)
-    # Decision (see comfort_score): no tangent, the whole acceleration is longitudinal.
-    a_lon = np.where(ok, acc[:, 0] * ux + acc[:, 1] * uy, np.hypot(acc[:, 0], acc[:, 1]))
-    a_lat = np.where(ok, -acc[:, 0] * uy + acc[:, 1] * ux, 0.0)
-    ta = times[1:-1]
-    dta = ta[1:] - ta[:-1]
-    dta[lay.cut3] = 1.0
-    j_lon = (a_lon[1:] - a_lon[:-1]) / dta
-    # Peaks of |.| per series; straddling entries count as 0, which cannot raise a peak.
-    peaks = np.empty((3, len(use)))
-    a_abs = np.abs(np.stack([a_lon, a_lat]))
-    a_abs[:, lay.cut2] = 0.0
-    peaks[:2] = np.maximum.reduceat(a_abs, lay.starts, axis=1)
-    j_abs = np.abs(j_lon)
-    j_abs[lay.cut3] = 0.0
-    peaks[2] = np.maximum.reduceat(j_abs, lay.starts)
-    v = nv(peaks, steepness)
-    score = 1.0 - ((v[0] + v[1]) / 2 + v[2]) / 2
-    for s, value in zip(use, score.tolist(), strict=True):
-        out[s] = value
-    return out
+    w = float(steepness)
+    return [
+        None
+        if len(t) < MIN_POINTS
+        else _comfort_kernel(t, xy, t if yaw is None else yaw, yaw is not None, w)
+        for t, xy, yaw in series
+    ]
 
 
 def hcs(

@@ -12,6 +12,7 @@ import numpy as np
 import shapely
 
 from monitor.frames import ChannelState, Objects
+from monitor.jit import kernel
 
 #: Pairing distance resolution [m]: closer distances are ties.
 PAIRING_EPS = 1e-9
@@ -22,10 +23,59 @@ def inv(d: np.ndarray | float) -> np.ndarray | float:
     return 1.0 / (1.0 + d)
 
 
-def angdiff(a: np.ndarray | float, b: np.ndarray | float) -> np.ndarray | float:
-    """Absolute heading difference wrapped into [0, pi]."""
-    d = np.abs(np.remainder(np.asarray(a) - np.asarray(b), 2 * math.pi))
-    return np.minimum(d, 2 * math.pi - d)
+def angdiff(a: float, b: float) -> float:
+    """Absolute heading difference wrapped into [0, pi].
+
+    Python's float `%` takes the sign of the divisor, exactly like `np.remainder`.
+    """
+    d = abs((a - b) % (2 * math.pi))
+    return min(d, 2 * math.pi - d)
+
+
+@kernel
+def _pair_kernel(
+    pos_a: np.ndarray, pos_b: np.ndarray, gate: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Greedy global nearest matching in machine code (see `pair_objects`)."""
+    na, nb = pos_a.shape[0], pos_b.shape[0]
+    dist = np.empty((na, nb))
+    cand_a = np.empty(na * nb, dtype=np.int64)
+    cand_b = np.empty(na * nb, dtype=np.int64)
+    key = np.empty(na * nb)
+    nc = 0
+    for i in range(na):
+        for j in range(nb):
+            dx = pos_a[i, 0] - pos_b[j, 0]
+            dy = pos_a[i, 1] - pos_b[j, 1]
+            d = math.sqrt(dx * dx + dy * dy)
+            dist[i, j] = d
+            # Decision: distances equal to within 1e-9 m are ties (broken by index), so that
+            # float noise from a change of world frame cannot reorder the matching.
+            if d <= gate + PAIRING_EPS:
+                cand_a[nc] = i
+                cand_b[nc] = j
+                key[nc] = np.rint(d / PAIRING_EPS)
+                nc += 1
+    # candidates are generated in (index in A, index in B) order; a stable sort on the rounded
+    # distance gives the (distance, index in A, index in B) order
+    order = np.argsort(key[:nc], kind="mergesort")
+    used_a = np.zeros(na, dtype=np.bool_)
+    used_b = np.zeros(nb, dtype=np.bool_)
+    m = min(na, nb)
+    acc_a = np.empty(m, dtype=np.int64)
+    acc_b = np.empty(m, dtype=np.int64)
+    acc_d = np.empty(m)
+    k = 0
+    for c in order:
+        i, j = cand_a[c], cand_b[c]
+        if not used_a[i] and not used_b[j]:
+            used_a[i] = True
+            used_b[j] = True
+            acc_a[k] = i
+            acc_b[k] = j
+            acc_d[k] = dist[i, j]
+            k += 1
+    return acc_a[:k], acc_b[:k], acc_d[:k]
 
 
 def pair_objects(
@@ -34,55 +84,74 @@ def pair_objects(
     """Greedy global nearest matching (spi-reference "Object pairing").
 
     Returns (index in A, index in B, centre distance) of the accepted pairs, in acceptance
-    order. Ties break by (distance, index in A, index in B): a lexsort on exactly those keys.
+    order. Ties break by (distance, index in A, index in B), distances within 1e-9 m being
+    ties.
     """
-    if len(pos_a) == 0 or len(pos_b) == 0:
-        empty = np.zeros(0, dtype=int)
-        return empty, empty, np.zeros(0)
-    diff = pos_a[:, None, :] - pos_b[None, :, :]
-    dist = np.sqrt(np.einsum("ijk,ijk->ij", diff, diff))
-    # Decision: distances equal to within 1e-9 m are ties (broken by index), so that float
-    # noise from a change of world frame cannot reorder the matching.
-    ia, ib = np.nonzero(dist <= gate + PAIRING_EPS)
-    if len(ia) == 0:
-        empty = np.zeros(0, dtype=int)
-        return empty, empty, np.zeros(0)
-    dv = np.round(dist[ia, ib] / PAIRING_EPS)
-    order = np.lexsort((ib, ia, dv))
-    # Greedy acceptance is inherently sequential; the loop runs over gated candidates only.
-    used_a = np.zeros(len(pos_a), dtype=bool)
-    used_b = np.zeros(len(pos_b), dtype=bool)
-    acc_a: list[int] = []
-    acc_b: list[int] = []
-    for i, j in zip(ia[order].tolist(), ib[order].tolist(), strict=True):
-        if not used_a[i] and not used_b[j]:
-            used_a[i] = used_b[j] = True
-            acc_a.append(i)
-            acc_b.append(j)
-    pa = np.array(acc_a, dtype=int)
-    pb = np.array(acc_b, dtype=int)
-    return pa, pb, dist[pa, pb]
+    return _pair_kernel(pos_a, pos_b, float(gate))
 
 
-def weighted_pointwise(
-    p: np.ndarray, q: np.ndarray, lengths: np.ndarray | None, decay: float
-) -> np.ndarray:
-    """spi-reference: S = sum_n w_n inv(|P_n - Q_n|) / sum_n w_n, w_n = k^(n-1).
+@kernel
+def _object_kernel(
+    pos_a: np.ndarray,
+    yaw_a: np.ndarray,
+    area_a: np.ndarray,
+    pred_a: np.ndarray,
+    len_a: np.ndarray,
+    pos_b: np.ndarray,
+    yaw_b: np.ndarray,
+    area_b: np.ndarray,
+    pred_b: np.ndarray,
+    len_b: np.ndarray,
+    gate: float,
+    w: np.ndarray,
+) -> tuple[float, float, float, float]:
+    """(ols, oos, oas, ots) of two object sets, not both empty; all 0.0 when no pair forms.
 
-    `p`, `q` (M, L, 2); `lengths` (M,) limits each row to its first `lengths[m]` points
-    (None = all L points).
+    Each object's prediction is its first `len` points of `pred[:, :, 1:3]`; no prediction
+    (length 0, or no prediction columns at all) is the single current position. A pair
+    compares its predictions over the longer of the two, the shorter padded by its last point
+    (spi-reference "ots"); `w` holds the weights k^(n-1), at least as many as the longest
+    prediction.
     """
-    d = np.hypot(p[..., 0] - q[..., 0], p[..., 1] - q[..., 1])
-    w = _weights(decay, p.shape[1])
-    if lengths is None:
-        return (inv(d) @ w) / w.sum()
-    n = p.shape[1]
-    wm = np.where((_ARANGE[:n] if n <= len(_ARANGE) else np.arange(n)) < lengths[:, None], w, 0.0)
-    return (wm * inv(d)).sum(axis=1) / wm.sum(axis=1)
-
-
-#: 0, 1, 2, ... (a slice is cheaper than np.arange per call)
-_ARANGE = np.arange(1024)
+    ia, ib, dist = _pair_kernel(pos_a, pos_b, gate)
+    n = ia.shape[0]
+    if n == 0:
+        return 0.0, 0.0, 0.0, 0.0
+    ols = 0.0
+    oos = 0.0
+    oas = 0.0
+    ots = 0.0
+    two_pi = 2 * math.pi
+    cols_a, cols_b = pred_a.shape[1], pred_b.shape[1]
+    for k in range(n):
+        i, j = ia[k], ib[k]
+        ols += 1.0 / (1.0 + dist[k])
+        d = abs((yaw_a[i] - yaw_b[j]) % two_pi)
+        oos += 1.0 - min(d, two_pi - d) / math.pi
+        hi = max(area_a[i], area_b[j])
+        lo = min(area_a[i], area_b[j])
+        # spi-reference: a pair of zero-area footprints scores 1.0.
+        oas += lo / hi if hi > 0 else 1.0
+        la = len_a[i] if cols_a > 0 else 0
+        lb = len_b[j] if cols_b > 0 else 0
+        length = max(la, lb, 1)
+        num = 0.0
+        den = 0.0
+        for p in range(length):
+            if la == 0:
+                xa, ya = pos_a[i, 0], pos_a[i, 1]
+            else:
+                q = min(p, la - 1)
+                xa, ya = pred_a[i, q, 1], pred_a[i, q, 2]
+            if lb == 0:
+                xb, yb = pos_b[j, 0], pos_b[j, 1]
+            else:
+                q = min(p, lb - 1)
+                xb, yb = pred_b[j, q, 1], pred_b[j, q, 2]
+            num += w[p] * (1.0 / (1.0 + math.hypot(xa - xb, ya - yb)))
+            den += w[p]
+        ots += num / den
+    return ols / n, oos / n, oas / n, ots / n
 
 
 @lru_cache(maxsize=64)
@@ -93,53 +162,21 @@ def _weights(decay: float, n: int) -> np.ndarray:
     return w
 
 
-def _pad_to(xy: np.ndarray, n: np.ndarray, length: int) -> np.ndarray:
-    """Rows of (M, P, 2) padded (already by last point) or cut to `length` columns, each row's
-    points beyond its own length replaced by its last point."""
-    m, p = xy.shape[0], xy.shape[1]
-    if p >= length and bool((n == length).all()):
-        return xy[:, :length]
-    if p < length:
-        xy = np.concatenate([xy, np.repeat(xy[:, -1:, :], length - p, axis=1)], axis=1)
-    else:
-        xy = xy[:, :length]
-    cols = np.minimum(np.arange(length)[None, :], (n - 1)[:, None])
-    return xy[np.arange(m)[:, None], cols]
-
-
 def object_similarities(a: Objects, b: Objects, gate: float, decay: float) -> dict[str, float]:
-    """ocs, ols, oos, oas, ots for one channel pair."""
+    """ocs, ols, oos, oas, ots for one channel pair (one kernel call)."""
     na, nb = len(a), len(b)
-    out = {"ocs": float(inv(abs(na - nb)))}
+    ocs = 1.0 / (1.0 + abs(na - nb))
     if na == 0 and nb == 0:
         # spi-reference: 1.0 when both channels see nothing.
-        out.update(ols=1.0, oos=1.0, oas=1.0, ots=1.0)
-        return out
-    ia, ib, dist = pair_objects(a.pos, b.pos, gate)
-    if len(ia) == 0:
-        # spi-reference Decision: 0.0 when objects exist but no pair forms.
-        out.update(ols=0.0, oos=0.0, oas=0.0, ots=0.0)
-        return out
-    n_pairs = len(ia)
-    # x.sum() / n is np.mean's own arithmetic, without its Python-level wrapper
-    out["ols"] = float(inv(dist).sum() / n_pairs)
-    out["oos"] = float((1.0 - angdiff(a.yaw.take(ia), b.yaw.take(ib)) / math.pi).sum() / n_pairs)
-    area_a = a.areas.take(ia)
-    area_b = b.areas.take(ib)
-    hi = np.maximum(area_a, area_b)
-    lo = np.minimum(area_a, area_b)
-    # spi-reference: a pair of zero-area footprints scores 1.0.
-    ratio = np.divide(lo, hi, out=np.ones_like(hi), where=hi > 0)
-    out["oas"] = float(ratio.sum() / n_pairs)
-    xa, la = a.prediction_xy()
-    xb, lb = b.prediction_xy()
-    la, lb = la[ia], lb[ib]
-    length = np.maximum(la, lb)
-    lmax = int(length.max())
-    pa = _pad_to(xa[ia], la, lmax)
-    pb = _pad_to(xb[ib], lb, lmax)
-    out["ots"] = float(weighted_pointwise(pa, pb, length, decay).sum() / n_pairs)
-    return out
+        return {"ocs": ocs, "ols": 1.0, "oos": 1.0, "oas": 1.0, "ots": 1.0}
+    w = _weights(decay, max(a.pred.shape[1], b.pred.shape[1], 1))
+    ols, oos, oas, ots = _object_kernel(
+        a.pos, a.yaw, a.areas, a.pred, a.pred_len,
+        b.pos, b.yaw, b.areas, b.pred, b.pred_len,
+        float(gate), w,
+    )  # fmt: skip
+    # spi-reference Decision: 0.0 when objects exist but no pair forms (the kernel's zeros).
+    return {"ocs": ocs, "ols": ols, "oos": oos, "oas": oas, "ots": ots}
 
 
 def ego_similarities(a: ChannelState, b: ChannelState) -> dict[str, float]:
@@ -147,8 +184,20 @@ def ego_similarities(a: ChannelState, b: ChannelState) -> dict[str, float]:
     d = math.hypot(a.ego.x - b.ego.x, a.ego.y - b.ego.y)
     return {
         "els": 1.0 / (1.0 + d),
-        "eos": 1.0 - float(angdiff(a.ego.yaw, b.ego.yaw)) / math.pi,
+        "eos": 1.0 - angdiff(a.ego.yaw, b.ego.yaw) / math.pi,
     }
+
+
+@kernel
+def _ets_kernel(plan_a: np.ndarray, plan_b: np.ndarray, w: np.ndarray) -> float:
+    """sum_n w_n inv(|A_n - B_n|) / sum_n w_n over the first len(w) points."""
+    num = 0.0
+    den = 0.0
+    for p in range(w.shape[0]):
+        d = math.hypot(plan_a[p, 1] - plan_b[p, 1], plan_a[p, 2] - plan_b[p, 2])
+        num += w[p] * (1.0 / (1.0 + d))
+        den += w[p]
+    return num / den
 
 
 def ets(plan_a: np.ndarray, plan_b: np.ndarray, decay: float) -> float | None:
@@ -157,7 +206,7 @@ def ets(plan_a: np.ndarray, plan_b: np.ndarray, decay: float) -> float | None:
     n = min(len(plan_a), len(plan_b))
     if n == 0:
         return None
-    return float(weighted_pointwise(plan_a[None, :n, 1:3], plan_b[None, :n, 1:3], None, decay)[0])
+    return _ets_kernel(plan_a, plan_b, _weights(decay, n))
 
 
 def frechet(p: np.ndarray, q: np.ndarray) -> float:
@@ -172,15 +221,44 @@ def frechet(p: np.ndarray, q: np.ndarray) -> float:
     return float(shapely.frechet_distance(shapely.linestrings(p), shapely.linestrings(q)))
 
 
+@kernel
+def _crpps_kernel(plan_a: np.ndarray, plan_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The points of both plans with dt <= the common horizon (+1e-9), plan B translated so
+    its first kept point is plan A's first kept point (empty when a plan keeps nothing)."""
+    horizon = min(plan_a[-1, 0], plan_b[-1, 0]) + 1e-9
+    pa = np.empty((plan_a.shape[0], 2))
+    pb = np.empty((plan_b.shape[0], 2))
+    na = 0
+    for i in range(plan_a.shape[0]):
+        if plan_a[i, 0] <= horizon:
+            pa[na, 0] = plan_a[i, 1]
+            pa[na, 1] = plan_a[i, 2]
+            na += 1
+    nb = 0
+    for i in range(plan_b.shape[0]):
+        if plan_b[i, 0] <= horizon:
+            pb[nb, 0] = plan_b[i, 1]
+            pb[nb, 1] = plan_b[i, 2]
+            nb += 1
+    if na > 0 and nb > 0:
+        x0, y0 = pb[0, 0], pb[0, 1]
+        for i in range(nb):
+            pb[i, 0] = pb[i, 0] - x0 + pa[0, 0]
+            pb[i, 1] = pb[i, 1] - y0 + pa[0, 1]
+    return pa[:na], pb[:nb]
+
+
 def crpps_inputs(plan_a: np.ndarray, plan_b: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     """The two point sequences whose Fréchet distance is `crpps_distance` (None if a plan is
     empty): the engine batches them with the chpps inputs into one GEOS call."""
     if len(plan_a) == 0 or len(plan_b) == 0:
         return None
-    horizon = min(plan_a[-1, 0], plan_b[-1, 0]) + 1e-9
-    pa = plan_a[plan_a[:, 0] <= horizon, 1:3]
-    pb = plan_b[plan_b[:, 0] <= horizon, 1:3]
-    pb = pb - pb[0] + pa[0]
+    pa, pb = _crpps_kernel(plan_a, plan_b)
+    if len(pa) == 0 or len(pb) == 0:
+        raise ValueError(
+            "crpps: a plan has no point within the common horizon "
+            f"(plan dt must start at or before {min(plan_a[-1, 0], plan_b[-1, 0])} s)"
+        )
     return pa, pb
 
 

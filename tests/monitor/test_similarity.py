@@ -15,12 +15,23 @@ from monitor.similarity import (
     frechet,
     object_similarities,
     pair_objects,
-    weighted_pointwise,
 )
 from tests.monitor.builders import channel, ego, frame, obj
 
 GATE = 3.0
 K = 0.95
+
+
+def weighted_pointwise(
+    p: np.ndarray, q: np.ndarray, lengths: np.ndarray | None, decay: float
+) -> np.ndarray:
+    """Reference (numpy): S = sum_n w_n inv(|P_n - Q_n|) / sum_n w_n, w_n = k^(n-1), each row
+    of (M, L, 2) limited to its first `lengths[m]` points (None = all)."""
+    d = np.hypot(p[..., 0] - q[..., 0], p[..., 1] - q[..., 1])
+    w = decay ** np.arange(p.shape[1], dtype=float)
+    if lengths is not None:
+        w = np.where(np.arange(p.shape[1])[None, :] < lengths[:, None], w, 0.0)
+    return (w / (1.0 + d)).sum(axis=-1) / w.sum(axis=-1)
 
 
 def two_channel_frame():
