@@ -96,8 +96,8 @@ def comfort_series(draw):
 @settings(max_examples=80, deadline=None)
 @given(st.lists(comfort_series(), min_size=1, max_size=5))
 def test_batched_scores_equal_one_at_a_time(series):
-    """The engine scores every hcs and ppcs series of a frame in one concatenated pass; each
-    value must be the single-series score (None below four samples)."""
+    """The engine scores every hcs and ppcs series of a frame in one call; each value must be
+    the single-series score (None below four samples)."""
     w = 0.02  # a gentle steepness keeps NV away from saturation: peaks stay distinguishable
     got = comfort_scores(series, w)
     for (times, xy, yaw), value in zip(series, got, strict=True):
@@ -106,3 +106,53 @@ def test_batched_scores_equal_one_at_a_time(series):
             assert value is None
         else:
             assert value == pytest.approx(want, abs=1e-12)
+
+
+def reference_score(
+    times: np.ndarray, xy: np.ndarray, yaw: np.ndarray | None, steepness: float
+) -> float | None:
+    """Independent numpy formulation of spi-reference comfort (the pre-kernel code): world-frame
+    differences, acceleration rotated onto the heading (yaw, else the chord tangent; no tangent:
+    all longitudinal), jerk of a_lon, peaks through NV."""
+    if len(times) < 4:
+        return None
+    vel = np.diff(xy, axis=0) / np.diff(times)[:, None]
+    tm = 0.5 * (times[1:] + times[:-1])
+    acc = np.diff(vel, axis=0) / np.diff(tm)[:, None]
+    if yaw is not None:
+        ux, uy = np.cos(yaw[1:-1]), np.sin(yaw[1:-1])
+        ok = np.ones(len(acc), dtype=bool)
+    else:
+        chord = xy[2:] - xy[:-2]
+        norm = np.hypot(chord[:, 0], chord[:, 1])
+        ok = norm > 1e-12
+        safe = np.where(ok, norm, 1.0)
+        ux, uy = chord[:, 0] / safe, chord[:, 1] / safe
+    a_lon = np.where(ok, acc[:, 0] * ux + acc[:, 1] * uy, np.hypot(acc[:, 0], acc[:, 1]))
+    a_lat = np.where(ok, -acc[:, 0] * uy + acc[:, 1] * ux, 0.0)
+    j_lon = np.diff(a_lon) / np.diff(times[1:-1])
+    peaks = [np.max(np.abs(a_lon)), np.max(np.abs(a_lat)), np.max(np.abs(j_lon))]
+    v = [2.0 / (1.0 + math.exp(-steepness * p)) - 1.0 for p in peaks]
+    return 1.0 - ((v[0] + v[1]) / 2 + v[2]) / 2
+
+
+@settings(max_examples=120, deadline=None)
+@given(comfort_series(), st.sampled_from([0.02, 0.3, 1.0]))
+def test_kernel_equals_numpy_reference(series, steepness):
+    """The compiled kernel against the numpy formulation, on random irregular series."""
+    times, xy, yaw = series
+    want = reference_score(times, xy, yaw, steepness)
+    got = comfort_score(times, xy, yaw, steepness)
+    if want is None:
+        assert got is None
+    else:
+        assert got == pytest.approx(want, abs=1e-9)
+
+
+def test_kernel_accepts_strided_engine_views():
+    """The engine passes column views of one (n, 4) history array: non-contiguous inputs."""
+    t = np.arange(6) * 0.1
+    arr = np.column_stack([t, t**3, 0.5 * t**2, np.full(6, 0.3)])
+    got = comfort_scores([(arr[:, 0], arr[:, 1:3], arr[:, 3]), (arr[:, 0], arr[:, 1:3], None)], W)
+    assert got[0] == pytest.approx(reference_score(t, arr[:, 1:3].copy(), arr[:, 3].copy(), W))
+    assert got[1] == pytest.approx(reference_score(t, arr[:, 1:3].copy(), None, W))

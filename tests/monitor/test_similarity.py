@@ -6,10 +6,13 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from monitor.similarity import (
     angdiff,
     crpps_distance,
+    crpps_inputs,
     ego_similarities,
     ets,
     frechet,
@@ -166,3 +169,126 @@ def test_frechet_single_point_and_empty_plan():
     assert frechet(np.array([[0.0, 0.0]]), np.array([[1.0, 0.0], [3.0, 4.0]])) == 5.0
     assert ets(np.zeros((0, 3)), np.array([[0.0, 1.0, 1.0]]), K) is None
     assert crpps_distance(np.zeros((0, 3)), np.array([[0.0, 1.0, 1.0]])) is None
+
+
+# -- compiled kernels against independent references -------------------------------------------
+
+
+def reference_pairs(pos_a: np.ndarray, pos_b: np.ndarray, gate: float) -> list[tuple[int, int]]:
+    """Greedy global matching, written plainly: all gated (A, B) candidates sorted by
+    (distance in 1e-9 m steps, index in A, index in B), accepted while both are free."""
+    cands = []
+    for i, (xa, ya) in enumerate(pos_a.tolist()):
+        for j, (xb, yb) in enumerate(pos_b.tolist()):
+            d = math.sqrt((xa - xb) ** 2 + (ya - yb) ** 2)
+            if d <= gate + 1e-9:
+                cands.append((round(d / 1e-9), i, j))
+    used_a: set[int] = set()
+    used_b: set[int] = set()
+    out = []
+    for _, i, j in sorted(cands):
+        if i not in used_a and j not in used_b:
+            used_a.add(i)
+            used_b.add(j)
+            out.append((i, j))
+    return out
+
+
+def reference_objects(a, b, gate: float, decay: float) -> dict[str, float]:
+    """spi-reference object similarities from the parsed objects, one pair at a time."""
+    out = {"ocs": 1.0 / (1.0 + abs(len(a) - len(b)))}
+    if len(a) == 0 and len(b) == 0:
+        return {**out, "ols": 1.0, "oos": 1.0, "oas": 1.0, "ots": 1.0}
+    pairs = reference_pairs(a.pos, b.pos, gate)
+    if not pairs:
+        return {**out, "ols": 0.0, "oos": 0.0, "oas": 0.0, "ots": 0.0}
+    xa, la = a.prediction_xy()
+    xb, lb = b.prediction_xy()
+    ols, oos, oas, ots = [], [], [], []
+    for i, j in pairs:
+        ols.append(1.0 / (1.0 + math.dist(a.pos[i], b.pos[j])))
+        oos.append(1.0 - angdiff(a.yaw[i], b.yaw[j]) / math.pi)
+        hi, lo = max(a.areas[i], b.areas[j]), min(a.areas[i], b.areas[j])
+        oas.append(lo / hi if hi > 0 else 1.0)
+        n = max(la[i], lb[j])
+        # the shorter prediction padded with its own last point
+        pa = xa[i][np.minimum(np.arange(n), la[i] - 1)]
+        pb = xb[j][np.minimum(np.arange(n), lb[j] - 1)]
+        ots.append(weighted_pointwise(pa[None], pb[None], None, decay)[0])
+    return {**out, "ols": np.mean(ols), "oos": np.mean(oos), "oas": np.mean(oas),
+            "ots": np.mean(ots)}  # fmt: skip
+
+
+@st.composite
+def object_list(draw):
+    """0-4 objects on a coarse grid (distance ties are common), random headings and sizes,
+    predictions of 0-5 points, absent, or empty."""
+    objs = []
+    for k in range(draw(st.integers(0, 4))):
+        x, y = draw(st.integers(0, 4)) * 1.5, draw(st.integers(0, 2)) * 2.0
+        extra = {}
+        kind = draw(st.sampled_from(["none", "empty", "points"]))
+        if kind == "empty":
+            extra["prediction"] = []
+        elif kind == "points":
+            n = draw(st.integers(1, 5))
+            steps = draw(st.lists(st.floats(-2, 2), min_size=2 * n, max_size=2 * n))
+            extra["prediction"] = [
+                [0.1 * m, x + sum(steps[0 : 2 * m + 1 : 2]), y + sum(steps[1 : 2 * m + 2 : 2])]
+                for m in range(n)
+            ]
+        objs.append(
+            obj(k, x, y, draw(st.floats(-7, 7)), draw(st.floats(0.1, 6)), draw(st.floats(0.1, 3)),
+                **extra)
+        )  # fmt: skip
+    return objs
+
+
+@settings(max_examples=150, deadline=None)
+@given(object_list(), object_list(), st.sampled_from([0.0, 1.5, 3.0]), st.sampled_from([0.5, 0.95]))
+def test_object_kernel_equals_reference(objs_a, objs_b, gate, decay):
+    f = frame(0.0, {"a": channel(ego(), objects=objs_a), "b": channel(ego(), objects=objs_b)})
+    a, b = f.channels["a"].objects, f.channels["b"].objects
+    ia, ib, dist = pair_objects(a.pos, b.pos, gate)
+    assert list(zip(ia.tolist(), ib.tolist(), strict=True)) == reference_pairs(a.pos, b.pos, gate)
+    assert dist.tolist() == pytest.approx(
+        [math.dist(a.pos[i], b.pos[j]) for i, j in zip(ia, ib, strict=True)]
+    )
+    want = reference_objects(a, b, gate, decay)
+    assert object_similarities(a, b, gate, decay) == pytest.approx(want, abs=1e-12)
+
+
+@st.composite
+def plan(draw):
+    """A plan [dt, x, y] of 0-8 points on an increasing dt grid starting at 0."""
+    n = draw(st.integers(0, 8))
+    dt = np.cumsum([0.0, *draw(st.lists(st.floats(0.05, 0.5), min_size=n, max_size=n))])[:n]
+    xy = draw(st.lists(st.floats(-50, 50), min_size=2 * n, max_size=2 * n))
+    return np.column_stack([dt, np.reshape(xy, (n, 2))]) if n else np.zeros((0, 3))
+
+
+@settings(max_examples=150, deadline=None)
+@given(plan(), plan(), st.sampled_from([0.5, 0.95]))
+def test_plan_kernels_equal_reference(pa, pb, decay):
+    n = min(len(pa), len(pb))
+    got = ets(pa, pb, decay)
+    if n == 0:
+        assert got is None and crpps_inputs(pa, pb) is None
+        return
+    assert got == pytest.approx(
+        weighted_pointwise(pa[None, :n, 1:3], pb[None, :n, 1:3], None, decay)[0], abs=1e-12
+    )
+    # crpps inputs: the points within the common horizon, B moved onto A's first point
+    horizon = min(pa[-1, 0], pb[-1, 0]) + 1e-9
+    ka, kb = pa[pa[:, 0] <= horizon, 1:3], pb[pb[:, 0] <= horizon, 1:3]
+    xa, xb = crpps_inputs(pa, pb)
+    np.testing.assert_allclose(xa, ka, atol=1e-12)
+    np.testing.assert_allclose(xb, kb - kb[0] + ka[0], atol=1e-12)
+
+
+def test_crpps_plan_outside_the_common_horizon_is_an_error():
+    # B starts after A ends: no point of B is within the common horizon (0 s)
+    a = np.array([[0.0, 0.0, 0.0]])
+    b = np.array([[0.5, 1.0, 1.0], [1.0, 2.0, 2.0]])
+    with pytest.raises(ValueError, match="common horizon"):
+        crpps_inputs(a, b)
