@@ -4,8 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import shapely
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from monitor.history import chpps, els_var, frechet_many
+from monitor.history import chpps, chpps_pairs, chpps_score, els_var, frechet_many
 
 K = 0.95
 
@@ -60,3 +63,72 @@ def test_frechet_many_matches_pairs():
     single = np.array([[0.0, 3.0]])
     # parallel 1 m apart -> 1; one point at (0,3) vs p -> max(3, sqrt(10))
     assert frechet_many([(p, q), (single, p)]).tolist() == pytest.approx([1.0, np.sqrt(10)])
+
+
+def sequences(max_len=6):
+    """(n, 2) point sequences of 1 to `max_len` points on a coarse grid (ties and repeats)."""
+    pt = st.tuples(st.integers(-5, 5), st.integers(-5, 5))
+    return st.lists(pt, min_size=1, max_size=max_len).map(lambda v: np.array(v, dtype=float) / 2)
+
+
+def reference_frechet(p, q):
+    """One pair at a time: GEOS on two line strings, or for a one-point sequence the largest
+    distance from that point to the other sequence's points."""
+    if len(p) == 1 or len(q) == 1:
+        one, other = (p, q) if len(p) == 1 else (q, p)
+        return max(float(np.hypot(*(o - one[0]))) for o in other)
+    return float(shapely.frechet_distance(shapely.LineString(p), shapely.LineString(q)))
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(sequences(), sequences()), min_size=1, max_size=6))
+def test_frechet_many_equals_pair_by_pair(pairs):
+    got = frechet_many(pairs)
+    assert got.tolist() == pytest.approx([reference_frechet(p, q) for p, q in pairs], abs=1e-12)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(st.tuples(st.floats(0, 100), st.floats(0.01, 1)), min_size=1, max_size=10),
+)
+def test_chpps_score_is_the_weighted_mean_of_inv(items):
+    d = np.array([x for x, _ in items])
+    w = [x for _, x in items]
+    want = sum(wj / (1 + dj) for dj, wj in zip(d.tolist(), w, strict=True)) / sum(w)
+    assert chpps_score(d, w) == pytest.approx(want, rel=1e-12)
+
+
+@st.composite
+def plan_history(draw):
+    """A current plan and a few stored ones on 0.1 s grids with random starts and lengths, and
+    ages that are multiples of 0.1 s (decimal noise in `dt - age`, as in real streams)."""
+
+    def plan():
+        n = draw(st.integers(1, 8))
+        start = draw(st.integers(0, 3)) / 10
+        return np.array([[start + i / 10, draw(st.floats(-9, 9)), i] for i in range(n)])
+
+    stored = [(draw(st.integers(1, 12)) / 10, plan()) for _ in range(draw(st.integers(0, 5)))]
+    stored.sort(key=lambda x: x[0])
+    return plan(), stored
+
+
+@settings(max_examples=100, deadline=None)
+@given(plan_history())
+def test_chpps_pairs_equal_a_mask_formulation(case):
+    current, stored = case
+    want_pairs, want_w = [], []
+    for rank, (age, plan) in enumerate(stored):
+        # common range of current dt and stored dt - age, inclusive with 1e-9 s tolerance
+        lo = max(current[0, 0], plan[0, 0] - age) - 1e-9
+        hi = min(current[-1, 0], plan[-1, 0] - age) + 1e-9
+        cm = (current[:, 0] >= lo) & (current[:, 0] <= hi)
+        sm = (plan[:, 0] >= lo + age) & (plan[:, 0] <= hi + age)
+        if lo <= hi and cm.any() and sm.any():
+            want_pairs.append((current[cm, 1:3], plan[sm, 1:3]))
+            want_w.append(K**rank)
+    pairs, weights = chpps_pairs(current, stored, K)
+    assert weights == pytest.approx(want_w)
+    assert [(p.tolist(), q.tolist()) for p, q in pairs] == [
+        (p.tolist(), q.tolist()) for p, q in want_pairs
+    ]

@@ -105,3 +105,90 @@ def test_positions_at_one_time_equal_the_track_interpolation(data, t):
     want = interpolate_tracks(objs.pos, objs.pred, objs.pred_len, np.array([t]))[:, 0]
     got = positions_at(objs.pos, objs.pred, objs.pred_len, t)
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
+
+
+def test_ompv_untracked_ties_within_1e9_break_by_index():
+    # No id carries over; no predictions, so the predicted positions are the positions.
+    # a at (2 + 5e-13, 0) is 1 + 5e-13 m from x at (1, 0); b at (0, 0) is 1 m from it. The two
+    # distances are equal to within 1e-9 m: a tie, broken by index, so x pairs with a (not the
+    # strictly nearer b). a is 1 + 5e-13 > 1 m off: miss; b unmatched: miss; x not new.
+    # N1 = 0, N2 = 2 -> 0.0 (with b paired it would be 1 / 2).
+    prev = objects(obj("a", 2 + 5e-13, 0), obj("b", 0, 0))
+    cur = objects(obj("x", 1, 0))
+    assert ompv(prev, 0.1, cur, TOL, GATE) == 0.0
+
+
+def test_ompv_untracked_outside_gate_and_unreached_prediction():
+    # a's prediction ends at 0.05 s < 0.1 s: it takes no part in the nearest matching, so x
+    # (next to a's predicted end point) is new; b at (10, 0) is 3.5 m from y: beyond the 3 m
+    # gate, so y is new too. N1 = 0, N2 = 2 previous + 2 new = 4 -> 0.0
+    prev = objects(obj("a", 0, 0, prediction=[[0, 0, 0], [0.05, 0.5, 0]]), obj("b", 10, 0))
+    cur = objects(obj("x", 0.5, 0), obj("y", 13.5, 0))
+    assert ompv(prev, 0.1, cur, TOL, GATE) == 0.0
+    # the same with the gate widened to 4 m: y pairs with b, 3.5 m > 1 m tolerance -> still 0
+    assert ompv(prev, 0.1, cur, TOL, 4.0) == 0.0
+    # and with the tolerance at 4 m too, b followed: N1 = 1, N2 = 2 + 1 new (x) = 3
+    assert ompv(prev, 0.1, cur, 4.0, 4.0) == pytest.approx(1 / 3)
+
+
+def reference_ompv(prev, elapsed, cur, tolerance, gate):
+    """ompv straight from spi-reference, in plain Python over `interpolate_tracks`."""
+    n_prev, n_cur = len(prev), len(cur)
+    if n_prev == 0:
+        return 1.0 if n_cur == 0 else 0.0
+    moved = interpolate_tracks(prev.pos, prev.pred, prev.pred_len, np.array([elapsed]))[:, 0]
+    reaches = [
+        n == 0 or prev.pred[i, n - 1, 0] >= elapsed - 1e-9
+        for i, n in enumerate(prev.pred_len.tolist())
+    ]
+    if n_cur == 0 or any(oid in cur.ids for oid in prev.ids):
+        pairs = [(i, cur.ids.index(oid)) for i, oid in enumerate(prev.ids) if oid in cur.ids]
+    else:
+        cands = []
+        for i in range(n_prev):
+            for j in range(n_cur):
+                d = float(np.sqrt(((moved[i] - cur.pos[j]) ** 2).sum()))
+                if reaches[i] and d <= gate + 1e-9:
+                    cands.append((round(d / 1e-9), i, j))
+        pairs, used_i, used_j = [], set(), set()
+        for _, i, j in sorted(cands):
+            if i not in used_i and j not in used_j:
+                used_i.add(i)
+                used_j.add(j)
+                pairs.append((i, j))
+    n1 = sum(
+        1
+        for i, j in pairs
+        if reaches[i] and float(np.hypot(*(moved[i] - cur.pos[j]))) <= tolerance
+    )
+    n_new = n_cur - len({j for _, j in pairs})
+    return n1 / (n_prev + n_new)
+
+
+@st.composite
+def ompv_case(draw):
+    """Two ticks of a few objects close together (so the 3 m gate and 1 m tolerance matter),
+    ids from a small pool (tracked or not), predictions absent, short or long."""
+
+    def one_tick(n, ids):
+        items = []
+        for i in range(n):
+            x, y = draw(st.floats(-4, 4)), draw(st.floats(-4, 4))
+            m = draw(st.integers(0, 4))
+            start = draw(st.sampled_from([0.0, 0.05]))
+            pts = [[start + 0.04 * s, x + draw(st.floats(-2, 2)), y] for s in range(m)]
+            items.append(obj(ids[i], x, y, prediction=pts or None))
+        return objects(*items)
+
+    pool = ["a", "b", "c", "d", "e", "f", "g", "h"]
+    n_prev, n_cur = draw(st.integers(0, 4)), draw(st.integers(0, 4))
+    prev = one_tick(n_prev, draw(st.permutations(pool))[:n_prev])
+    cur = one_tick(n_cur, draw(st.permutations(pool))[:n_cur])
+    return prev, cur
+
+
+@settings(max_examples=150, deadline=None)
+@given(ompv_case(), st.sampled_from([0.05, 0.1, 0.12]))
+def test_ompv_equals_the_reference(case, elapsed):
+    prev, cur = case
+    assert ompv(prev, elapsed, cur, TOL, GATE) == reference_ompv(prev, elapsed, cur, TOL, GATE)
