@@ -28,6 +28,7 @@ import numpy as np
 import shapely
 
 from monitor.frames import ChannelState, Ego, Objects, place
+from monitor.jit import kernel
 from monitor.prediction import interpolate_tracks
 
 
@@ -422,14 +423,15 @@ def _exact(
     return hit
 
 
-def score_grid(
+def score_grid_numpy(
     plans: Sequence[np.ndarray],
     egos: Sequence[Ego],
     worlds: Sequence[Objects],
     pet_ref: float,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(ss, ttc, pet), each (I, J): plans I (>= 2 points each) with their egos against world
-    models J (each with >= 1 object).
+    """`score_grid` in numpy, for any footprints (the path of scenes with a polygon, and the
+    tests' oracle for the kernel). (ss, ttc, pet), each (I, J): plans I (>= 2 points each)
+    with their egos against world models J (each with >= 1 object).
 
     The plans' time grids must be prefixes of the longest one (one grid, or stacks planning
     the same steps over different horizons). Everything is computed once on the longest grid
@@ -596,6 +598,337 @@ def _pet(
         np.minimum.at(pet, (i[hit], owner.take(k[hit])), dt.take(sel)[hit])
 
 
+# -- the compiled path: every footprint an oriented box ------------------------------------------
+
+
+@kernel
+def _headings(x: np.ndarray, y: np.ndarray, n: int, yaw: float, cos: np.ndarray,
+              sin: np.ndarray) -> None:  # fmt: skip
+    """`_directions` for one track of n >= 2 points (x, y) into (cos, sin)."""
+    c = math.cos(yaw)
+    s = math.sin(yaw)
+    for t in range(n - 1):
+        dx = x[t + 1] - x[t]
+        dy = y[t + 1] - y[t]
+        length = math.hypot(dx, dy)
+        if length > 1e-9:
+            c = dx / length
+            s = dy / length
+        cos[t] = c
+        sin[t] = s
+    cos[n - 1] = cos[n - 2]
+    sin[n - 1] = sin[n - 2]
+
+
+@kernel
+def _box_hit(dx: float, dy: float, ca: float, sa: float, la: float, wa: float, cb: float,
+             sb: float, lb: float, wb: float) -> bool:  # fmt: skip
+    """`boxes_intersect` for one pair, the same arithmetic in the same order."""
+    cd = abs(ca * cb + sa * sb)
+    sd = abs(sb * ca - cb * sa)
+    if abs(dx * ca + dy * sa) > la + lb * cd + wb * sd:
+        return False
+    if abs(dy * ca - dx * sa) > wa + lb * sd + wb * cd:
+        return False
+    if abs(dx * cb + dy * sb) > lb + la * cd + wa * sd:
+        return False
+    return not abs(dy * cb - dx * sb) > wb + la * sd + wa * cd
+
+
+@kernel
+def _nanmin(a: float, b: float) -> float:
+    """np.minimum on scalars: NaN propagates (Python's min would drop it)."""
+    if a != a or b != b:
+        return math.nan
+    return a if a <= b else b
+
+
+@kernel
+def _track(pos: np.ndarray, pred: np.ndarray, base: int, n_pred: int, times: np.ndarray,
+           x: np.ndarray, y: np.ndarray) -> None:  # fmt: skip
+    """`interpolate_tracks` for one object (the same arithmetic): its prediction is the n_pred
+    points [dt, x, y] at pred[base:]."""
+    px = pos[0]
+    py = pos[1]
+    n_t = times.shape[0]
+    if n_pred == 0:
+        for t in range(n_t):
+            x[t] = px
+            y[t] = py
+        return
+    d0 = pred[base]
+    x0 = pred[base + 1]
+    y0 = pred[base + 2]
+    for t in range(n_t):
+        tt = times[t]
+        if tt < d0:
+            lead = tt / d0 if d0 > 0 else 0.0
+            x[t] = px + (x0 - px) * lead
+            y[t] = py + (y0 - py) * lead
+        elif n_pred == 1:
+            x[t] = x0
+            y[t] = y0
+        else:
+            lo = 0  # searchsorted(dt, tt, side="right") - 1 over the real points
+            hi = n_pred
+            while lo < hi:
+                mid = (lo + hi) // 2
+                if pred[base + 3 * mid] <= tt:
+                    lo = mid + 1
+                else:
+                    hi = mid
+            idx = min(max(lo - 1, 0), n_pred - 2)
+            a = base + 3 * idx
+            t0 = pred[a]
+            span = pred[a + 3] - t0
+            frac = (tt - t0) / span if span > 0 else 0.0
+            frac = min(max(frac, 0.0), 1.0)
+            x[t] = pred[a + 1] + (pred[a + 4] - pred[a + 1]) * frac
+            y[t] = pred[a + 2] + (pred[a + 5] - pred[a + 2]) * frac
+
+
+@kernel
+def _run_boxes(x: np.ndarray, y: np.ndarray, n: int, r: float, out: np.ndarray) -> None:
+    """Axis-aligned bounding box (x lo, x hi, y lo, y hi) of each CHUNK-point run of the
+    first n points, grown by the footprint radius r: out (C, 4)."""
+    for c in range((n + CHUNK - 1) // CHUNK):
+        lo = c * CHUNK
+        hi = min(lo + CHUNK, n)
+        x0 = x[lo]
+        x1 = x[lo]
+        y0 = y[lo]
+        y1 = y[lo]
+        for t in range(lo + 1, hi):
+            x0 = min(x0, x[t])
+            x1 = max(x1, x[t])
+            y0 = min(y0, y[t])
+            y1 = max(y1, y[t])
+        out[c, 0] = x0 - r
+        out[c, 1] = x1 + r
+        out[c, 2] = y0 - r
+        out[c, 3] = y1 + r
+
+
+@kernel
+def _score_boxes(times: np.ndarray, plans: np.ndarray, plen: np.ndarray, egos: np.ndarray,
+                 pos: np.ndarray, yaw: np.ndarray, half: np.ndarray, pred: np.ndarray,
+                 pred_len: np.ndarray, meta: np.ndarray, pet_ref: float) -> np.ndarray:  # fmt: skip
+    """(ss, ttc, pet) as one (3, I, J) array for box footprints: plans (I, L, 3) padded to
+    the grid `times` (L,) with real lengths plen; egos (I, 3) [yaw, half length, half
+    width]; objects of all worlds stacked (pos, yaw, half, pred_len), predictions flattened
+    into `pred`; meta (J, 3) per world [first object, offset in pred, points per object].
+
+    Same candidates and arithmetic as the numpy path; its prefilters (whole-sweep boxes,
+    CHUNK-run boxes and time gaps, bounding circles) are conservative, so only the exact box
+    test decides. PET shrinks its time limit to the best value found so far: pairs at or
+    above it cannot lower the minimum."""
+    n_i = plans.shape[0]
+    n_t = times.shape[0]
+    n_k = pos.shape[0]
+    n_j = meta.shape[0]
+    n_c = (n_t + CHUNK - 1) // CHUNK
+    out = np.empty((3, n_i, n_j))
+    ttc = out[1]
+    pet = out[2]
+    ttc[:] = np.inf
+    pet[:] = np.inf
+    # egos: poses on their own grids, run boxes and whole-sweep boxes
+    ex = np.empty((n_i, n_t))
+    ey = np.empty((n_i, n_t))
+    ec = np.empty((n_i, n_t))
+    es = np.empty((n_i, n_t))
+    erad = np.empty(n_i)
+    erun = np.empty((n_i, n_c, 4))
+    esweep = np.empty((n_i, 4))
+    for i in range(n_i):
+        n = plen[i]
+        for t in range(n):
+            ex[i, t] = plans[i, t, 1]
+            ey[i, t] = plans[i, t, 2]
+        _headings(ex[i], ey[i], n, egos[i, 0], ec[i], es[i])
+        erad[i] = math.hypot(egos[i, 1], egos[i, 2])
+        _run_boxes(ex[i], ey[i], n, erad[i], erun[i])
+        esweep[i, 0] = erun[i, 0, 0]
+        esweep[i, 1] = erun[i, 0, 1]
+        esweep[i, 2] = erun[i, 0, 2]
+        esweep[i, 3] = erun[i, 0, 3]
+        for c in range(1, (n + CHUNK - 1) // CHUNK):
+            esweep[i, 0] = min(esweep[i, 0], erun[i, c, 0])
+            esweep[i, 1] = max(esweep[i, 1], erun[i, c, 1])
+            esweep[i, 2] = min(esweep[i, 2], erun[i, c, 2])
+            esweep[i, 3] = max(esweep[i, 3], erun[i, c, 3])
+    # time range of each run of the long grid (the PET time-gap prefilter)
+    t_lo = np.empty(n_c)
+    t_hi = np.empty(n_c)
+    for c in range(n_c):
+        t_lo[c] = times[c * CHUNK]
+        t_hi[c] = times[c * CHUNK]
+        for t in range(c * CHUNK + 1, min(c * CHUNK + CHUNK, n_t)):
+            t_lo[c] = min(t_lo[c], times[t])
+            t_hi[c] = max(t_hi[c], times[t])
+    ox = np.empty((n_k, n_t))
+    oy = np.empty((n_k, n_t))
+    oc = np.empty((n_k, n_t))
+    os_ = np.empty((n_k, n_t))
+    orun = np.empty((n_k, n_c, 4))
+    live = np.zeros((n_i, n_k), dtype=np.bool_)
+    meets = np.zeros((n_i, n_k), dtype=np.bool_)
+    for j in range(n_j):
+        first = meta[j, 0]
+        last = meta[j + 1, 0] if j + 1 < n_j else n_k
+        p = meta[j, 2]
+        # TTC: equal times only
+        for k in range(first, last):
+            r = math.hypot(half[k, 0], half[k, 1])
+            n_pred = pred_len[k] if p > 0 else 0
+            base = meta[j, 1] + 3 * p * (k - first)
+            # the box of every position the object can take (interpolation stays inside)
+            x0 = pos[k, 0]
+            x1 = x0
+            y0 = pos[k, 1]
+            y1 = y0
+            for q in range(n_pred):
+                x0 = min(x0, pred[base + 3 * q + 1])
+                x1 = max(x1, pred[base + 3 * q + 1])
+                y0 = min(y0, pred[base + 3 * q + 2])
+                y1 = max(y1, pred[base + 3 * q + 2])
+            near = False
+            for i in range(n_i):
+                if (x0 - r <= esweep[i, 1] and x1 + r >= esweep[i, 0]
+                        and y0 - r <= esweep[i, 3] and y1 + r >= esweep[i, 2]):  # fmt: skip
+                    live[i, k] = True
+                    near = True
+            if not near:
+                continue
+            _track(pos[k], pred, base, n_pred, times, ox[k], oy[k])
+            _headings(ox[k], oy[k], n_t, yaw[k], oc[k], os_[k])
+            _run_boxes(ox[k], oy[k], n_t, r, orun[k])
+            for i in range(n_i):
+                if not live[i, k]:
+                    continue
+                n = plen[i]
+                reach = erad[i] + r
+                for t in range(n):
+                    dx = ox[k, t] - ex[i, t]
+                    dy = oy[k, t] - ey[i, t]
+                    if dx * dx + dy * dy > reach * reach:
+                        continue
+                    h = min(t, n - 2)  # the last point of a shorter grid: its last segment
+                    if _box_hit(dx, dy, ec[i, t], es[i, t], egos[i, 1], egos[i, 2],
+                                oc[k, h], os_[k, h], half[k, 0], half[k, 1]):  # fmt: skip
+                        meets[i, k] = True
+                        if times[t] < ttc[i, j]:
+                            ttc[i, j] = times[t]
+                        break
+        # PET: objects that never meet the ego at equal times, |t_n - t_m| < limit
+        for i in range(n_i):
+            n = plen[i]
+            limit = pet_ref * _nanmin(1.0, ttc[i, j] / times[n - 1])
+            if not limit > 0:
+                continue
+            reach_i = erad[i]
+            runs = (n + CHUNK - 1) // CHUNK
+            best = pet[i, j]
+            for k in range(first, last):
+                if not live[i, k] or meets[i, k]:
+                    continue
+                r = math.hypot(half[k, 0], half[k, 1])
+                reach = reach_i + r
+                for a in range(runs):
+                    for b in range(runs):
+                        bound = limit if limit < best else best
+                        gap = max(t_lo[a] - t_hi[b], t_lo[b] - t_hi[a])
+                        if gap >= bound:
+                            continue
+                        if (erun[i, a, 0] > orun[k, b, 1] or erun[i, a, 1] < orun[k, b, 0]
+                                or erun[i, a, 2] > orun[k, b, 3]
+                                or erun[i, a, 3] < orun[k, b, 2]):  # fmt: skip
+                            continue
+                        for t in range(a * CHUNK, min(a * CHUNK + CHUNK, n)):
+                            for m in range(b * CHUNK, min(b * CHUNK + CHUNK, n)):
+                                dt = abs(times[t] - times[m])
+                                if not (dt < limit and dt < best):
+                                    continue
+                                dx = ox[k, m] - ex[i, t]
+                                dy = oy[k, m] - ey[i, t]
+                                if dx * dx + dy * dy > reach * reach:
+                                    continue
+                                h = min(m, n - 2)
+                                hit = _box_hit(dx, dy, ec[i, t], es[i, t], egos[i, 1],
+                                               egos[i, 2], oc[k, h], os_[k, h], half[k, 0],
+                                               half[k, 1])  # fmt: skip
+                                if hit:
+                                    best = dt
+            pet[i, j] = best
+    for i in range(n_i):
+        horizon = times[plen[i] - 1]
+        for j in range(n_j):
+            out[0, i, j] = _nanmin(1.0, _nanmin(ttc[i, j] / horizon, pet[i, j] / pet_ref))
+    return out
+
+
+class _Packed:
+    """The objects of several world models as the kernel takes them: stacked rows, the
+    predictions flattened (worlds pad them to different lengths), per world
+    [first object, offset in pred, points per object]; `boxes`: every footprint is a box."""
+
+    __slots__ = ("boxes", "half", "meta", "pos", "pred", "pred_len", "yaw")
+
+    def __init__(self, worlds: Sequence[Objects]):
+        self.half = np.concatenate([o.half for o in worlds])
+        self.boxes = not np.isnan(self.half).any()
+        if not self.boxes:
+            return
+        self.pos = np.concatenate([o.pos for o in worlds])
+        self.yaw = np.concatenate([o.yaw for o in worlds])
+        self.pred = np.concatenate([o.pred.ravel() for o in worlds])
+        self.pred_len = np.concatenate([o.pred_len for o in worlds], dtype=np.int64)
+        meta = []
+        first = offset = 0
+        for o in worlds:
+            meta.append((first, offset, o.pred.shape[1]))
+            first += len(o)
+            offset += o.pred.size
+        self.meta = np.array(meta, dtype=np.int64)
+
+
+def _score_kernel(
+    plans: Sequence[np.ndarray], egos: Sequence[Ego], packed: _Packed, pet_ref: float
+) -> np.ndarray:
+    """`score_grid` for box footprints (packed.boxes and every ego.half set): one kernel call,
+    (3, I, J) = ss, ttc, pet."""
+    lengths = [len(p) for p in plans]
+    n_pts = max(lengths)
+    if all(n == n_pts for n in lengths):
+        grid = np.stack(plans)
+    else:
+        grid = np.zeros((len(plans), n_pts, 3))
+        for a, p in enumerate(plans):
+            grid[a, : len(p)] = p
+    times = np.ascontiguousarray(grid[lengths.index(n_pts), :, 0])
+    ego = np.array([(e.yaw, *e.half) for e in egos])  # type: ignore[misc]
+    return _score_boxes(times, grid, np.array(lengths, dtype=np.int64), ego, packed.pos,
+                        packed.yaw, packed.half, packed.pred, packed.pred_len, packed.meta,
+                        float(pet_ref))  # fmt: skip
+
+
+def score_grid(
+    plans: Sequence[np.ndarray],
+    egos: Sequence[Ego],
+    worlds: Sequence[Objects],
+    pet_ref: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(ss, ttc, pet), each (I, J), of plans I (>= 2 points each, time grids prefixes of the
+    longest) with their egos against world models J (each with >= 1 object); see
+    `score_grid_numpy` for the rules. Box footprints everywhere take the compiled kernel, any
+    polygon the numpy path."""
+    packed = _Packed(worlds)
+    if packed.boxes and all(e.half is not None for e in egos):
+        ss, ttc, pet = _score_kernel(plans, egos, packed, pet_ref)
+        return ss, ttc, pet
+    return score_grid_numpy(plans, egos, worlds, pet_ref)
+
+
 def safety_score(
     plan: np.ndarray, ego: Ego, objects: Objects, pet_ref: float
 ) -> tuple[float | None, float, float]:
@@ -652,10 +985,14 @@ def safety_matrix(
     if not scored:
         return out
     world_objects = [states[j].objects for j in worlds]
+    packed = _Packed(world_objects)
     for members in _prefix_groups(scored):
-        ss, _, _ = score_grid(
-            [scored[i] for i in members], [states[i].ego for i in members], world_objects, pet_ref
-        )
+        plans = [scored[i] for i in members]
+        egos = [states[i].ego for i in members]
+        if packed.boxes and all(e.half is not None for e in egos):
+            ss = _score_kernel(plans, egos, packed, pet_ref)[0]
+        else:
+            ss = score_grid_numpy(plans, egos, world_objects, pet_ref)[0]
         for a, i in enumerate(members):
             for b, j in enumerate(worlds):
                 out[(i, j)] = float(ss[a, b])
