@@ -91,15 +91,35 @@ def pair_objects(
 
 
 @kernel
+def _area(half: np.ndarray, footprints: np.ndarray, i: int) -> float:
+    """Footprint area of object i: 4 * half length * half width for a box (as
+    `Objects.areas`), else the absolute shoelace area of its polygon (padding vertices, repeats
+    of the last one, add nothing)."""
+    if not math.isnan(half[i, 0]):
+        return 4.0 * half[i, 0] * half[i, 1]
+    v = footprints.shape[1]
+    s = 0.0
+    for k in range(v):
+        nxt = k + 1 if k + 1 < v else 0
+        s += (
+            footprints[i, k, 0] * footprints[i, nxt, 1]
+            - footprints[i, nxt, 0] * footprints[i, k, 1]
+        )
+    return 0.5 * abs(s)
+
+
+@kernel
 def _object_kernel(
     pos_a: np.ndarray,
     yaw_a: np.ndarray,
-    area_a: np.ndarray,
+    half_a: np.ndarray,
+    foot_a: np.ndarray,
     pred_a: np.ndarray,
     len_a: np.ndarray,
     pos_b: np.ndarray,
     yaw_b: np.ndarray,
-    area_b: np.ndarray,
+    half_b: np.ndarray,
+    foot_b: np.ndarray,
     pred_b: np.ndarray,
     len_b: np.ndarray,
     gate: float,
@@ -128,8 +148,11 @@ def _object_kernel(
         ols += 1.0 / (1.0 + dist[k])
         d = abs((yaw_a[i] - yaw_b[j]) % two_pi)
         oos += 1.0 - min(d, two_pi - d) / math.pi
-        hi = max(area_a[i], area_b[j])
-        lo = min(area_a[i], area_b[j])
+        # the areas are computed here, not by `Objects.areas`: only this metric reads them
+        area_a = _area(half_a, foot_a, i)
+        area_b = _area(half_b, foot_b, j)
+        hi = max(area_a, area_b)
+        lo = min(area_a, area_b)
         # spi-reference: a pair of zero-area footprints scores 1.0.
         oas += lo / hi if hi > 0 else 1.0
         la = len_a[i] if cols_a > 0 else 0
@@ -171,8 +194,8 @@ def object_similarities(a: Objects, b: Objects, gate: float, decay: float) -> di
         return {"ocs": ocs, "ols": 1.0, "oos": 1.0, "oas": 1.0, "ots": 1.0}
     w = _weights(decay, max(a.pred.shape[1], b.pred.shape[1], 1))
     ols, oos, oas, ots = _object_kernel(
-        a.pos, a.yaw, a.areas, a.pred, a.pred_len,
-        b.pos, b.yaw, b.areas, b.pred, b.pred_len,
+        a.pos, a.yaw, a.half, a.footprints, a.pred, a.pred_len,
+        b.pos, b.yaw, b.half, b.footprints, b.pred, b.pred_len,
         float(gate), w,
     )  # fmt: skip
     # spi-reference Decision: 0.0 when objects exist but no pair forms (the kernel's zeros).

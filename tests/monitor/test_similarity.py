@@ -221,8 +221,8 @@ def reference_objects(a, b, gate: float, decay: float) -> dict[str, float]:
 
 @st.composite
 def object_list(draw):
-    """0-4 objects on a coarse grid (distance ties are common), random headings and sizes,
-    predictions of 0-5 points, absent, or empty."""
+    """0-4 objects on a coarse grid (distance ties are common), random headings, boxes or
+    polygons, predictions of 0-5 points, absent, or empty."""
     objs = []
     for k in range(draw(st.integers(0, 4))):
         x, y = draw(st.integers(0, 4)) * 1.5, draw(st.integers(0, 2)) * 2.0
@@ -237,10 +237,17 @@ def object_list(draw):
                 [0.1 * m, x + sum(steps[0 : 2 * m + 1 : 2]), y + sum(steps[1 : 2 * m + 2 : 2])]
                 for m in range(n)
             ]
-        objs.append(
-            obj(k, x, y, draw(st.floats(-7, 7)), draw(st.floats(0.1, 6)), draw(st.floats(0.1, 3)),
-                **extra)
-        )  # fmt: skip
+        o = obj(k, x, y, draw(st.floats(-7, 7)), draw(st.floats(0.1, 6)), draw(st.floats(0.1, 3)),
+                **extra)  # fmt: skip
+        if draw(st.booleans()):
+            # a polygon footprint instead of the box (its area: the shoelace formula)
+            del o["length"], o["width"]
+            n_vert = draw(st.integers(3, 5))
+            o["polygon"] = draw(
+                st.lists(st.tuples(st.floats(-3, 3), st.floats(-2, 2)), min_size=n_vert,
+                         max_size=n_vert)
+            )  # fmt: skip
+        objs.append(o)
     return objs
 
 
