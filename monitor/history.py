@@ -24,9 +24,21 @@ def els_var(window: Sequence[float], size: int) -> float | None:
     """Sample variance (divisor n - 1) of the last `size` ELS values; None until full."""
     if len(window) < size:
         return None
-    x = np.array(window[-size:], dtype=float)
-    d = x - x.sum() / size  # np.var's own arithmetic, without its Python-level wrapper
-    return float((d * d).sum() / (size - 1))
+    return _sample_variance(np.array(window[-size:], dtype=float))
+
+
+@kernel
+def _sample_variance(x):  # pragma: no cover - compiled
+    """np.var(x, ddof=1)'s arithmetic (mean first, then the squared deviations)."""
+    n = x.shape[0]
+    total = 0.0
+    for v in x:
+        total += v
+    mean = total / n
+    ss = 0.0
+    for v in x:
+        ss += (v - mean) * (v - mean)
+    return ss / (n - 1)
 
 
 def frechet_many(pairs: Sequence[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
@@ -38,12 +50,12 @@ def frechet_many(pairs: Sequence[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
     geometry at these sizes.
     """
     m = len(pairs)
-    arrs = [p for p, _ in pairs]
-    arrs += [q for _, q in pairs]
-    lens = [len(a) for a in arrs]
+    if m == 0:
+        return np.empty(0)
+    ps, qs = zip(*pairs, strict=True)
+    arrs = ps + qs
+    lens = list(map(len, arrs))
     if 1 not in lens:
-        if m == 0:
-            return np.empty(0)
         lines = shapely.linestrings(np.concatenate(arrs), indices=np.arange(2 * m).repeat(lens))
         return shapely.frechet_distance(lines[:m], lines[m:])
     # A one-point sequence is not a line string: those pairs go to `frechet`, the rest batched.

@@ -132,3 +132,13 @@ def test_chpps_pairs_equal_a_mask_formulation(case):
     assert [(p.tolist(), q.tolist()) for p, q in pairs] == [
         (p.tolist(), q.tolist()) for p, q in want_pairs
     ]
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.floats(-1, 1), min_size=2, max_size=12), st.integers(2, 12))
+def test_els_var_equals_numpy_sample_variance(window, size):
+    got = els_var(window, size)
+    if len(window) < size:
+        assert got is None
+    else:
+        assert got == pytest.approx(float(np.var(window[-size:], ddof=1)), rel=1e-9, abs=1e-15)
