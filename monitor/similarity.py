@@ -1,6 +1,12 @@
 """Cross-channel similarity metrics (spi-reference: "Cross-channel metrics").
 
 Pure functions on one channel pair; arrays in, numbers out. `None` means "no value".
+inv(d) = 1 / (1 + d) throughout.
+
+A pair's object similarities (pairing included), its ets and its crpps inputs are one compiled
+kernel call each (`monitor.jit`): with a handful of objects and 30-50-point plans, the numpy
+formulation spent its time in the fixed cost of many tiny array calls. The tests keep plain
+references to compare the kernels with.
 """
 
 from __future__ import annotations
@@ -16,11 +22,6 @@ from monitor.jit import kernel
 
 #: Pairing distance resolution [m]: closer distances are ties.
 PAIRING_EPS = 1e-9
-
-
-def inv(d: np.ndarray | float) -> np.ndarray | float:
-    """spi-reference: inv(d) = 1 / (1 + d)."""
-    return 1.0 / (1.0 + d)
 
 
 def angdiff(a: float, b: float) -> float:
