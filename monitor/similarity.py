@@ -34,6 +34,34 @@ def angdiff(a: float, b: float) -> float:
 
 
 @kernel
+def _stable_order(key: np.ndarray) -> np.ndarray:
+    """Indices sorting `key` ascending, equal keys in index order (bottom-up merge sort).
+
+    Written out because numba's `np.argsort(kind="mergesort")` takes seconds to compile.
+    """
+    n = key.shape[0]
+    order = np.arange(n)
+    buf = np.empty(n, dtype=np.int64)
+    width = 1
+    while width < n:
+        for lo in range(0, n, 2 * width):
+            mid = min(lo + width, n)
+            hi = min(lo + 2 * width, n)
+            i, j = lo, mid
+            for k in range(lo, hi):
+                # take from the right run only when strictly smaller: stability
+                if j < hi and (i >= mid or key[order[j]] < key[order[i]]):
+                    buf[k] = order[j]
+                    j += 1
+                else:
+                    buf[k] = order[i]
+                    i += 1
+        order, buf = buf, order
+        width *= 2
+    return order
+
+
+@kernel
 def _pair_kernel(
     pos_a: np.ndarray, pos_b: np.ndarray, gate: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -59,7 +87,7 @@ def _pair_kernel(
                 nc += 1
     # candidates are generated in (index in A, index in B) order; a stable sort on the rounded
     # distance gives the (distance, index in A, index in B) order
-    order = np.argsort(key[:nc], kind="mergesort")
+    order = _stable_order(key[:nc])
     used_a = np.zeros(na, dtype=np.bool_)
     used_b = np.zeros(nb, dtype=np.bool_)
     m = min(na, nb)
