@@ -600,6 +600,10 @@ def _pet(
 
 # -- the compiled path: every footprint an oriented box ------------------------------------------
 
+#: Slack (m) added to every prefilter bound of the kernel, so that rounding in a prefilter can
+#: never drop a pair the exact test would find touching (coordinates may be map-sized).
+SLACK = 1e-6
+
 
 @kernel
 def _headings(x: np.ndarray, y: np.ndarray, n: int, yaw: float, cos: np.ndarray,
@@ -644,12 +648,10 @@ def _nanmin(a: float, b: float) -> float:
 
 
 @kernel
-def _track(pos: np.ndarray, pred: np.ndarray, base: int, n_pred: int, times: np.ndarray,
+def _track(px: float, py: float, pred: np.ndarray, base: int, n_pred: int, times: np.ndarray,
            x: np.ndarray, y: np.ndarray) -> None:  # fmt: skip
-    """`interpolate_tracks` for one object (the same arithmetic): its prediction is the n_pred
-    points [dt, x, y] at pred[base:]."""
-    px = pos[0]
-    py = pos[1]
+    """`interpolate_tracks` for one object at (px, py) (the same arithmetic): its prediction
+    is the n_pred points [dt, x, y] at pred[base:]."""
     n_t = times.shape[0]
     if n_pred == 0:
         for t in range(n_t):
@@ -659,6 +661,8 @@ def _track(pos: np.ndarray, pred: np.ndarray, base: int, n_pred: int, times: np.
     d0 = pred[base]
     x0 = pred[base + 1]
     y0 = pred[base + 2]
+    lo = 0  # searchsorted(dt, tt, side="right"): walked forward while the grid ascends
+    prev = -math.inf
     for t in range(n_t):
         tt = times[t]
         if tt < d0:
@@ -669,14 +673,11 @@ def _track(pos: np.ndarray, pred: np.ndarray, base: int, n_pred: int, times: np.
             x[t] = x0
             y[t] = y0
         else:
-            lo = 0  # searchsorted(dt, tt, side="right") - 1 over the real points
-            hi = n_pred
-            while lo < hi:
-                mid = (lo + hi) // 2
-                if pred[base + 3 * mid] <= tt:
-                    lo = mid + 1
-                else:
-                    hi = mid
+            if tt < prev:
+                lo = 0
+            prev = tt
+            while lo < n_pred and pred[base + 3 * lo] <= tt:
+                lo += 1
             idx = min(max(lo - 1, 0), n_pred - 2)
             a = base + 3 * idx
             t0 = pred[a]
@@ -690,15 +691,15 @@ def _track(pos: np.ndarray, pred: np.ndarray, base: int, n_pred: int, times: np.
 @kernel
 def _run_boxes(x: np.ndarray, y: np.ndarray, n: int, r: float, out: np.ndarray) -> None:
     """Axis-aligned bounding box (x lo, x hi, y lo, y hi) of each CHUNK-point run of the
-    first n points, grown by the footprint radius r: out (C, 4)."""
+    first n points, grown by the footprint radius r (plus SLACK): out (C, 4)."""
+    r = r + SLACK
     for c in range((n + CHUNK - 1) // CHUNK):
         lo = c * CHUNK
-        hi = min(lo + CHUNK, n)
         x0 = x[lo]
         x1 = x[lo]
         y0 = y[lo]
         y1 = y[lo]
-        for t in range(lo + 1, hi):
+        for t in range(lo + 1, min(lo + CHUNK, n)):
             x0 = min(x0, x[t])
             x1 = max(x1, x[t])
             y0 = min(y0, y[t])
@@ -710,54 +711,90 @@ def _run_boxes(x: np.ndarray, y: np.ndarray, n: int, r: float, out: np.ndarray) 
 
 
 @kernel
-def _score_boxes(times: np.ndarray, plans: np.ndarray, plen: np.ndarray, egos: np.ndarray,
-                 pos: np.ndarray, yaw: np.ndarray, half: np.ndarray, pred: np.ndarray,
-                 pred_len: np.ndarray, meta: np.ndarray, pet_ref: float) -> np.ndarray:  # fmt: skip
-    """(ss, ttc, pet) as one (3, I, J) array for box footprints: plans (I, L, 3) padded to
-    the grid `times` (L,) with real lengths plen; egos (I, 3) [yaw, half length, half
-    width]; objects of all worlds stacked (pos, yaw, half, pred_len), predictions flattened
-    into `pred`; meta (J, 3) per world [first object, offset in pred, points per object].
+def _score_boxes(plans: np.ndarray, egos: np.ndarray, pos: np.ndarray, yaw: np.ndarray,
+                 half: np.ndarray, pred: np.ndarray, pred_len: np.ndarray, meta: np.ndarray,
+                 pet_ref: float) -> np.ndarray:  # fmt: skip
+    """(ss, ttc, pet) as one (3, I, J) array for box footprints.
 
-    Same candidates and arithmetic as the numpy path; its prefilters (whole-sweep boxes,
-    CHUNK-run boxes and time gaps, bounding circles) are conservative, so only the exact box
-    test decides. PET shrinks its time limit to the best value found so far: pairs at or
-    above it cannot lower the minimum."""
-    n_i = plans.shape[0]
-    n_t = times.shape[0]
+    plans: the I plans' [dt, x, y] rows one after the other; egos (I, 4): [yaw, half length,
+    half width, plan length]; objects of all world models stacked (pos, yaw, half,
+    pred_len), their predictions flattened into `pred`; meta (J, 3) per world: [first
+    object, offset in pred, points per object]. The grid is the longest plan's (the first
+    of them); the others' grids are its prefixes.
+
+    Only the exact box test (the numpy path's arithmetic) decides; the prefilters are
+    conservative: whole-sweep and CHUNK-run bounding boxes, bounding circles per time pair,
+    time gaps, and for PET the lateral axis of each ego run (parallel traffic in the next
+    lane passes the boxes and circles, not that axis). PET visits run pairs in the order of
+    their time offset and lowers its bound to the best value found: pairs at or above it
+    cannot lower the minimum.
+    """
+    n_i = egos.shape[0]
     n_k = pos.shape[0]
     n_j = meta.shape[0]
+    # the grid: the longest plan's times
+    starts = np.empty(n_i, dtype=np.int64)
+    longest = 0
+    off = 0
+    for i in range(n_i):
+        starts[i] = off
+        off += int(egos[i, 3])
+        if egos[i, 3] > egos[longest, 3]:
+            longest = i
+    n_t = int(egos[longest, 3])
+    times = np.empty(n_t)
+    for t in range(n_t):
+        times[t] = plans[starts[longest] + t, 0]
     n_c = (n_t + CHUNK - 1) // CHUNK
     out = np.empty((3, n_i, n_j))
     ttc = out[1]
     pet = out[2]
     ttc[:] = np.inf
     pet[:] = np.inf
-    # egos: poses on their own grids, run boxes and whole-sweep boxes
+    # egos on their own grids: poses, run boxes, whole-sweep boxes, run lateral axes
+    plen = np.empty(n_i, dtype=np.int64)
     ex = np.empty((n_i, n_t))
     ey = np.empty((n_i, n_t))
     ec = np.empty((n_i, n_t))
     es = np.empty((n_i, n_t))
     erad = np.empty(n_i)
     erun = np.empty((n_i, n_c, 4))
+    eaxis = np.empty((n_i, n_c, 4))  # axis x, axis y, interval lo, hi
     esweep = np.empty((n_i, 4))
     for i in range(n_i):
-        n = plen[i]
+        n = int(egos[i, 3])
+        plen[i] = n
         for t in range(n):
-            ex[i, t] = plans[i, t, 1]
-            ey[i, t] = plans[i, t, 2]
+            ex[i, t] = plans[starts[i] + t, 1]
+            ey[i, t] = plans[starts[i] + t, 2]
         _headings(ex[i], ey[i], n, egos[i, 0], ec[i], es[i])
-        erad[i] = math.hypot(egos[i, 1], egos[i, 2])
+        hl = egos[i, 1]
+        hw = egos[i, 2]
+        erad[i] = math.hypot(hl, hw)
         _run_boxes(ex[i], ey[i], n, erad[i], erun[i])
-        esweep[i, 0] = erun[i, 0, 0]
-        esweep[i, 1] = erun[i, 0, 1]
-        esweep[i, 2] = erun[i, 0, 2]
-        esweep[i, 3] = erun[i, 0, 3]
-        for c in range(1, (n + CHUNK - 1) // CHUNK):
+        esweep[i] = erun[i, 0]
+        for c in range((n + CHUNK - 1) // CHUNK):
             esweep[i, 0] = min(esweep[i, 0], erun[i, c, 0])
             esweep[i, 1] = max(esweep[i, 1], erun[i, c, 1])
             esweep[i, 2] = min(esweep[i, 2], erun[i, c, 2])
             esweep[i, 3] = max(esweep[i, 3], erun[i, c, 3])
-    # time range of each run of the long grid (the PET time-gap prefilter)
+            ax = -es[i, c * CHUNK]
+            ay = ec[i, c * CHUNK]
+            lo = math.inf
+            hi = -math.inf
+            for t in range(c * CHUNK, min(c * CHUNK + CHUNK, n)):
+                centre = ex[i, t] * ax + ey[i, t] * ay
+                c_t = ec[i, t]
+                s_t = es[i, t]
+                rad = hl * abs(c_t * ax + s_t * ay) + hw * abs(c_t * ay - s_t * ax)
+                lo = min(lo, centre - rad)
+                hi = max(hi, centre + rad)
+            eaxis[i, c, 0] = ax
+            eaxis[i, c, 1] = ay
+            eaxis[i, c, 2] = lo - SLACK
+            eaxis[i, c, 3] = hi + SLACK
+    # time gaps between runs of the grid: the smallest over run pairs at each run offset d,
+    # then the smallest over offsets |d| >= e (so that the PET search may stop at e)
     t_lo = np.empty(n_c)
     t_hi = np.empty(n_c)
     for c in range(n_c):
@@ -766,11 +803,21 @@ def _score_boxes(times: np.ndarray, plans: np.ndarray, plen: np.ndarray, egos: n
         for t in range(c * CHUNK + 1, min(c * CHUNK + CHUNK, n_t)):
             t_lo[c] = min(t_lo[c], times[t])
             t_hi[c] = max(t_hi[c], times[t])
+    floor = np.full(n_c + 1, np.inf)
+    for a in range(n_c):
+        for b in range(n_c):
+            e = abs(b - a)
+            floor[e] = min(floor[e], max(t_lo[a] - t_hi[b], t_lo[b] - t_hi[a]))
+    for e in range(n_c - 2, -1, -1):
+        floor[e] = min(floor[e], floor[e + 1])
+    # objects: tracks on the grid (headings when first needed), run boxes
     ox = np.empty((n_k, n_t))
     oy = np.empty((n_k, n_t))
     oc = np.empty((n_k, n_t))
     os_ = np.empty((n_k, n_t))
+    orad = np.empty(n_k)
     orun = np.empty((n_k, n_c, 4))
+    headed = np.zeros(n_k, dtype=np.bool_)
     live = np.zeros((n_i, n_k), dtype=np.bool_)
     meets = np.zeros((n_i, n_k), dtype=np.bool_)
     for j in range(n_j):
@@ -779,7 +826,10 @@ def _score_boxes(times: np.ndarray, plans: np.ndarray, plen: np.ndarray, egos: n
         p = meta[j, 2]
         # TTC: equal times only
         for k in range(first, last):
-            r = math.hypot(half[k, 0], half[k, 1])
+            hl = half[k, 0]
+            hw = half[k, 1]
+            r = math.hypot(hl, hw)
+            orad[k] = r
             n_pred = pred_len[k] if p > 0 else 0
             base = meta[j, 1] + 3 * p * (k - first)
             # the box of every position the object can take (interpolation stays inside)
@@ -792,16 +842,16 @@ def _score_boxes(times: np.ndarray, plans: np.ndarray, plen: np.ndarray, egos: n
                 x1 = max(x1, pred[base + 3 * q + 1])
                 y0 = min(y0, pred[base + 3 * q + 2])
                 y1 = max(y1, pred[base + 3 * q + 2])
+            reach = r + SLACK
             near = False
             for i in range(n_i):
-                if (x0 - r <= esweep[i, 1] and x1 + r >= esweep[i, 0]
-                        and y0 - r <= esweep[i, 3] and y1 + r >= esweep[i, 2]):  # fmt: skip
+                if (x0 - reach <= esweep[i, 1] and x1 + reach >= esweep[i, 0]
+                        and y0 - reach <= esweep[i, 3] and y1 + reach >= esweep[i, 2]):  # fmt: skip
                     live[i, k] = True
                     near = True
             if not near:
                 continue
-            _track(pos[k], pred, base, n_pred, times, ox[k], oy[k])
-            _headings(ox[k], oy[k], n_t, yaw[k], oc[k], os_[k])
+            _track(pos[k, 0], pos[k, 1], pred, base, n_pred, times, ox[k], oy[k])
             _run_boxes(ox[k], oy[k], n_t, r, orun[k])
             for i in range(n_i):
                 if not live[i, k]:
@@ -813,9 +863,12 @@ def _score_boxes(times: np.ndarray, plans: np.ndarray, plen: np.ndarray, egos: n
                     dy = oy[k, t] - ey[i, t]
                     if dx * dx + dy * dy > reach * reach:
                         continue
+                    if not headed[k]:
+                        _headings(ox[k], oy[k], n_t, yaw[k], oc[k], os_[k])
+                        headed[k] = True
                     h = min(t, n - 2)  # the last point of a shorter grid: its last segment
                     if _box_hit(dx, dy, ec[i, t], es[i, t], egos[i, 1], egos[i, 2],
-                                oc[k, h], os_[k, h], half[k, 0], half[k, 1]):  # fmt: skip
+                                oc[k, h], os_[k, h], hl, hw):  # fmt: skip
                         meets[i, k] = True
                         if times[t] < ttc[i, j]:
                             ttc[i, j] = times[t]
@@ -826,39 +879,62 @@ def _score_boxes(times: np.ndarray, plans: np.ndarray, plen: np.ndarray, egos: n
             limit = pet_ref * _nanmin(1.0, ttc[i, j] / times[n - 1])
             if not limit > 0:
                 continue
-            reach_i = erad[i]
             runs = (n + CHUNK - 1) // CHUNK
+            la = egos[i, 1]
+            wa = egos[i, 2]
             best = pet[i, j]
             for k in range(first, last):
                 if not live[i, k] or meets[i, k]:
                     continue
-                r = math.hypot(half[k, 0], half[k, 1])
-                reach = reach_i + r
-                for a in range(runs):
-                    for b in range(runs):
-                        bound = limit if limit < best else best
-                        gap = max(t_lo[a] - t_hi[b], t_lo[b] - t_hi[a])
-                        if gap >= bound:
-                            continue
-                        if (erun[i, a, 0] > orun[k, b, 1] or erun[i, a, 1] < orun[k, b, 0]
-                                or erun[i, a, 2] > orun[k, b, 3]
-                                or erun[i, a, 3] < orun[k, b, 2]):  # fmt: skip
-                            continue
-                        for t in range(a * CHUNK, min(a * CHUNK + CHUNK, n)):
+                hl = half[k, 0]
+                hw = half[k, 1]
+                reach = erad[i] + orad[k]
+                for e in range(runs):
+                    bound = limit if limit < best else best
+                    if floor[e] >= bound:
+                        break
+                    for sign in range(2 if e else 1):
+                        d = e if sign == 0 else -e
+                        for a in range(max(0, -d), min(runs, runs - d)):
+                            b = a + d
+                            bound = limit if limit < best else best
+                            if max(t_lo[a] - t_hi[b], t_lo[b] - t_hi[a]) >= bound:
+                                continue
+                            if (erun[i, a, 0] > orun[k, b, 1] or erun[i, a, 1] < orun[k, b, 0]
+                                    or erun[i, a, 2] > orun[k, b, 3]
+                                    or erun[i, a, 3] < orun[k, b, 2]):  # fmt: skip
+                                continue
+                            if not headed[k]:
+                                _headings(ox[k], oy[k], n_t, yaw[k], oc[k], os_[k])
+                                headed[k] = True
+                            # the ego run's lateral axis: the object run's interval on it
+                            ax = eaxis[i, a, 0]
+                            ay = eaxis[i, a, 1]
+                            lo = math.inf
+                            hi = -math.inf
                             for m in range(b * CHUNK, min(b * CHUNK + CHUNK, n)):
-                                dt = abs(times[t] - times[m])
-                                if not (dt < limit and dt < best):
-                                    continue
-                                dx = ox[k, m] - ex[i, t]
-                                dy = oy[k, m] - ey[i, t]
-                                if dx * dx + dy * dy > reach * reach:
-                                    continue
                                 h = min(m, n - 2)
-                                hit = _box_hit(dx, dy, ec[i, t], es[i, t], egos[i, 1],
-                                               egos[i, 2], oc[k, h], os_[k, h], half[k, 0],
-                                               half[k, 1])  # fmt: skip
-                                if hit:
-                                    best = dt
+                                centre = ox[k, m] * ax + oy[k, m] * ay
+                                rad = hl * abs(oc[k, h] * ax + os_[k, h] * ay) + hw * abs(
+                                    oc[k, h] * ay - os_[k, h] * ax
+                                )
+                                lo = min(lo, centre - rad)
+                                hi = max(hi, centre + rad)
+                            if lo > eaxis[i, a, 3] or hi < eaxis[i, a, 2]:
+                                continue
+                            for t in range(a * CHUNK, min(a * CHUNK + CHUNK, n)):
+                                for m in range(b * CHUNK, min(b * CHUNK + CHUNK, n)):
+                                    dt = abs(times[t] - times[m])
+                                    if not (dt < limit and dt < best):
+                                        continue
+                                    dx = ox[k, m] - ex[i, t]
+                                    dy = oy[k, m] - ey[i, t]
+                                    if dx * dx + dy * dy > reach * reach:
+                                        continue
+                                    h = min(m, n - 2)
+                                    if _box_hit(dx, dy, ec[i, t], es[i, t], la, wa,
+                                                oc[k, h], os_[k, h], hl, hw):  # fmt: skip
+                                        best = dt
             pet[i, j] = best
     for i in range(n_i):
         horizon = times[plen[i] - 1]
@@ -867,49 +943,80 @@ def _score_boxes(times: np.ndarray, plans: np.ndarray, plen: np.ndarray, egos: n
     return out
 
 
-class _Packed:
-    """The objects of several world models as the kernel takes them: stacked rows, the
-    predictions flattened (worlds pad them to different lengths), per world
-    [first object, offset in pred, points per object]; `boxes`: every footprint is a box."""
+@kernel
+def _score_scene(scene: np.ndarray, pet_ref: float) -> np.ndarray:
+    """`_score_boxes` on a scene packed by `_pack` (one flat array, so that a call unboxes two
+    arguments, not a dozen); an empty (0, I, J) result when a footprint is not a box."""
+    n_i = int(scene[0])
+    n_j = int(scene[1])
+    at = 2
+    egos = scene[at : at + 4 * n_i].copy().reshape(n_i, 4)
+    at += 4 * n_i
+    meta = np.empty((n_j, 3), dtype=np.int64)
+    n_k = 0
+    for j in range(n_j):
+        meta[j, 0] = n_k
+        meta[j, 2] = int(scene[at + 2 * j + 1])
+        n_k += int(scene[at + 2 * j])
+    sizes = scene[at : at + 2 * n_j].copy()
+    at += 2 * n_j
+    rows = 0
+    for i in range(n_i):
+        rows += int(egos[i, 3])
+    plans = scene[at : at + 3 * rows].copy().reshape(rows, 3)
+    at += 3 * rows
+    pos = np.empty((n_k, 2))
+    yaw = np.empty(n_k)
+    half = np.empty((n_k, 2))
+    pred_len = np.empty(n_k, dtype=np.int64)
+    boxes = True
+    for j in range(n_j):
+        first = meta[j, 0]
+        k_j = int(sizes[2 * j])
+        for q in range(k_j):
+            pos[first + q, 0] = scene[at + 2 * q]
+            pos[first + q, 1] = scene[at + 2 * q + 1]
+            yaw[first + q] = scene[at + 2 * k_j + q]
+            half[first + q, 0] = scene[at + 3 * k_j + 2 * q]
+            half[first + q, 1] = scene[at + 3 * k_j + 2 * q + 1]
+            pred_len[first + q] = int(scene[at + 5 * k_j + q])
+            boxes = boxes and not (np.isnan(half[first + q, 0]) or np.isnan(half[first + q, 1]))
+        at += 6 * k_j
+        meta[j, 1] = at  # the predictions stay in the scene array
+        at += 3 * k_j * meta[j, 2]
+    if not boxes:
+        return np.empty((0, n_i, n_j))
+    return _score_boxes(plans, egos, pos, yaw, half, scene, pred_len, meta, pet_ref)
 
-    __slots__ = ("boxes", "half", "meta", "pos", "pred", "pred_len", "yaw")
 
-    def __init__(self, worlds: Sequence[Objects]):
-        self.half = np.concatenate([o.half for o in worlds])
-        self.boxes = not np.isnan(self.half).any()
-        if not self.boxes:
-            return
-        self.pos = np.concatenate([o.pos for o in worlds])
-        self.yaw = np.concatenate([o.yaw for o in worlds])
-        self.pred = np.concatenate([o.pred.ravel() for o in worlds])
-        self.pred_len = np.concatenate([o.pred_len for o in worlds], dtype=np.int64)
-        meta = []
-        first = offset = 0
-        for o in worlds:
-            meta.append((first, offset, o.pred.shape[1]))
-            first += len(o)
-            offset += o.pred.size
-        self.meta = np.array(meta, dtype=np.int64)
+def _pack(
+    plans: Sequence[np.ndarray], egos: Sequence[Ego], worlds: Sequence[Objects]
+) -> np.ndarray:
+    """One flat float array for `_score_scene`: [I, J], per ego [yaw, half length, half width,
+    plan length], per world [objects K, prediction points P], the plans' rows, then per world
+    its pos (K, 2), yaw (K,), half (K, 2), pred_len (K,) and pred (K, P, 3). Egos must be
+    boxes (`half` set)."""
+    head: list[float] = [len(plans), len(worlds)]
+    for e, p in zip(egos, plans, strict=True):
+        head += (e.yaw, *e.half, len(p))  # type: ignore[misc]
+    for o in worlds:
+        head += (len(o), o.pred.shape[1])
+    parts: list = [np.array(head)]
+    parts += [p.ravel() for p in plans]
+    for o in worlds:
+        parts += (o.pos.ravel(), o.yaw, o.half.ravel(), o.pred_len, o.pred.ravel())
+    return np.concatenate(parts, dtype=np.float64)
 
 
 def _score_kernel(
-    plans: Sequence[np.ndarray], egos: Sequence[Ego], packed: _Packed, pet_ref: float
-) -> np.ndarray:
-    """`score_grid` for box footprints (packed.boxes and every ego.half set): one kernel call,
-    (3, I, J) = ss, ttc, pet."""
-    lengths = [len(p) for p in plans]
-    n_pts = max(lengths)
-    if all(n == n_pts for n in lengths):
-        grid = np.stack(plans)
-    else:
-        grid = np.zeros((len(plans), n_pts, 3))
-        for a, p in enumerate(plans):
-            grid[a, : len(p)] = p
-    times = np.ascontiguousarray(grid[lengths.index(n_pts), :, 0])
-    ego = np.array([(e.yaw, *e.half) for e in egos])  # type: ignore[misc]
-    return _score_boxes(times, grid, np.array(lengths, dtype=np.int64), ego, packed.pos,
-                        packed.yaw, packed.half, packed.pred, packed.pred_len, packed.meta,
-                        float(pet_ref))  # fmt: skip
+    plans: Sequence[np.ndarray], egos: Sequence[Ego], worlds: Sequence[Objects], pet_ref: float
+) -> np.ndarray | None:
+    """`score_grid` by the kernel: (3, I, J) = ss, ttc, pet, or None when a footprint is not a
+    box (the numpy path's case)."""
+    if not all(e.half is not None for e in egos):
+        return None
+    out = _score_scene(_pack(plans, egos, worlds), float(pet_ref))
+    return out if len(out) else None
 
 
 def score_grid(
@@ -922,11 +1029,10 @@ def score_grid(
     longest) with their egos against world models J (each with >= 1 object); see
     `score_grid_numpy` for the rules. Box footprints everywhere take the compiled kernel, any
     polygon the numpy path."""
-    packed = _Packed(worlds)
-    if packed.boxes and all(e.half is not None for e in egos):
-        ss, ttc, pet = _score_kernel(plans, egos, packed, pet_ref)
-        return ss, ttc, pet
-    return score_grid_numpy(plans, egos, worlds, pet_ref)
+    out = _score_kernel(plans, egos, worlds, pet_ref)
+    if out is None:
+        return score_grid_numpy(plans, egos, worlds, pet_ref)
+    return out[0], out[1], out[2]
 
 
 def safety_score(
@@ -985,14 +1091,10 @@ def safety_matrix(
     if not scored:
         return out
     world_objects = [states[j].objects for j in worlds]
-    packed = _Packed(world_objects)
     for members in _prefix_groups(scored):
-        plans = [scored[i] for i in members]
-        egos = [states[i].ego for i in members]
-        if packed.boxes and all(e.half is not None for e in egos):
-            ss = _score_kernel(plans, egos, packed, pet_ref)[0]
-        else:
-            ss = score_grid_numpy(plans, egos, world_objects, pet_ref)[0]
+        ss = score_grid(
+            [scored[i] for i in members], [states[i].ego for i in members], world_objects, pet_ref
+        )[0]
         for a, i in enumerate(members):
             for b, j in enumerate(worlds):
                 out[(i, j)] = float(ss[a, b])
