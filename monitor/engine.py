@@ -64,6 +64,34 @@ class _Timed:
         return bool(self.items) and t - self.items[-1][0] <= self.max_gap + 1e-9
 
 
+class _PoseWindow:
+    """The last `size` ego poses (t, x, y, yaw) of a channel in one preallocated array, oldest
+    first, restarting like `_Timed` when a sample comes more than `max_gap` after the previous
+    one. The comfort kernel reads column views of it: no per-frame array building."""
+
+    __slots__ = ("buf", "count", "max_gap")
+
+    def __init__(self, size: int, max_gap: float):
+        self.buf = np.empty((size, 4))
+        self.count = 0
+        self.max_gap = max_gap
+
+    def push(self, t: float, x: float, y: float, yaw: float) -> None:
+        buf = self.buf
+        if self.count and t - buf[self.count - 1, 0] > self.max_gap + 1e-9:
+            self.count = 0
+        if self.count < len(buf):
+            buf[self.count] = (t, x, y, yaw)
+            self.count += 1
+        else:
+            buf[:-1] = buf[1:]  # numpy copies overlapping slices safely
+            buf[-1] = (t, x, y, yaw)
+
+    @property
+    def full(self) -> bool:
+        return self.count == len(self.buf)
+
+
 class MetricEngine:
     """Stateful metric computation for one stream.
 
@@ -88,11 +116,20 @@ class MetricEngine:
         self._els = {pr: _Timed(p.els_window, p.max_gap) for pr in self.pairs}
         self._plans = {c: _Timed(p.plan_history, p.max_gap) for c in self.channels}
         self._objects = {c: _Timed(1, p.max_gap) for c in self.channels}
-        self._ego = {c: _Timed(p.comfort_window, p.max_gap) for c in self.channels}
+        self._ego = {c: _PoseWindow(p.comfort_window, p.max_gap) for c in self.channels}
         #: crpps Fréchet inputs per pair of the current step (None: no value), see _similarity
         self._crpps_inputs: list[tuple[np.ndarray, np.ndarray] | None] = []
-        self._hcs_names = [channel_name("hcs", c) for c in self.channels]
-        self._ppcs_names = [channel_name("ppcs", c) for c in self.channels]
+        # Signal names, built once: per pair {metric: name}, per channel {metric: name}.
+        self._pair_names = {
+            pr: {m: pair_name(m, *pr) for m in PAIR_METRICS} for pr in self.pairs
+        }
+        self._channel_names = {
+            c: {m: channel_name(m, c) for m in ("chpps", "ompv", "hcs", "ppcs", SAFETY_SCORE)}
+            for c in self.channels
+        }
+        self._ss_names = {(i, j): pair_name(SAFETY_SCORE, i, j) for i in channels for j in channels}
+        self._hcs_names = [self._channel_names[c]["hcs"] for c in self.channels]
+        self._ppcs_names = [self._channel_names[c]["ppcs"] for c in self.channels]
 
     def arbitration(self) -> str | None:
         """The channel recommended at the last step (argmax of ss_i), or None."""
@@ -154,8 +191,9 @@ class MetricEngine:
             else:
                 self._crpps_inputs.append(None)
             del vals["crpps"]
+            names = self._pair_names[(a, b)]
             for m, v in vals.items():
-                out[pair_name(m, a, b)] = v
+                out[names[m]] = v
                 per_pair[m].append(v)
         for m, values in per_pair.items():
             out[m] = _worst(values, m in WORST_IS_MAX)
@@ -166,7 +204,7 @@ class MetricEngine:
         values: list[float | None] = []
         for (a, b), fd in zip(self.pairs, distances, strict=True):
             v = None if fd is None else 1.0 / (1.0 + fd)
-            out[pair_name("crpps", a, b)] = v
+            out[self._pair_names[(a, b)]["crpps"]] = v
             values.append(v)
         out["crpps"] = _worst(values, False)
         # Decision: no value when any pair has none.
@@ -218,11 +256,10 @@ class MetricEngine:
         self._crpps([None if x is None else next(crpps_fd) for x in self._crpps_inputs], out)
         for metric, values in (("chpps", chpps_values), ("ompv", ompv_values)):
             for c, v in values.items():
-                out[channel_name(metric, c)] = v
+                out[self._channel_names[c][metric]] = v
             out[metric] = _worst(list(values.values()), False)
 
     def _comfort(self, frame: Frame, out: dict[str, float | None]) -> None:
-        p = self.params
         # hcs and ppcs of every channel in one batched computation (see comfort_scores).
         series: list[tuple[np.ndarray, np.ndarray, np.ndarray | None]] = []
         slots: list[str] = []
@@ -231,15 +268,17 @@ class MetricEngine:
             if s is None:
                 continue
             hist = self._ego[c]
-            hist.push(frame.t, (s.ego.x, s.ego.y, s.ego.yaw))
-            if len(hist.items) >= p.comfort_window:
-                arr = np.array([(ts, *v) for ts, v in hist.items])[-p.comfort_window :]
-                series.append((arr[:, 0], arr[:, 1:3], arr[:, 3]))
-                slots.append(channel_name("hcs", c))
+            hist.push(frame.t, s.ego.x, s.ego.y, s.ego.yaw)
+            names = self._channel_names[c]
+            if hist.full:
+                buf = hist.buf
+                series.append((buf[:, 0], buf[:, 1:3], buf[:, 3]))
+                slots.append(names["hcs"])
             if len(s.plan) >= MIN_POINTS:
                 series.append((s.plan[:, 0], s.plan[:, 1:3], None))
-                slots.append(channel_name("ppcs", c))
-        for name, value in zip(slots, comfort_scores(series, p.comfort_steepness), strict=True):
+                slots.append(names["ppcs"])
+        scores = comfort_scores(series, self.params.comfort_steepness)
+        for name, value in zip(slots, scores, strict=True):
             out[name] = value
         out["hcs"] = _worst([out[n] for n in self._hcs_names], False)
         out["ppcs"] = _worst([out[n] for n in self._ppcs_names], False)
@@ -247,11 +286,11 @@ class MetricEngine:
     def _safety(self, frame: Frame, out: dict[str, float | None]) -> None:
         matrix = safety_matrix(self.channels, frame.channels, self.params.pet_ref)
         per_channel: list[float | None] = []
-        for (i, j), v in matrix.items():
-            out[pair_name(SAFETY_SCORE, i, j)] = v
+        for ij, v in matrix.items():
+            out[self._ss_names[ij]] = v
         for i in self.channels:
             v = _worst([matrix[(i, j)] for j in self.channels], False)
-            out[channel_name(SAFETY_SCORE, i)] = v
+            out[self._channel_names[i][SAFETY_SCORE]] = v
             per_channel.append(v)
         out[SAFETY_SCORE] = _worst(list(matrix.values()), False)
         self.last_arbitration = arbitrate(self.channels, matrix, self.last_arbitration)
