@@ -83,6 +83,29 @@ def test_time_gap_restarts_history():
     assert out["els_var"] is None and out["ompv"] is None and out["chpps"] is None
 
 
+def test_hcs_window_slides_and_restarts_after_a_gap():
+    eng = MetricEngine(MetricParams(), AB)
+    outs = [eng.step(frame(round(0.1 * k, 1), simple(0.1 * k))) for k in range(12)]
+    # a full window of 10 positions from tick 9 on, sliding (constant speed: no acceleration)
+    assert [o["hcs__a"] is None for o in outs] == [True] * 9 + [False] * 3
+    assert outs[11]["hcs__a"] == pytest.approx(1.0)
+    # 0.6 s without channel b (> max_gap): b's window restarts, a's keeps sliding
+    for k in range(12, 18):
+        out = eng.step(frame(round(0.1 * k, 1), {"a": simple(0.1 * k)["a"]}))
+    assert out["hcs__a"] == pytest.approx(1.0) and out["hcs__b"] is None
+    outs = [eng.step(frame(round(0.1 * k, 1), simple(0.1 * k))) for k in range(18, 28)]
+    assert [o["hcs__b"] is None for o in outs] == [True] * 9 + [False]
+    # b braking hard inside its window: the score drops below 1
+    eng = MetricEngine(MetricParams(), AB)
+    xs = [10 * 0.1 * k if k < 8 else 10 * 0.1 * 7 + 0.1 * (k - 7) for k in range(10)]
+    for k, x in enumerate(xs):
+        f = simple(0.1 * k)
+        f["b"] = channel(ego(x, 0), plan=straight_plan(0, 0, 10, 0, 10), objects=[])
+        out = eng.step(frame(round(0.1 * k, 1), f))
+    assert out["hcs__b"] < 0.9 and out["hcs__a"] == pytest.approx(1.0)
+    assert out["hcs"] == out["hcs__b"]
+
+
 def test_empty_plan_gives_no_plan_metrics():
     eng = MetricEngine(MetricParams(), AB)
     out = eng.step(frame(0.0, simple(0.0, plan=False)))
