@@ -126,6 +126,32 @@ def positions_at(pos: np.ndarray, pred: np.ndarray, pred_len: np.ndarray, t: flo
 
 
 @kernel
+def _stable_order(key):  # pragma: no cover - compiled
+    """Indices that sort `key` stably (bottom-up merge sort): np.argsort(kind="mergesort")'s
+    result, without the seconds its numba implementation adds to the first compile."""
+    n = key.shape[0]
+    a = np.arange(n)
+    b = np.empty(n, dtype=np.int64)
+    width = 1
+    while width < n:
+        for lo in range(0, n, 2 * width):
+            mid = min(lo + width, n)
+            hi = min(lo + 2 * width, n)
+            i, j = lo, mid
+            for k in range(lo, hi):
+                # take from the left run on ties: stable
+                if i < mid and (j >= hi or key[a[i]] <= key[a[j]]):
+                    b[k] = a[i]
+                    i += 1
+                else:
+                    b[k] = a[j]
+                    j += 1
+        a, b = b, a
+        width *= 2
+    return a
+
+
+@kernel
 def _ompv_counts(pos, pred, pred_len, elapsed, cur, match, tolerance, gate):  # pragma: no cover
     """(N1, N2) of ompv. `match[i]` is the current index of previous object i's id (-1: none);
     when no entry matches and there are current objects, the channel does not track and the
@@ -179,7 +205,7 @@ def _ompv_counts(pos, pred, pred_len, elapsed, cur, match, tolerance, gate):  # 
                     key[g] = np.rint(d / PAIRING_EPS)
                     g += 1
         # candidates were made in (A, B) order: a stable sort on the key gives the lexsort order
-        order = np.argsort(key[:g], kind="mergesort")
+        order = _stable_order(key[:g])
         used_a = np.zeros(n_prev, dtype=np.bool_)
         used_b = np.zeros(n_cur, dtype=np.bool_)
         for o in order:
