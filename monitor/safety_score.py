@@ -2,15 +2,21 @@
 
 spi-reference "Safety score". For an ordered channel pair (i, j) the ego footprint of channel i
 is swept along plan i, and each object of channel j along its prediction, on the plan's time
-grid. All ordered pairs whose plans share a time grid (the usual case) are computed in one
-vectorised pass: per-call numpy overhead, not arithmetic, dominates at this size.
+grid. All ordered pairs whose plans share a time grid (or a prefix of it) are computed in one
+pass: per-call overhead, not arithmetic, dominates at this size.
 
-Exact footprint tests run only on candidates that survive numpy prefilters (bounding circles of
-CHUNK-point runs of both sweeps, then bounding circles per time pair):
+Two implementations of that pass, with the same rules and the same arithmetic:
 
-- box footprints: a closed-form separating-axis test (exact for oriented boxes);
-- convex polygons: a vectorised separating-axis test over their vertices;
-- non-convex polygons: `shapely.intersects`, vectorised over their candidates.
+- box footprints everywhere (egos and objects; the usual case): one compiled kernel call
+  (`_score_scene`, see `monitor.jit`) loops over egos, objects and time pairs; only
+  conservative prefilters (bounding boxes of whole sweeps and of CHUNK-point runs, bounding
+  circles, time gaps, a lateral separating axis per ego run) run before the exact closed-form
+  separating-axis test of two oriented boxes;
+- any polygon footprint: the numpy formulation (`score_grid_numpy`), vectorised over candidate
+  pairs that survive numpy prefilters (bounding circles of CHUNK-point runs of both sweeps,
+  then bounding circles per time pair), with the box test for box pairs, a vectorised
+  separating-axis test for convex polygons and `shapely.intersects` for non-convex ones. The
+  tests also use it as the kernel's oracle.
 
 Touching counts as intersecting everywhere, like shapely's `intersects`.
 
@@ -614,7 +620,8 @@ def _headings(x: np.ndarray, y: np.ndarray, n: int, yaw: float, cos: np.ndarray,
     for t in range(n - 1):
         dx = x[t + 1] - x[t]
         dy = y[t + 1] - y[t]
-        length = math.hypot(dx, dy)
+        # standing still: no hypot call (~15 ns) needed
+        length = 0.0 if dx == 0.0 and dy == 0.0 else math.hypot(dx, dy)
         if length > 1e-9:
             c = dx / length
             s = dy / length
@@ -749,8 +756,10 @@ def _score_boxes(plans: np.ndarray, egos: np.ndarray, pos: np.ndarray, yaw: np.n
     out = np.empty((3, n_i, n_j))
     ttc = out[1]
     pet = out[2]
-    ttc[:] = np.inf
-    pet[:] = np.inf
+    for i in range(n_i):
+        for j in range(n_j):
+            ttc[i, j] = math.inf
+            pet[i, j] = math.inf
     # egos on their own grids: poses, run boxes, whole-sweep boxes, run lateral axes
     plen = np.empty(n_i, dtype=np.int64)
     ex = np.empty((n_i, n_t))
@@ -772,7 +781,8 @@ def _score_boxes(plans: np.ndarray, egos: np.ndarray, pos: np.ndarray, yaw: np.n
         hw = egos[i, 2]
         erad[i] = math.hypot(hl, hw)
         _run_boxes(ex[i], ey[i], n, erad[i], erun[i])
-        esweep[i] = erun[i, 0]
+        for q in range(4):
+            esweep[i, q] = erun[i, 0, q]
         for c in range((n + CHUNK - 1) // CHUNK):
             esweep[i, 0] = min(esweep[i, 0], erun[i, c, 0])
             esweep[i, 1] = max(esweep[i, 1], erun[i, c, 1])
@@ -803,7 +813,9 @@ def _score_boxes(plans: np.ndarray, egos: np.ndarray, pos: np.ndarray, yaw: np.n
         for t in range(c * CHUNK + 1, min(c * CHUNK + CHUNK, n_t)):
             t_lo[c] = min(t_lo[c], times[t])
             t_hi[c] = max(t_hi[c], times[t])
-    floor = np.full(n_c + 1, np.inf)
+    floor = np.empty(n_c + 1)
+    for e in range(n_c + 1):
+        floor[e] = math.inf
     for a in range(n_c):
         for b in range(n_c):
             e = abs(b - a)
@@ -950,7 +962,10 @@ def _score_scene(scene: np.ndarray, pet_ref: float) -> np.ndarray:
     n_i = int(scene[0])
     n_j = int(scene[1])
     at = 2
-    egos = scene[at : at + 4 * n_i].copy().reshape(n_i, 4)
+    egos = np.empty((n_i, 4))
+    for i in range(n_i):
+        for q in range(4):
+            egos[i, q] = scene[at + 4 * i + q]
     at += 4 * n_i
     meta = np.empty((n_j, 3), dtype=np.int64)
     n_k = 0
@@ -958,12 +973,17 @@ def _score_scene(scene: np.ndarray, pet_ref: float) -> np.ndarray:
         meta[j, 0] = n_k
         meta[j, 2] = int(scene[at + 2 * j + 1])
         n_k += int(scene[at + 2 * j])
-    sizes = scene[at : at + 2 * n_j].copy()
+    sizes = np.empty(2 * n_j)
+    for q in range(2 * n_j):
+        sizes[q] = scene[at + q]
     at += 2 * n_j
     rows = 0
     for i in range(n_i):
         rows += int(egos[i, 3])
-    plans = scene[at : at + 3 * rows].copy().reshape(rows, 3)
+    plans = np.empty((rows, 3))
+    for r in range(rows):
+        for q in range(3):
+            plans[r, q] = scene[at + 3 * r + q]
     at += 3 * rows
     pos = np.empty((n_k, 2))
     yaw = np.empty(n_k)
@@ -980,7 +1000,8 @@ def _score_scene(scene: np.ndarray, pet_ref: float) -> np.ndarray:
             half[first + q, 0] = scene[at + 3 * k_j + 2 * q]
             half[first + q, 1] = scene[at + 3 * k_j + 2 * q + 1]
             pred_len[first + q] = int(scene[at + 5 * k_j + q])
-            boxes = boxes and not (np.isnan(half[first + q, 0]) or np.isnan(half[first + q, 1]))
+            if math.isnan(half[first + q, 0]) or math.isnan(half[first + q, 1]):
+                boxes = False
         at += 6 * k_j
         meta[j, 1] = at  # the predictions stay in the scene array
         at += 3 * k_j * meta[j, 2]
@@ -1052,13 +1073,15 @@ def safety_score(
 def _prefix_groups(plans: dict[str, np.ndarray]) -> list[list[str]]:
     """Channels grouped so that within a group every plan's time grid is a prefix of the
     group's longest plan (one `score_grid` pass each). Longest first, so a group's first
-    member holds its grid."""
+    member holds its grid. Grids are compared bytewise (cheaper than `np.array_equal` on
+    these short arrays): identical bytes are identical grids; the rare equal grids with
+    different bytes (-0.0 and 0.0) just take passes of their own, with the same results."""
     groups: list[list[str]] = []
-    heads: list[np.ndarray] = []
+    heads: list[bytes] = []
     for c in sorted(plans, key=lambda c: -len(plans[c])):
-        dt = plans[c][:, 0]
+        dt = plans[c][:, 0].tobytes()
         for g, head in zip(groups, heads, strict=True):
-            if np.array_equal(head[: len(dt)], dt):
+            if head.startswith(dt):
                 g.append(c)
                 break
         else:
@@ -1095,9 +1118,9 @@ def safety_matrix(
         ss = score_grid(
             [scored[i] for i in members], [states[i].ego for i in members], world_objects, pet_ref
         )[0]
-        for a, i in enumerate(members):
-            for b, j in enumerate(worlds):
-                out[(i, j)] = float(ss[a, b])
+        for i, row in zip(members, ss.tolist(), strict=True):
+            for j, v in zip(worlds, row, strict=True):
+                out[(i, j)] = v
     return out
 
 

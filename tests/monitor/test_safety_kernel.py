@@ -123,7 +123,7 @@ def box_scene(draw) -> tuple[list[np.ndarray], list, list]:
     return plans, egos, worlds
 
 
-@settings(max_examples=150, deadline=None)
+@settings(max_examples=300, deadline=None)
 @given(box_scene(), st.sampled_from([2.0, 0.5]))
 def test_kernel_equals_numpy_path(data, pet_ref):
     plans, egos, worlds = data
@@ -146,7 +146,7 @@ def box_single(draw):
     return plan, draw(box_world(times, plan))
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=100, deadline=None)
 @given(box_single())
 def test_kernel_matches_brute_force(data):
     plan, objects = data
@@ -189,3 +189,39 @@ def test_matrix_with_prefix_grids_takes_the_kernel_and_agrees():
     assert m[("a", "a")] == pytest.approx(1 / 3)
     assert m[("b", "a")] == pytest.approx(1.0)
     assert m[("a", "b")] == 1.0 and m[("b", "b")] == 1.0
+
+
+def test_polygon_footprints_leave_the_kernel():
+    # A polygon object, or a polygon ego, is not a box: the kernel declines (None) and
+    # score_grid takes the numpy path (tested by the U-shaped object in test_safety_score).
+    poly = {
+        "id": 1,
+        "x": 13.5,
+        "y": 0.0,
+        "yaw": 0.0,
+        "polygon": [[2, 1], [-2, 1], [-2, -1], [2, -1]],
+    }
+    s = scene([poly])
+    assert _score_kernel([s.plan], [s.ego], [s.objects], PET_REF) is None
+    e = {"x": 0, "y": 0, "yaw": 0, "polygon": [[2, 1], [-2, 1], [-2, -1], [2, -1]]}
+    f = frame(
+        0.0, {"a": channel(e, plan=straight_plan(0, 0, 10, 0, 31), objects=[obj(1, 13.5, 0)])}
+    )
+    a = f.channels["a"]
+    assert _score_kernel([a.plan], [a.ego], [a.objects], PET_REF) is None
+    # the same 4 x 2 rectangle either way: ttc = 1.0 (front 12.0 >= rear 11.5 at 1.0 s), ss = 1/3
+    assert safety_score(s.plan, s.ego, s.objects, PET_REF)[1] == pytest.approx(1.0)
+    assert safety_score(a.plan, a.ego, a.objects, PET_REF)[1] == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize(("lateral", "expected"), [(3.5, (1.0, math.inf)), (2.0, (0.0, 0.0))])
+def test_parallel_traffic_in_the_next_lane(lateral, expected):
+    # Ego 4 x 2 along y = 0 and an object 4 x 2 beside it along y = lateral, both at 10 m/s
+    # for 3.0 s (predicted on the plan's grid). Their sides are lateral - 2 apart:
+    # 3.5 -> 1.5 m apart at every time pair that overlaps in x: never meet, ss = 1, ttc = inf;
+    # 2.0 -> 0 m: the sides touch from t = 0 (touching intersects): ttc = 0, ss = 0.
+    pred = straight_plan(0, lateral, 10, 0, 31)
+    s = scene([obj(1, 0, lateral, 0, 4, 2, prediction=pred)])
+    ss, ttc, pet = safety_score(s.plan, s.ego, s.objects, PET_REF)
+    assert (ss, ttc) == expected
+    assert pet == math.inf
