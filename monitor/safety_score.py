@@ -718,16 +718,12 @@ def _run_boxes(x: np.ndarray, y: np.ndarray, n: int, r: float, out: np.ndarray) 
 
 
 @kernel
-def _score_boxes(plans: np.ndarray, egos: np.ndarray, pos: np.ndarray, yaw: np.ndarray,
-                 half: np.ndarray, pred: np.ndarray, pred_len: np.ndarray, meta: np.ndarray,
-                 pet_ref: float) -> np.ndarray:  # fmt: skip
+def _score_scene(scene: np.ndarray, pet_ref: float) -> np.ndarray:
     """(ss, ttc, pet) as one (3, I, J) array for box footprints.
 
-    plans: the I plans' [dt, x, y] rows one after the other; egos (I, 4): [yaw, half length,
-    half width, plan length]; objects of all world models stacked (pos, yaw, half,
-    pred_len), their predictions flattened into `pred`; meta (J, 3) per world: [first
-    object, offset in pred, points per object]. The grid is the longest plan's (the first
-    of them); the others' grids are its prefixes.
+    `scene` is packed by `_pack` (one flat array, so that a call unboxes two arguments, not a
+    dozen); an empty (0, I, J) result when a footprint is not a box. The grid is the longest
+    plan's (the first of them); the others' grids are its prefixes.
 
     Only the exact box test (the numpy path's arithmetic) decides; the prefilters are
     conservative: whole-sweep and CHUNK-run bounding boxes, bounding circles per time pair,
@@ -736,9 +732,50 @@ def _score_boxes(plans: np.ndarray, egos: np.ndarray, pos: np.ndarray, yaw: np.n
     their time offset and lowers its bound to the best value found: pairs at or above it
     cannot lower the minimum.
     """
-    n_i = egos.shape[0]
-    n_k = pos.shape[0]
-    n_j = meta.shape[0]
+    n_i = int(scene[0])
+    n_j = int(scene[1])
+    at = 2
+    egos = np.empty((n_i, 4))
+    for i in range(n_i):
+        for q in range(4):
+            egos[i, q] = scene[at + 4 * i + q]
+    at += 4 * n_i
+    meta = np.empty((n_j, 3), dtype=np.int64)
+    n_k = 0
+    for j in range(n_j):
+        meta[j, 0] = n_k
+        meta[j, 2] = int(scene[at + 2 * j + 1])
+        n_k += int(scene[at + 2 * j])
+    sizes = np.empty(2 * n_j)
+    for q in range(2 * n_j):
+        sizes[q] = scene[at + q]
+    at += 2 * n_j
+    plans = at  # the plans' [dt, x, y] rows, one plan after the other
+    for i in range(n_i):
+        at += 3 * int(egos[i, 3])
+    pos = np.empty((n_k, 2))
+    yaw = np.empty(n_k)
+    half = np.empty((n_k, 2))
+    pred_len = np.empty(n_k, dtype=np.int64)
+    boxes = True
+    for j in range(n_j):
+        first = meta[j, 0]
+        k_j = int(sizes[2 * j])
+        for q in range(k_j):
+            pos[first + q, 0] = scene[at + 2 * q]
+            pos[first + q, 1] = scene[at + 2 * q + 1]
+            yaw[first + q] = scene[at + 2 * k_j + q]
+            half[first + q, 0] = scene[at + 3 * k_j + 2 * q]
+            half[first + q, 1] = scene[at + 3 * k_j + 2 * q + 1]
+            pred_len[first + q] = int(scene[at + 5 * k_j + q])
+            if math.isnan(half[first + q, 0]) or math.isnan(half[first + q, 1]):
+                boxes = False
+        at += 6 * k_j
+        meta[j, 1] = at
+        at += 3 * k_j * meta[j, 2]
+    if not boxes:
+        return np.empty((0, n_i, n_j))
+    pred = scene  # the predictions stay in the scene array (meta[:, 1]: their offsets)
     # the grid: the longest plan's times
     starts = np.empty(n_i, dtype=np.int64)
     longest = 0
@@ -751,7 +788,7 @@ def _score_boxes(plans: np.ndarray, egos: np.ndarray, pos: np.ndarray, yaw: np.n
     n_t = int(egos[longest, 3])
     times = np.empty(n_t)
     for t in range(n_t):
-        times[t] = plans[starts[longest] + t, 0]
+        times[t] = scene[plans + 3 * (starts[longest] + t)]
     n_c = (n_t + CHUNK - 1) // CHUNK
     out = np.empty((3, n_i, n_j))
     ttc = out[1]
@@ -774,8 +811,8 @@ def _score_boxes(plans: np.ndarray, egos: np.ndarray, pos: np.ndarray, yaw: np.n
         n = int(egos[i, 3])
         plen[i] = n
         for t in range(n):
-            ex[i, t] = plans[starts[i] + t, 1]
-            ey[i, t] = plans[starts[i] + t, 2]
+            ex[i, t] = scene[plans + 3 * (starts[i] + t) + 1]
+            ey[i, t] = scene[plans + 3 * (starts[i] + t) + 2]
         _headings(ex[i], ey[i], n, egos[i, 0], ec[i], es[i])
         hl = egos[i, 1]
         hw = egos[i, 2]
@@ -953,61 +990,6 @@ def _score_boxes(plans: np.ndarray, egos: np.ndarray, pos: np.ndarray, yaw: np.n
         for j in range(n_j):
             out[0, i, j] = _nanmin(1.0, _nanmin(ttc[i, j] / horizon, pet[i, j] / pet_ref))
     return out
-
-
-@kernel
-def _score_scene(scene: np.ndarray, pet_ref: float) -> np.ndarray:
-    """`_score_boxes` on a scene packed by `_pack` (one flat array, so that a call unboxes two
-    arguments, not a dozen); an empty (0, I, J) result when a footprint is not a box."""
-    n_i = int(scene[0])
-    n_j = int(scene[1])
-    at = 2
-    egos = np.empty((n_i, 4))
-    for i in range(n_i):
-        for q in range(4):
-            egos[i, q] = scene[at + 4 * i + q]
-    at += 4 * n_i
-    meta = np.empty((n_j, 3), dtype=np.int64)
-    n_k = 0
-    for j in range(n_j):
-        meta[j, 0] = n_k
-        meta[j, 2] = int(scene[at + 2 * j + 1])
-        n_k += int(scene[at + 2 * j])
-    sizes = np.empty(2 * n_j)
-    for q in range(2 * n_j):
-        sizes[q] = scene[at + q]
-    at += 2 * n_j
-    rows = 0
-    for i in range(n_i):
-        rows += int(egos[i, 3])
-    plans = np.empty((rows, 3))
-    for r in range(rows):
-        for q in range(3):
-            plans[r, q] = scene[at + 3 * r + q]
-    at += 3 * rows
-    pos = np.empty((n_k, 2))
-    yaw = np.empty(n_k)
-    half = np.empty((n_k, 2))
-    pred_len = np.empty(n_k, dtype=np.int64)
-    boxes = True
-    for j in range(n_j):
-        first = meta[j, 0]
-        k_j = int(sizes[2 * j])
-        for q in range(k_j):
-            pos[first + q, 0] = scene[at + 2 * q]
-            pos[first + q, 1] = scene[at + 2 * q + 1]
-            yaw[first + q] = scene[at + 2 * k_j + q]
-            half[first + q, 0] = scene[at + 3 * k_j + 2 * q]
-            half[first + q, 1] = scene[at + 3 * k_j + 2 * q + 1]
-            pred_len[first + q] = int(scene[at + 5 * k_j + q])
-            if math.isnan(half[first + q, 0]) or math.isnan(half[first + q, 1]):
-                boxes = False
-        at += 6 * k_j
-        meta[j, 1] = at  # the predictions stay in the scene array
-        at += 3 * k_j * meta[j, 2]
-    if not boxes:
-        return np.empty((0, n_i, n_j))
-    return _score_boxes(plans, egos, pos, yaw, half, scene, pred_len, meta, pet_ref)
 
 
 def _pack(
