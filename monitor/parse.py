@@ -25,6 +25,7 @@ from monitor.frames import (
     box_footprint,
     is_convex,
 )
+from monitor.jit import kernel
 
 #: Stable defect kinds, documented in docs/streams.md.
 DEFECT_KINDS: dict[str, str] = {
@@ -47,6 +48,10 @@ class FrameDefect(Exception):
         super().__init__(message)
         self.kind = kind
         self.message = message
+
+
+#: The Python types a JSON number decodes to (bool, a subclass of int, is deliberately absent).
+_NUMBER_TYPES = frozenset({float, int})
 
 
 def _is_num(v: Any) -> bool:
@@ -72,24 +77,29 @@ def _number(d: dict[str, Any], key: str, where: str, default: float | None = Non
 
 
 def _points(v: Any, where: str, ncols: int, what: str) -> np.ndarray:
-    """A list of `ncols`-number rows as an (n, ncols) float array, checked finite."""
+    """A list of `ncols`-number rows as an (n, ncols) float array, checked finite.
+
+    Element types are checked before numpy sees them: `np.array` would turn `true` into 1.0
+    and, without a dtype, "1.5" into a string array; a JSON boolean or string is never a
+    number here."""
     if not isinstance(v, list):
         raise FrameDefect("wrong-type", f"{where}: expected a list of {what}")
     if not v:
         return np.zeros((0, ncols))
     try:
-        # No dtype: numpy would turn "1.5" into 1.5; a string or null shows in the dtype.
-        arr = np.array(v)
-    except (ValueError, TypeError):
+        # a row that is a string or an object of the right length fails the type check below
+        if set(map(len, v)) != {ncols}:
+            raise FrameDefect("wrong-type", f"{where}: expected a list of {what}")
+        flat = list(chain.from_iterable(v))
+    except TypeError:  # a row without a length (a number, null)
         raise FrameDefect("wrong-type", f"{where}: expected a list of {what}") from None
-    if arr.ndim != 2 or arr.shape[1] != ncols:
-        raise FrameDefect("wrong-type", f"{where}: expected a list of {what}")
-    if arr.dtype.kind not in "fi":
-        for row, point in enumerate(v):
-            if any(x is None for x in point):
-                raise FrameDefect("non-finite", f"{where}[{row}]: null in {point!r:.60}")
+    types = set(map(type, flat))
+    if not types <= _NUMBER_TYPES:
+        if type(None) in types:
+            row = next(i for i, point in enumerate(v) if None in point)
+            raise FrameDefect("non-finite", f"{where}[{row}]: null in {v[row]!r:.60}")
         raise FrameDefect("wrong-type", f"{where}: expected a list of {what} (numbers only)")
-    arr = arr.astype(float, copy=False)
+    arr = np.array(flat, dtype=float).reshape(len(v), ncols)
     if not np.isfinite(arr).all():
         row = int(np.nonzero(~np.isfinite(arr).all(axis=1))[0][0])
         raise FrameDefect("non-finite", f"{where}[{row}]: NaN, inf or null in {v[row]!r:.60}")
@@ -158,12 +168,65 @@ def _ego(v: Any, where: str) -> Ego:
     )
 
 
-_NUMBER_TYPES = frozenset({float, int})
+@kernel
+def _box_objects(num: np.ndarray, pred: np.ndarray):
+    """Checks and arrays of box-footprint objects in one compiled pass.
+
+    num (K, 7): x, y, yaw, vx, vy, length, width; pred (K, P, 3) predictions of one length.
+    Returns (ok, pos, yaw, vel, footprints, half, pred_len, convex); ok is False when a number
+    is not finite, a box is degenerate or a prediction's dt is negative or not strictly
+    increasing (the careful path then names the defect).
+    """
+    k = num.shape[0]
+    n_pred = pred.shape[1]
+    ok = True
+    pos = np.empty((k, 2))
+    yaw = np.empty(k)
+    vel = np.empty((k, 2))
+    footprints = np.empty((k, 4, 2))
+    half = np.empty((k, 2))
+    for i in range(k):
+        for c in range(7):
+            if not np.isfinite(num[i, c]):
+                ok = False
+        if not (num[i, 5] > 0.0 and num[i, 6] > 0.0):
+            ok = False
+        for j in range(n_pred):
+            for c in range(3):
+                if not np.isfinite(pred[i, j, c]):
+                    ok = False
+            if j == 0:
+                if not pred[i, 0, 0] >= 0.0:
+                    ok = False
+            elif not pred[i, j, 0] > pred[i, j - 1, 0]:
+                ok = False
+        hl = 0.5 * num[i, 5]
+        hw = 0.5 * num[i, 6]
+        pos[i, 0] = num[i, 0]
+        pos[i, 1] = num[i, 1]
+        yaw[i] = num[i, 2]
+        vel[i, 0] = num[i, 3]
+        vel[i, 1] = num[i, 4]
+        # body-frame corners in box_footprint's order
+        footprints[i, 0, 0] = hl
+        footprints[i, 0, 1] = hw
+        footprints[i, 1, 0] = -hl
+        footprints[i, 1, 1] = hw
+        footprints[i, 2, 0] = -hl
+        footprints[i, 2, 1] = -hw
+        footprints[i, 3, 0] = hl
+        footprints[i, 3, 1] = -hw
+        half[i, 0] = hl
+        half[i, 1] = hw
+    pred_len = np.full(k, n_pred, dtype=np.int64)
+    convex = np.ones(k, dtype=np.bool_)
+    return ok, pos, yaw, vel, footprints, half, pred_len, convex
 
 
 def _objects_fast(v: list[Any]) -> Objects | None:
-    """The common case in one pass of vectorised checks: box footprints, predictions of one
-    length. Returns None whenever anything is unusual or wrong; the careful path then either
+    """The common case: box footprints, predictions of one length. Python only gathers the
+    fields and checks their JSON types; one compiled pass checks the numbers and builds the
+    arrays. Returns None whenever anything is unusual or wrong; the careful path then either
     accepts the input or names the exact defect, so both paths accept exactly the same input."""
     try:
         ids = [o["id"] for o in v]
@@ -176,54 +239,47 @@ def _objects_fast(v: list[Any]) -> Objects | None:
         preds = [o.get("prediction") for o in v]
         if any("polygon" in o for o in v):
             return None
-    except (KeyError, TypeError, AttributeError):
-        return None
-    if not all(type(i) is str or type(i) is int for i in ids):
-        return None
-    if not all(type(c) is str for c in cls):
-        return None
-    if not set(map(type, chain.from_iterable(rows))) <= _NUMBER_TYPES:
-        return None
-    num = np.array(rows, dtype=float)
-    if not np.isfinite(num).all() or not (num[:, 5:7] > 0).all():
-        return None
-    k = len(v)
-    first = preds[0]
-    if not isinstance(first, list) or not all(
-        type(p) is list and len(p) == len(first) for p in preds
-    ):
-        return None
-    if first:
-        try:
-            pred = np.array(preds)
-        except (ValueError, TypeError):
+        if not all(type(i) is str or type(i) is int for i in ids):
             return None
-        if pred.ndim != 3 or pred.shape[2] != 3 or pred.dtype.kind not in "fi":
+        if not all(type(c) is str for c in cls):
             return None
-        pred = pred.astype(float, copy=False)
-        dt = pred[:, :, 0]
-        if not (
-            np.isfinite(pred).all() and (dt[:, 0] >= 0).all() and (dt[:, 1:] > dt[:, :-1]).all()
+        if not set(map(type, chain.from_iterable(rows))) <= _NUMBER_TYPES:
+            return None
+        first = preds[0]
+        if type(first) is not list or not all(
+            type(p) is list and len(p) == len(first) for p in preds
         ):
             return None
-    else:
-        pred = np.zeros((k, 0, 3))
-    hl = 0.5 * num[:, 5]
-    hw = 0.5 * num[:, 6]
-    footprints = np.empty((k, 4, 2))
-    footprints[:, :, 0] = hl[:, None] * np.array([1.0, -1.0, -1.0, 1.0])
-    footprints[:, :, 1] = hw[:, None] * np.array([1.0, 1.0, -1.0, -1.0])
+        k = len(v)
+        if first:
+            points = list(chain.from_iterable(preds))
+            # a non-list point of length 3 (a string, a dict) fails the element-type check
+            if set(map(len, points)) != {3}:
+                return None
+            flat = list(chain.from_iterable(points))
+            if not set(map(type, flat)) <= _NUMBER_TYPES:
+                return None
+            pred = np.array(flat, dtype=float).reshape(k, len(first), 3)
+        else:
+            pred = np.zeros((k, 0, 3))
+    except (KeyError, TypeError, AttributeError):
+        return None
+    ok, pos, yaw, vel, footprints, half, pred_len, convex = _box_objects(
+        np.array(rows, dtype=float), pred
+    )
+    if not ok:
+        return None
     return Objects(
         ids=[str(i) for i in ids],
         cls=cls,
-        pos=num[:, 0:2].copy(),
-        yaw=num[:, 2].copy(),
-        vel=num[:, 3:5].copy(),
+        pos=pos,
+        yaw=yaw,
+        vel=vel,
         footprints=footprints,
         pred=pred,
-        pred_len=np.full(k, pred.shape[1], dtype=int),
-        convex=np.ones(k, dtype=bool),
-        half=np.column_stack([hl, hw]),
+        pred_len=pred_len,
+        convex=convex,
+        half=half,
     )
 
 

@@ -176,6 +176,17 @@ def test_declared_channels_without_header():
         (["channels", "lav", "objects", 0, "length"], ..., "missing-field", "'length'"),
         (["channels", "lav", "ego", "width"], -1, "bad-footprint", "must be > 0"),
         (["channels", "lav", "plan"], [[0, 1]], "wrong-type", "[dt, x, y] points"),
+        # JSON booleans are not numbers, although numpy would read true as 1.0
+        (["channels", "lav", "plan"], [[0, True, 1]], "wrong-type", "numbers only"),
+        (["channels", "lav", "plan"], [[0, 1, 1], 5], "wrong-type", "lav.plan: expected"),
+        (["channels", "lav", "plan"], [[0, 1, 1], [0.1, None, 1]], "non-finite", "plan[1]"),
+        (["channels", "lav", "plan"], [[0, 1, 1], "abc"], "wrong-type", "numbers only"),
+        (
+            ["channels", "lav", "objects", 0, "prediction"],
+            [[0, 1, 1], [0.1, False, 1]],
+            "wrong-type",
+            "objects[0].prediction: expected a list of [dt, x, y] points (numbers only)",
+        ),
         (["channels", "lav", "ego", "yaw"], None, "non-finite", "ego.yaw: null"),
         (["signals", "speed_limit"], "fast", "wrong-type", "signals.speed_limit"),
         (["channels", "lav", "ego", "polygon"], [[0, 0], [1, 0]], "bad-footprint", "at least 3"),
