@@ -23,6 +23,7 @@ rtamt emitter therefore never relies on rtamt's precedence or associativity:
 from __future__ import annotations
 
 import math
+import operator
 from collections.abc import Callable
 from decimal import Decimal, localcontext
 from fractions import Fraction
@@ -210,14 +211,59 @@ def build_rtamt_monitor(formula: CompiledFormula, period: float) -> Any:
     `period` must be the compiled spec's period: bounds in `formula.rtamt` are whole multiples
     of it. Inputs are the formula's signals, declared as floats; the output is `robustness`.
 
-    Fence: rtamt counts "sampling violations" on every update by comparing timestamp
-    differences with the period in `Fraction` arithmetic, which costs about 30 % of an update.
-    casewatch never reads that counter: the evaluator feeds exactly one update per sample and
-    resets the monitor after any gap, so the counter is switched off on the instance.
+    Two fences against rtamt's per-update overhead, both on this instance only and neither
+    changing a value:
+
+    - rtamt counts "sampling violations" on every update by comparing timestamp differences
+      with the period in `Fraction` arithmetic, which costs about 30 % of an update. casewatch
+      never reads that counter: the evaluator feeds exactly one update per sample and resets
+      the monitor after any gap, so the counter is switched off.
+    - rtamt's predicate operation looks its comparison operator up through a dozen enum
+      attribute reads on every sample. Each predicate gets the one subtraction its operator
+      means (`a >= b`: a - b; `a <= b`: b - a; `a == b`: -|a - b|; `a !== b`: |a - b|),
+      chosen once here. The operators are built eagerly for that, which also lets `reset()`
+      work before the first update.
     """
     spec = new_rtamt_spec(formula.rtamt, list(formula.signals), period)
-    spec.online_interpreter.update_sampling_violation_counter = _ignore_sampling
+    interpreter = spec.online_interpreter
+    interpreter.update_sampling_violation_counter = _ignore_sampling
+    interpreter.set_ast(spec.ast)
+    spec.set_ast_flag = True
+    _direct_predicates(interpreter.online_operator_dict)
     return spec
+
+
+def _direct_predicates(operators: dict[str, Any]) -> None:
+    """Give every rtamt discrete-time predicate operation its robustness arithmetic directly
+    (see build_rtamt_monitor). Same arithmetic as rtamt's `PredicateOperation.update`."""
+    from rtamt.semantics.enumerations.comp_oper import StlComparisonOperator as Op
+    from rtamt.semantics.stl.discrete_time.online.predicate_operation import PredicateOperation
+
+    # Keyed by the operator's value, as rtamt compares them: it has two enum classes of that
+    # name (the parser's and the semantics'), with the same values.
+    arithmetic: dict[int, Callable[[float, float], float]] = {
+        Op.GEQ.value: operator.sub,
+        Op.GREATER.value: operator.sub,
+        Op.LEQ.value: _right_minus_left,
+        Op.LESS.value: _right_minus_left,
+        Op.EQ.value: _minus_distance,
+        Op.NEQ.value: _distance,
+    }
+    for op in operators.values():
+        if type(op) is PredicateOperation:
+            op.update = arithmetic[op.comparison_op.value]
+
+
+def _right_minus_left(left: float, right: float) -> float:
+    return right - left
+
+
+def _minus_distance(left: float, right: float) -> float:
+    return -abs(left - right)
+
+
+def _distance(left: float, right: float) -> float:
+    return abs(left - right)
 
 
 def _ignore_sampling(duration: object) -> None:

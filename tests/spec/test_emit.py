@@ -7,6 +7,8 @@ from __future__ import annotations
 import math
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from rtamt.exception.exception import RTAMTException
 
 from spec.emit import build_rtamt_monitor, to_rtamt, to_text
@@ -14,6 +16,7 @@ from spec.model import CompiledFormula
 from spec.parser import parse_formula, parse_term
 from spec.timing import delay, future_depth
 from tests.spec.rtamt_helpers import offline, online
+from tests.spec.strategies import PERIOD, past_formulas, traces
 
 INF = math.inf
 
@@ -190,3 +193,43 @@ def test_build_rtamt_monitor_declares_signals_and_period() -> None:
     # then max(-0.2, -0.3, -0.4, 0.1) = 0.1
     expected = [0.3, 0.3, 0.3, 0.3, -0.1, 0.1]
     assert all(abs(g - e) <= 1e-9 for g, e in zip(got, expected, strict=True))
+
+
+def _compiled(rtamt_text: str, signals: list[str]) -> CompiledFormula:
+    return CompiledFormula(
+        id="F", node_id="F", node_text="random", kind="spi", source=rtamt_text,
+        rtamt=rtamt_text, signals=signals, merge_gap=0.0, min_duration=0.0,
+    )  # fmt: skip
+
+
+@settings(max_examples=120, deadline=None)
+@given(formula=past_formulas, trace=traces(), cut=st.integers(min_value=0, max_value=12))
+def test_fenced_monitor_equals_plain_rtamt_across_a_reset(formula, trace, cut) -> None:  # type: ignore[no-untyped-def]
+    """build_rtamt_monitor's fences (no sampling bookkeeping, direct predicate arithmetic,
+    eager operators) change no value: random past-time formulas over every comparison
+    operator, fed, reset at `cut`, fed again, equal plain rtamt fed the two parts fresh."""
+    text = to_rtamt(formula)
+    n = len(next(iter(trace.values())))
+    cut = min(cut, n)
+    fenced = build_rtamt_monitor(_compiled(text, list(trace)), PERIOD)
+    got = []
+    for i in range(n):
+        if i == cut:
+            fenced.reset()
+        j = i - cut if i >= cut else i
+        got.append(fenced.update(j * PERIOD, [(k, float(v[i])) for k, v in trace.items()]))
+    head = {k: v[:cut] for k, v in trace.items()}
+    tail = {k: v[cut:] for k, v in trace.items()}
+    expected = (online(text, head) if cut else []) + (online(text, tail) if cut < n else [])
+    for i, (a, b) in enumerate(zip(got, expected, strict=True)):
+        assert a == b or (math.isnan(a) and math.isnan(b)), f"sample {i}: {a} != {b} ({text})"
+
+
+@pytest.mark.parametrize(
+    ("op", "expected"),
+    [(">=", -1.0), (">", -1.0), ("<=", 1.0), ("<", 1.0), ("==", -1.0), ("!==", 1.0)],
+)
+def test_direct_predicate_arithmetic(op: str, expected: float) -> None:
+    # x = 2, y = 3: x >= y is x - y = -1; x <= y is y - x = 1; == is -|x - y|; !== is |x - y|
+    monitor = build_rtamt_monitor(_compiled(f"(x {op} y)", ["x", "y"]), 0.1)
+    assert monitor.update(0.0, [("x", 2.0), ("y", 3.0)]) == expected
