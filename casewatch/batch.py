@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import glob
 import json
+import multiprocessing
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
@@ -17,6 +18,7 @@ from pathlib import Path
 from evaluator.ground_truth import LabelsError
 from evaluator.session import InputError, RunOptions, evaluate_stream
 from evaluator.summary import LogSummary, summarise, summarise_result
+from monitor.warmup import warm_up
 from safety_case.findings import CaseError
 
 STREAM_SUFFIXES = (".jsonl", ".jsonl.gz", ".ndjson", ".ndjson.gz")
@@ -136,7 +138,12 @@ def run_many(
             if on_done:
                 on_done(results[-1])
     else:
-        with ProcessPoolExecutor(max_workers=jobs) as pool:
+        # Compile once here: forked workers inherit the kernels; spawned ones (where fork is
+        # unavailable) load them from the disk cache this fills instead of each compiling.
+        warm_up()
+        methods = multiprocessing.get_all_start_methods()
+        context = multiprocessing.get_context("fork" if "fork" in methods else None)
+        with ProcessPoolExecutor(max_workers=jobs, mp_context=context) as pool:
             for summary in pool.map(run_job, work):
                 results.append(summary)
                 if on_done:

@@ -19,6 +19,7 @@ from evaluator.ground_truth import LabelsError
 from evaluator.result import DataGap, Episode, RunResult
 from evaluator.session import InputError, RunOptions, evaluate_stream
 from evaluator.summary import LogSummary
+from monitor.warmup import warm_up
 from reports.render import FORMATS, parse_formats
 from safety_case.findings import CaseError
 
@@ -108,6 +109,7 @@ def _run_single(args, case, spec, formats: tuple[str, ...]) -> int:
         on_event=on_event,
         progress=None if live else progress,
     )
+    warm_up()  # compiled kernels ready before the first frame (matters for a live stream)
     try:
         result = evaluate_stream(case, spec, stream, options)
     except (InputError, LabelsError) as exc:
