@@ -8,6 +8,8 @@
    replayed end to end with shifted times), single process and with `--jobs 2`; peak RSS of
    the single-process 8-hour run.
 4. Report rendering time and size for a 1-hour run.
+5. Kernel start-up: compiling every numba metric kernel in a fresh cache (a machine's first
+   run) and loading them from the cache (every later process).
 
 Targets (issue "Performance"): online p99 <= 2.5 ms total; offline >= 200x real time with
 --jobs 2; peak RSS of the 8-hour run <= 1 GiB. Options: `--quick` for a short smoke run.
@@ -92,6 +94,25 @@ def rtamt_cost(updates: int = 2000) -> list[dict[str, object]]:
             {"formula": formula.id, "rtamt": formula.rtamt, "us_per_update": round(cost, 2)}
         )
     return rows
+
+
+_WARM_UP = (
+    "import time; t = time.perf_counter(); from monitor.warmup import warm_up; warm_up(); "
+    "print(time.perf_counter() - t)"
+)
+
+
+def kernel_start_up() -> dict[str, float]:
+    """Seconds to import the engine and compile its kernels in an empty numba cache, and to
+    do the same with the cache filled (each in a fresh interpreter)."""
+    out: dict[str, float] = {}
+    with tempfile.TemporaryDirectory() as cache:
+        env = {**os.environ, "NUMBA_CACHE_DIR": cache}
+        for label in ("cold_cache_s", "warm_cache_s"):
+            done = subprocess.run([sys.executable, "-c", _WARM_UP], env=env, cwd=REPO,
+                                  capture_output=True, text=True, check=True)
+            out[label] = round(float(done.stdout.strip().splitlines()[-1]), 2)
+    return out
 
 
 def bundled_streams() -> list[Path]:
@@ -254,6 +275,9 @@ def main(argv: list[str] | None = None) -> int:
 
     results["report"] = report_bench(duration=360.0 if args.quick else 3600.0)
 
+    print("5. kernel start-up ...", flush=True)
+    results["kernels"] = kernel_start_up()
+
     (BENCH / "results.json").write_text(json.dumps(results, indent=1))
     print_table(results)
     print(f"\nwritten: {BENCH / 'results.json'}")
@@ -290,6 +314,9 @@ def print_table(r: dict) -> None:
           f"HTML {rep['html_s']:.3f} s, {rep['html_bytes'] / 1e6:.2f} MB; "
           f"Markdown {rep['md_s']:.3f} s; JUnit {rep['junit_s']:.3f} s")
     print(f"target: 1-hour HTML report < 5 MB: {'met' if rep['html_bytes'] < 5e6 else 'MISSED'}")
+    k = r["kernels"]
+    print(f"\nmetric kernels (import + warm-up): {k['cold_cache_s']:.1f} s with an empty numba "
+          f"cache (first run on a machine), {k['warm_cache_s']:.2f} s from the cache")
 
 
 if __name__ == "__main__":
