@@ -18,7 +18,7 @@ import numpy as np
 
 from monitor.comfort import MIN_POINTS, comfort_scores
 from monitor.frames import Frame
-from monitor.history import chpps_pairs, chpps_score, els_var, frechet_many
+from monitor.history import PlanHistory, chpps_frame, els_var
 from monitor.prediction import ompv
 from monitor.safety_score import arbitrate, safety_matrix
 from monitor.similarity import crpps_inputs, ego_similarities, ets, object_similarities
@@ -114,7 +114,7 @@ class MetricEngine:
         self.timings: dict[str, float] = dict.fromkeys(FAMILIES, 0.0)
         p = params
         self._els = {pr: _Timed(p.els_window, p.max_gap) for pr in self.pairs}
-        self._plans = {c: _Timed(p.plan_history, p.max_gap) for c in self.channels}
+        self._plans = PlanHistory(len(self.channels), p.plan_history, p.max_gap)
         self._objects = {c: _Timed(1, p.max_gap) for c in self.channels}
         self._ego = {c: _PoseWindow(p.comfort_window, p.max_gap) for c in self.channels}
         #: crpps Fréchet inputs per pair of the current step (None: no value), see _similarity
@@ -215,33 +215,18 @@ class MetricEngine:
     def _motion_prediction(self, frame: Frame, out: dict[str, float | None]) -> None:
         p = self.params
         t = frame.t
-        # chpps: the Fréchet inputs of every channel first, then one GEOS call for them all,
-        # together with the crpps inputs the similarity family left (so this family's timing
-        # includes crpps's Fréchet distances).
-        pairs: list[tuple[np.ndarray, np.ndarray]] = [x for x in self._crpps_inputs if x]
-        pending: list[tuple[str, int, list[float]]] = []
-        chpps_values: dict[str, float | None] = dict.fromkeys(self.channels)
+        # chpps: every channel's plan joins its packed history first, then one compiled cut of
+        # all channels' plan pairs and one GEOS call for them together with the crpps inputs
+        # the similarity family left (so this family's timing includes crpps's Fréchet
+        # distances).
+        plans = self._plans
         ompv_values: dict[str, float | None] = dict.fromkeys(self.channels)
-        for c in self.channels:
+        for i, c in enumerate(self.channels):
             s = frame.channels.get(c)
             if s is None:
                 continue
-            store = self._plans[c]
             if len(s.plan):
-                cur_dt = s.plan[:, 0].tolist()
-                if store.recent(t):
-                    items = store.items
-                    got, weights = chpps_pairs(
-                        s.plan,
-                        [(t - ts, plan) for ts, (plan, _) in reversed(items)],
-                        p.trajectory_decay,
-                        cur_dt,
-                        [dts for _, (_, dts) in reversed(items)],
-                    )
-                    if got:
-                        pending.append((c, len(pairs), weights))
-                        pairs.extend(got)
-                store.push(t, (s.plan, cur_dt))
+                plans.push(i, t, s.plan)
             prev = self._objects[c]
             if prev.recent(t):
                 tp, objs = prev.items[-1]
@@ -249,11 +234,9 @@ class MetricEngine:
                     objs, t - tp, s.objects, p.prediction_tolerance, p.pairing_gate
                 )
             prev.push(t, s.objects)
-        distances = frechet_many(pairs) if pairs else np.zeros(0)
-        for c, start, weights in pending:
-            chpps_values[c] = chpps_score(distances[start : start + len(weights)], weights)
-        crpps_fd = iter(distances.tolist())
-        self._crpps([None if x is None else next(crpps_fd) for x in self._crpps_inputs], out)
+        chpps_list, crpps_fd = chpps_frame(plans, t, p.trajectory_decay, self._crpps_inputs)
+        self._crpps(crpps_fd, out)
+        chpps_values = dict(zip(self.channels, chpps_list, strict=True))
         for metric, values in (("chpps", chpps_values), ("ompv", ompv_values)):
             for c, v in values.items():
                 out[self._channel_names[c][metric]] = v

@@ -1,6 +1,8 @@
-"""els_var and chpps, hand-computed."""
+"""els_var and chpps, hand-computed, and the packed plan history against independent oracles."""
 
 from __future__ import annotations
+
+from collections import deque
 
 import numpy as np
 import pytest
@@ -8,7 +10,16 @@ import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from monitor.history import chpps, chpps_pairs, chpps_score, els_var, frechet_many
+from monitor.history import (
+    GEOM,
+    SLOT,
+    WEIGHT,
+    PlanHistory,
+    chpps,
+    chpps_frame,
+    els_var,
+    frame_inputs,
+)
 
 K = 0.95
 
@@ -25,18 +36,16 @@ def test_els_var_warm_up_and_constant():
 
 
 CURRENT = np.array([[0, 0, 0], [0.1, 1, 0], [0.2, 2, 0]], dtype=float)
+# age 0.1: dt shifted to -0.1, 0, 0.1, 0.2 -> common range [0, 0.2]; kept points
+# (0,.5),(1,.5),(2,.5) vs (0,0),(1,0),(2,0): Frechet 0.5 -> f1 = 1/1.5 = 2/3
+OLDER1 = np.array([[0, -1, 0], [0.1, 0, 0.5], [0.2, 1, 0.5], [0.3, 2, 0.5]], dtype=float)
+# age 0.2: dt -0.2 .. 0.2 -> kept (0,0),(1,0),(2,0): Frechet 0 -> f2 = 1
+OLDER2 = np.array([[0, -2, 0], [0.1, -1, 0], [0.2, 0, 0], [0.3, 1, 0], [0.4, 2, 0]], dtype=float)
 
 
 def test_chpps_hand_computed():
-    # age 0.1: dt shifted to -0.1, 0, 0.1, 0.2 -> common range [0, 0.2]; kept points
-    # (0,.5),(1,.5),(2,.5) vs (0,0),(1,0),(2,0): Frechet 0.5 -> f1 = 1/1.5 = 2/3
-    older1 = np.array([[0, -1, 0], [0.1, 0, 0.5], [0.2, 1, 0.5], [0.3, 2, 0.5]], dtype=float)
-    # age 0.2: dt -0.2 .. 0.2 -> kept (0,0),(1,0),(2,0): Frechet 0 -> f2 = 1
-    older2 = np.array(
-        [[0, -2, 0], [0.1, -1, 0], [0.2, 0, 0], [0.3, 1, 0], [0.4, 2, 0]], dtype=float
-    )
     # (1 * 2/3 + 0.95 * 1) / (1 + 0.95) = 1.616667 / 1.95 = 0.829060
-    got = chpps(CURRENT, [(0.1, older1), (0.2, older2)], K)
+    got = chpps(CURRENT, [(0.1, OLDER1), (0.2, OLDER2)], K)
     assert got == pytest.approx((2 / 3 + 0.95) / 1.95)
     assert got == pytest.approx(0.829060, abs=1e-6)
 
@@ -55,14 +64,63 @@ def test_chpps_weights_use_rank_including_skipped():
     far = np.array([[0, 0, 0], [0.05, 0, 0]], dtype=float)  # no overlap at age 0.2
     # rank 1 overlaps with f = 1 (identical path), rank 2 skipped -> 1.0
     assert chpps(CURRENT, [(0.1, same), (0.2, far)], K) == pytest.approx(1.0)
+    # rank 1 skipped, rank 2 = OLDER2 (f = 1) keeps weight 0.95: 0.95 * 1 / 0.95 = 1.0; with
+    # OLDER1 at rank 3 (age 0.1 -> same cut as above, f = 2/3, weight 0.95^2 = 0.9025):
+    # (0.95 * 1 + 0.9025 * 2/3) / (0.95 + 0.9025) = 1.551667 / 1.8525 = 0.837606
+    got = chpps(CURRENT, [(0.2, far), (0.2, OLDER2), (0.1, OLDER1)], K)
+    assert got == pytest.approx((0.95 + 0.9025 * 2 / 3) / 1.8525)
 
 
-def test_frechet_many_matches_pairs():
+def test_one_point_common_range_uses_the_largest_distance():
+    # age 0.2: OLDER1 shifted to -0.2 .. 0.1 -> current keeps dt 0, 0.1 = (0,0),(1,0); the
+    # stored plan keeps dt 0.2, 0.3 = (1,.5),(2,.5): Frechet max(|(0,0)-(1,.5)|, |(1,0)-(2,.5)|)
+    # = sqrt(1.25). A one-point cut: current [[0, 3, 4]] vs OLDER1 at age 0.1 keeps (0,.5):
+    # distance 3.640055 -> inv = 1 / 4.640055 = 0.215515
+    one = np.array([[0.0, 3.0, 4.0]])
+    assert chpps(one, [(0.1, OLDER1)], K) == pytest.approx(1 / (1 + np.hypot(3, 3.5)))
+    assert chpps(CURRENT[:2], [(0.2, OLDER1)], K) == pytest.approx(1 / (1 + np.sqrt(1.25)))
+
+
+def test_history_restarts_after_max_gap_and_keeps_plan_history_plans():
+    hist = PlanHistory(2, 2, 0.5, width=2)  # width 2: the 3-point plans widen the buffer
+    hist.push(0, 0.0, OLDER2[:3] + np.array([0.2, 0, 0]))  # dt .2 .3 .4, x -2 -1 0
+    hist.push(0, 0.1, OLDER1[:3])
+    hist.push(0, 0.2, CURRENT)
+    # channel 0 at t 0.2: rank 1 = OLDER1[:3] at age 0.1 -> dt -0.1, 0, 0.1: kept (0,.5),(1,.5)
+    # vs (0,0),(1,0): fd 0.5, f = 2/3; rank 2 = the t 0 plan at age 0.2: dt 0 .. 0.2, points
+    # (-2,0),(-1,0),(0,0) vs (0,0),(1,0),(2,0): fd 2, f = 1/3.
+    # (2/3 + 0.95/3) / 1.95 = 0.538462; channel 1 has no plan from t 0.2: None
+    values, fds = chpps_frame(hist, 0.2, K)
+    assert values[0] == pytest.approx((2 / 3 + 0.95 / 3) / 1.95)
+    assert values[1] is None and fds == []
+    # The ring keeps plan_history = 2 stored plans: at t 0.3 the t 0 plan (age 0.3: dt -0.1 ..
+    # 0.1, would overlap) is gone; CURRENT at age 0.1 -> dt -0.1 .. 0.1: kept (1,0),(2,0) vs
+    # (0,0),(1,0): fd 1, f = 1/2; OLDER1[:3] at age 0.2: dt -0.2 .. 0: kept (1,.5) vs (0,0):
+    # one point, distance sqrt(1.25), f = 1/(1 + 1.118034) = 0.472136.
+    # (0.5 + 0.95 * 0.472136) / 1.95 = 0.486427
+    hist.push(0, 0.3, CURRENT)
+    want = (0.5 + 0.95 / (1 + np.sqrt(1.25))) / 1.95
+    assert chpps_frame(hist, 0.3, K)[0][0] == pytest.approx(want)
+    # 1.1 - 0.6 = 0.5000000000000001 s is within max_gap + 1e-9: no restart. The t 0.6 plan at
+    # that age lines up with CURRENT point for point: fd 0, chpps 1.
+    hist.push(1, 0.6, CURRENT + np.array([0.5, 0, 0]))
+    hist.push(1, 1.1, CURRENT)
+    assert chpps_frame(hist, 1.1, K)[0] == [None, pytest.approx(1.0)]
+    hist.push(1, 1.6000001, CURRENT)  # a gap: history restarts, nothing stored
+    assert chpps_frame(hist, 1.6000001, K)[0] == [None, None]
+    assert hist.plans.shape[2] >= 3
+
+
+def test_given_pairs_go_in_the_same_batch():
     p = np.array([[0.0, 0.0], [1.0, 0.0]])
     q = np.array([[0.0, 1.0], [1.0, 1.0]])
     single = np.array([[0.0, 3.0]])
-    # parallel 1 m apart -> 1; one point at (0,3) vs p -> max(3, sqrt(10))
-    assert frechet_many([(p, q), (single, p)]).tolist() == pytest.approx([1.0, np.sqrt(10)])
+    hist = PlanHistory(1, 1, 0.5)
+    # parallel 1 m apart -> 1; one point at (0,3) vs p -> max(3, sqrt(10)); None stays None
+    values, fds = chpps_frame(hist, 0.0, K, [(p, q), None, (single, p)])
+    assert values == [None]
+    assert fds[1] is None
+    assert fds[0] == pytest.approx(1.0) and fds[2] == pytest.approx(np.sqrt(10))
 
 
 def sequences(max_len=6):
@@ -81,57 +139,148 @@ def reference_frechet(p, q):
 
 
 @settings(max_examples=60, deadline=None)
-@given(st.lists(st.tuples(sequences(), sequences()), min_size=1, max_size=6))
-def test_frechet_many_equals_pair_by_pair(pairs):
-    got = frechet_many(pairs)
-    assert got.tolist() == pytest.approx([reference_frechet(p, q) for p, q in pairs], abs=1e-12)
+@given(st.lists(st.one_of(st.none(), st.tuples(sequences(), sequences())), max_size=6))
+def test_given_pair_distances_equal_pair_by_pair(pairs):
+    _, got = chpps_frame(PlanHistory(1, 1, 0.5), 0.0, K, pairs)
+    want = [None if x is None else pytest.approx(reference_frechet(*x), abs=1e-12) for x in pairs]
+    assert got == want
 
 
-@settings(max_examples=60, deadline=None)
-@given(
-    st.lists(st.tuples(st.floats(0, 100), st.floats(0.01, 1)), min_size=1, max_size=10),
-)
-def test_chpps_score_is_the_weighted_mean_of_inv(items):
-    d = np.array([x for x, _ in items])
-    w = [x for _, x in items]
-    want = sum(wj / (1 + dj) for dj, wj in zip(d.tolist(), w, strict=True)) / sum(w)
-    assert chpps_score(d, w) == pytest.approx(want, rel=1e-12)
-
-
-@st.composite
-def plan_history(draw):
-    """A current plan and a few stored ones on 0.1 s grids with random starts and lengths, and
-    ages that are multiples of 0.1 s (decimal noise in `dt - age`, as in real streams)."""
-
-    def plan():
-        n = draw(st.integers(1, 8))
-        start = draw(st.integers(0, 3)) / 10
-        return np.array([[start + i / 10, draw(st.floats(-9, 9)), i] for i in range(n)])
-
-    stored = [(draw(st.integers(1, 12)) / 10, plan()) for _ in range(draw(st.integers(0, 5)))]
-    stored.sort(key=lambda x: x[0])
-    return plan(), stored
-
-
-@settings(max_examples=100, deadline=None)
-@given(plan_history())
-def test_chpps_pairs_equal_a_mask_formulation(case):
-    current, stored = case
-    want_pairs, want_w = [], []
+def mask_pairs(current, stored, k):
+    """chpps's cut as boolean masks: for each stored (age, plan), most recent first, the
+    points of both plans within their common range (inclusive, 1e-9 s tolerance) when both
+    keep one, with weight k^rank."""
+    pairs, weights = [], []
     for rank, (age, plan) in enumerate(stored):
-        # common range of current dt and stored dt - age, inclusive with 1e-9 s tolerance
+        if len(plan) == 0:
+            continue
         lo = max(current[0, 0], plan[0, 0] - age) - 1e-9
         hi = min(current[-1, 0], plan[-1, 0] - age) + 1e-9
         cm = (current[:, 0] >= lo) & (current[:, 0] <= hi)
         sm = (plan[:, 0] >= lo + age) & (plan[:, 0] <= hi + age)
         if lo <= hi and cm.any() and sm.any():
-            want_pairs.append((current[cm, 1:3], plan[sm, 1:3]))
-            want_w.append(K**rank)
-    pairs, weights = chpps_pairs(current, stored, K)
-    assert weights == pytest.approx(want_w)
-    assert [(p.tolist(), q.tolist()) for p, q in pairs] == [
+            pairs.append((current[cm, 1:3], plan[sm, 1:3]))
+            weights.append(k**rank)
+    return pairs, weights
+
+
+def reference_chpps(current, stored, k):
+    if len(current) == 0:
+        return None
+    pairs, w = mask_pairs(current, stored, k)
+    if not pairs:
+        return None
+    f = [wj / (1 + reference_frechet(p, q)) for (p, q), wj in zip(pairs, w, strict=True)]
+    return sum(f) / sum(w)
+
+
+def random_plan(draw, max_len=8):
+    """A plan on a 0.1 s grid with a random start, random x, y = index."""
+    n = draw(st.integers(1, max_len))
+    start = draw(st.integers(0, 3)) / 10
+    return np.array([[start + i / 10, draw(st.floats(-9, 9)), i] for i in range(n)])
+
+
+@st.composite
+def plan_history(draw):
+    """A current plan and a few stored ones with ages that are multiples of 0.1 s (decimal
+    noise in `dt - age`, as in real streams)."""
+    stored = [
+        (draw(st.integers(1, 12)) / 10, random_plan(draw)) for _ in range(draw(st.integers(0, 5)))
+    ]
+    stored.sort(key=lambda x: x[0])
+    return random_plan(draw), stored
+
+
+def split_pairs(coords, index, table):
+    """The (P, Q) sequences of each table row, from the packed coordinates."""
+    return [
+        (coords[index == g], coords[index == g + 1]) for g in table[:, GEOM].astype(int).tolist()
+    ]
+
+
+@settings(max_examples=100, deadline=None)
+@given(plan_history(), st.lists(st.tuples(sequences(), sequences()), max_size=3))
+def test_cut_pairs_equal_a_mask_formulation(case, given_pairs):
+    current, stored = case
+    hist = PlanHistory(1, max(len(stored), 1), float("inf"), width=3)
+    t = 0.0
+    for age, plan in reversed(stored):
+        hist.push(0, t - age, plan)
+    hist.push(0, t, current)
+    coords, index, table, n_points, n_geos = frame_inputs(hist, t, K, given_pairs)
+    want_pairs, want_w = mask_pairs(current, stored, K)
+    want_pairs = given_pairs + want_pairs
+    got = split_pairs(coords, index, table)
+    assert [(p.tolist(), q.tolist()) for p, q in got] == [
         (p.tolist(), q.tolist()) for p, q in want_pairs
     ]
+    assert table[:, WEIGHT].tolist() == pytest.approx([1.0] * len(given_pairs) + want_w)
+    # GEOS gets exactly the pairs whose sequences both have two points or more, pair by pair.
+    multi = [len(p) > 1 and len(q) > 1 for p, q in got]
+    assert table[:, SLOT].tolist() == [
+        float(sum(multi[:i])) if m else -1.0 for i, m in enumerate(multi)
+    ]
+    assert n_geos == sum(multi)
+    assert index[:n_points].tolist() == sorted(index[:n_points].tolist())
+    assert set(index[:n_points].tolist()) == set(range(2 * n_geos))
+
+
+@settings(max_examples=100, deadline=None)
+@given(plan_history())
+def test_chpps_equals_the_reference(case):
+    current, stored = case
+    got = chpps(current, stored, K)
+    want = reference_chpps(current, stored, K)
+    assert (got is None) == (want is None)
+    if want is not None:
+        assert got == pytest.approx(want, rel=1e-12, abs=1e-12)
+
+
+@st.composite
+def streams(draw):
+    """Frames of two channels: each absent, with an empty plan, or with a random plan; frame
+    times on a 0.1 s grid with gaps, some beyond max_gap = 0.25 s."""
+    frames = []
+    tick = 0
+    for _ in range(draw(st.integers(1, 12))):
+        tick += draw(st.integers(1, 4))
+        row = []
+        for _ in range(2):
+            kind = draw(st.sampled_from(["absent", "empty", "plan", "plan"]))
+            row.append(None if kind == "absent" else np.zeros((0, 3)) if kind == "empty" else 0)
+            if kind == "plan":
+                row[-1] = random_plan(draw, max_len=10)
+        frames.append((tick / 10, row))
+    return draw(st.integers(1, 4)), frames
+
+
+@settings(max_examples=60, deadline=None)
+@given(streams())
+def test_chpps_over_a_stream_equals_a_deque_model(case):
+    """The packed ring against the straightforward model: per channel a deque of the last
+    `size` non-empty plans with their times, cleared after more than max_gap without a plan."""
+    size, frames = case
+    max_gap = 0.25
+    hist = PlanHistory(2, size, max_gap, width=4)
+    model = [deque(maxlen=size), deque(maxlen=size)]
+    for t, row in frames:
+        want = []
+        for c, plan in enumerate(row):
+            if plan is None or len(plan) == 0:
+                want.append(None)
+                continue
+            store = model[c]
+            if store and t - store[-1][0] > max_gap + 1e-9:
+                store.clear()
+            want.append(reference_chpps(plan, [(t - ts, p) for ts, p in reversed(store)], K))
+            store.append((t, plan))
+            hist.push(c, t, plan)
+        got, _ = chpps_frame(hist, t, K)
+        assert [g is None for g in got] == [w is None for w in want]
+        assert [g for g in got if g is not None] == pytest.approx(
+            [w for w in want if w is not None], rel=1e-12, abs=1e-12
+        )
 
 
 @settings(max_examples=60, deadline=None)
