@@ -183,7 +183,7 @@ def _cut(plans, lens, times, count, head, t, decay, pair_xy, pair_lens):  # prag
             lo = max(c0, sdt[0] - age) - TIME_EPS
             hi = min(c1, sdt[ns - 1] - age) + TIME_EPS
             if lo > hi:
-                continue
+                continue  # disjoint ranges (the bisects below would say so too, slower)
             # Both dt columns increase strictly: the common range is one slice of each.
             a = _bisect(cur, nc, lo, False)
             b = _bisect(cur, nc, hi, True)

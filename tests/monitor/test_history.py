@@ -54,6 +54,10 @@ def test_chpps_no_overlap_is_no_value():
     old = np.array([[0, 0, 0], [0.5, 5, 0]], dtype=float)
     # age 1.0: shifted dt -1.0 .. -0.5, before the current plan starts
     assert chpps(CURRENT, [(1.0, old)], K) is None
+    # age 0.1: shifted dt 0.05 .. 0.06 lies inside the current plan's range but holds none of
+    # its samples (0, 0.1, 0.2): no overlap
+    between = np.array([[0.15, 5, 0], [0.16, 5, 0]], dtype=float)
+    assert chpps(CURRENT, [(0.1, between)], K) is None
     assert chpps(CURRENT, [], K) is None
     assert chpps(np.zeros((0, 3)), [(0.1, old)], K) is None
 
@@ -175,9 +179,10 @@ def reference_chpps(current, stored, k):
 
 
 def random_plan(draw, max_len=8):
-    """A plan on a 0.1 s grid with a random start, random x, y = index."""
+    """A plan on a 0.1 s grid with a random start (on a 0.05 s grid: common ranges that hold
+    no sample of one plan), random x, y = index."""
     n = draw(st.integers(1, max_len))
-    start = draw(st.integers(0, 3)) / 10
+    start = draw(st.integers(0, 6)) / 20
     return np.array([[start + i / 10, draw(st.floats(-9, 9)), i] for i in range(n)])
 
 
