@@ -11,8 +11,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from monitor.safety_kernel import score_boxes
 from monitor.safety_score import (
-    _score_kernel,
     safety_matrix,
     safety_score,
     score_grid,
@@ -127,7 +127,7 @@ def box_scene(draw) -> tuple[list[np.ndarray], list, list]:
 @given(box_scene(), st.sampled_from([2.0, 0.5]))
 def test_kernel_equals_numpy_path(data, pet_ref):
     plans, egos, worlds = data
-    got = _score_kernel(plans, egos, worlds, pet_ref)
+    got = score_boxes(plans, egos, worlds, pet_ref)
     assert got is not None  # all boxes: the kernel scores it
     want = score_grid_numpy(plans, egos, worlds, pet_ref)
     for name, g, w in zip(("ss", "ttc", "pet"), got, want, strict=True):
@@ -151,7 +151,7 @@ def box_single(draw):
 def test_kernel_matches_brute_force(data):
     plan, objects = data
     s = scene(objects, plan=plan)
-    assert _score_kernel([s.plan], [s.ego], [s.objects], PET_REF) is not None  # kernel path
+    assert score_boxes([s.plan], [s.ego], [s.objects], PET_REF) is not None  # kernel path
     ss, ttc, _ = safety_score(s.plan, s.ego, s.objects, PET_REF)
     ref_ss, ref_ttc = brute_force(s.plan, s.ego, s.objects, PET_REF)
     assert ttc == ref_ttc
@@ -202,13 +202,13 @@ def test_polygon_footprints_leave_the_kernel():
         "polygon": [[2, 1], [-2, 1], [-2, -1], [2, -1]],
     }
     s = scene([poly])
-    assert _score_kernel([s.plan], [s.ego], [s.objects], PET_REF) is None
+    assert score_boxes([s.plan], [s.ego], [s.objects], PET_REF) is None
     e = {"x": 0, "y": 0, "yaw": 0, "polygon": [[2, 1], [-2, 1], [-2, -1], [2, -1]]}
     f = frame(
         0.0, {"a": channel(e, plan=straight_plan(0, 0, 10, 0, 31), objects=[obj(1, 13.5, 0)])}
     )
     a = f.channels["a"]
-    assert _score_kernel([a.plan], [a.ego], [a.objects], PET_REF) is None
+    assert score_boxes([a.plan], [a.ego], [a.objects], PET_REF) is None
     # the same 4 x 2 rectangle either way: ttc = 1.0 (front 12.0 >= rear 11.5 at 1.0 s), ss = 1/3
     assert safety_score(s.plan, s.ego, s.objects, PET_REF)[1] == pytest.approx(1.0)
     assert safety_score(a.plan, a.ego, a.objects, PET_REF)[1] == pytest.approx(1.0)

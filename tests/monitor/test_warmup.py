@@ -14,7 +14,7 @@ PROBE = """
 import gzip, io, json, sys
 from numba.core.registry import CPUDispatcher
 import monitor.comfort, monitor.history, monitor.parse, monitor.prediction
-import monitor.safety_score, monitor.similarity
+import monitor.safety_kernel, monitor.safety_score, monitor.similarity
 from monitor.warmup import warm_up
 from monitor.engine import MetricEngine
 from monitor.reader import read_stream
@@ -22,7 +22,7 @@ from monitor.bench import CHANNELS, reference_load_frames
 from safety_case.model import MetricParams
 
 MODULES = [monitor.comfort, monitor.history, monitor.parse, monitor.prediction,
-           monitor.safety_score, monitor.similarity]
+           monitor.safety_kernel, monitor.safety_score, monitor.similarity]
 
 def signatures():
     return {f"{m.__name__}.{k}": sorted(map(str, v.signatures))
