@@ -7,9 +7,7 @@ import numpy as np
 
 from monitor.frames import Objects
 from monitor.jit import kernel
-
-#: Pairing tie tolerance [m] (spi-reference "Object pairing"), as in monitor.similarity.
-PAIRING_EPS = 1e-9
+from monitor.similarity import pair_objects
 
 
 def interpolate_tracks(
@@ -126,39 +124,10 @@ def positions_at(pos: np.ndarray, pred: np.ndarray, pred_len: np.ndarray, t: flo
 
 
 @kernel
-def _stable_order(key):  # pragma: no cover - compiled
-    """Indices that sort `key` stably (bottom-up merge sort): np.argsort(kind="mergesort")'s
-    result, without the seconds its numba implementation adds to the first compile."""
-    n = key.shape[0]
-    a = np.arange(n)
-    b = np.empty(n, dtype=np.int64)
-    width = 1
-    while width < n:
-        for lo in range(0, n, 2 * width):
-            mid = min(lo + width, n)
-            hi = min(lo + 2 * width, n)
-            i, j = lo, mid
-            for k in range(lo, hi):
-                # take from the left run on ties: stable
-                if i < mid and (j >= hi or key[a[i]] <= key[a[j]]):
-                    b[k] = a[i]
-                    i += 1
-                else:
-                    b[k] = a[j]
-                    j += 1
-        a, b = b, a
-        width *= 2
-    return a
-
-
-@kernel
-def _ompv_counts(pos, pred, pred_len, elapsed, cur, match, tolerance, gate):  # pragma: no cover
-    """(N1, N2) of ompv. `match[i]` is the current index of previous object i's id (-1: none);
-    when no entry matches and there are current objects, the channel does not track and the
-    pairing is the greedy nearest one within `gate` (spi-reference "Object pairing": candidates
-    ordered by (distance in 1e-9 m quanta, index in A, index in B))."""
+def _predict(pos, pred, pred_len, elapsed):  # pragma: no cover - compiled
+    """Each previous object's predicted position `elapsed` s later, and whether its prediction
+    reaches that far (last dt >= elapsed, 1e-9 s tolerance; no prediction always reaches)."""
     n_prev = pos.shape[0]
-    n_cur = cur.shape[0]
     p = pred.shape[1]
     reaches = np.empty(n_prev, dtype=np.bool_)
     predicted = np.empty((n_prev, 2))
@@ -170,57 +139,17 @@ def _ompv_counts(pos, pred, pred_len, elapsed, cur, match, tolerance, gate):  # 
             last = pred[i, max(n - 1, 0), 0]
             reaches[i] = n == 0 or last >= elapsed - 1e-9
         _point_at(pos, pred, pred_len, i, elapsed, predicted[i])
-    pi = np.empty(n_prev, dtype=np.int64)
-    ci = np.empty(n_prev, dtype=np.int64)
-    m = 0
-    tracked = False
-    for i in range(n_prev):
-        if match[i] >= 0:
-            tracked = True
-    if tracked or n_cur == 0:
-        # Decision: a channel tracks when at least one id carries over between the two ticks.
-        for i in range(n_prev):
-            if match[i] >= 0:
-                pi[m] = i
-                ci[m] = match[i]
-                m += 1
-    else:
-        # No stable ids: the nearest current object to each predicted position, within the gate.
-        nc = n_prev * n_cur
-        ca = np.empty(nc, dtype=np.int64)
-        cb = np.empty(nc, dtype=np.int64)
-        key = np.empty(nc)
-        g = 0
-        for i in range(n_prev):
-            if not reaches[i]:
-                continue
-            for j in range(n_cur):
-                dx = predicted[i, 0] - cur[j, 0]
-                dy = predicted[i, 1] - cur[j, 1]
-                d = np.sqrt(dx * dx + dy * dy)
-                if d <= gate + PAIRING_EPS:
-                    ca[g] = i
-                    cb[g] = j
-                    # Decision: distances equal to within 1e-9 m are ties (broken by index)
-                    key[g] = np.rint(d / PAIRING_EPS)
-                    g += 1
-        # candidates were made in (A, B) order: a stable sort on the key gives the lexsort order
-        order = _stable_order(key[:g])
-        used_a = np.zeros(n_prev, dtype=np.bool_)
-        used_b = np.zeros(n_cur, dtype=np.bool_)
-        for o in order:
-            a = ca[o]
-            b = cb[o]
-            if not used_a[a] and not used_b[b]:
-                used_a[a] = True
-                used_b[b] = True
-                pi[m] = a
-                ci[m] = b
-                m += 1
+    return predicted, reaches
+
+
+@kernel
+def _ompv_counts(predicted, reaches, cur, pi, ci, tolerance):  # pragma: no cover - compiled
+    """(N1, N2) of ompv for the matched pairs (previous pi[r], current ci[r])."""
+    n_cur = cur.shape[0]
     seen = np.zeros(n_cur, dtype=np.bool_)
     distinct = 0
     n1 = 0
-    for r in range(m):
+    for r in range(pi.shape[0]):
         c = ci[r]
         if not seen[c]:
             seen[c] = True
@@ -229,7 +158,7 @@ def _ompv_counts(pos, pred, pred_len, elapsed, cur, match, tolerance, gate):  # 
         err = np.hypot(predicted[i, 0] - cur[c, 0], predicted[i, 1] - cur[c, 1])
         if reaches[i] and err <= tolerance:
             n1 += 1
-    return n1, n_prev + n_cur - distinct
+    return n1, predicted.shape[0] + n_cur - distinct
 
 
 def ompv(prev: Objects, elapsed: float, cur: Objects, tolerance: float, gate: float) -> float:
@@ -241,15 +170,24 @@ def ompv(prev: Objects, elapsed: float, cur: Objects, tolerance: float, gate: fl
     object of the same id (or, when the channel does not track, the nearest within `gate`) is
     within `tolerance`. N2 = previous objects + current objects that are new.
 
-    The id lookup stays in Python (ids are strings); the rest is one compiled call.
+    The id lookup stays in Python (ids are strings); prediction and counting are compiled, and
+    the nearest matching is `similarity.pair_objects` (called from Python: numba's disk cache
+    would not notice a change to a kernel of another module compiled into this one).
     """
     n_prev, n_cur = len(prev), len(cur)
     if n_prev == 0:
         return 1.0 if n_cur == 0 else 0.0  # every current object is new: a miss
     index_cur = {oid: i for i, oid in enumerate(cur.ids)}
     match = np.array([index_cur.get(oid, -1) for oid in prev.ids], dtype=np.int64)
-    n1, n2 = _ompv_counts(
-        prev.pos, prev.pred, prev.pred_len, float(elapsed), cur.pos, match,
-        float(tolerance), float(gate),
-    )  # fmt: skip
+    predicted, reaches = _predict(prev.pos, prev.pred, prev.pred_len, float(elapsed))
+    pi = np.flatnonzero(match >= 0)
+    if len(pi) or n_cur == 0:
+        # Decision: a channel tracks when at least one id carries over between the two ticks.
+        ci = match.take(pi)
+    else:
+        # No stable ids: the nearest current object to each predicted position, within the gate.
+        cand = np.flatnonzero(reaches)
+        pa, ci, _ = pair_objects(predicted.take(cand, axis=0), cur.pos, gate)
+        pi = cand.take(pa)
+    n1, n2 = _ompv_counts(predicted, reaches, cur.pos, pi, ci, float(tolerance))
     return n1 / n2

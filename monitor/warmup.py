@@ -19,7 +19,7 @@ from safety_case.model import MetricParams
 _CHANNELS = ["a", "b"]
 
 
-def _channel(t: float, offset: float) -> dict[str, Any]:
+def _channel(t: float, offset: float, ids: tuple[Any, Any]) -> dict[str, Any]:
     """A car at 10 m/s with a 2 s plan, one vehicle ahead (predicted) and one crossing."""
     x = 10.0 * t + offset
     plan = [[0.1 * n, x + 1.0 * n, 0.0] for n in range(21)]
@@ -29,8 +29,9 @@ def _channel(t: float, offset: float) -> dict[str, Any]:
         "ego": {"x": x, "y": 0.0, "yaw": 0.0, "length": 4.5, "width": 1.9},
         "plan": plan,
         "objects": [
-            {"id": 1, "x": x + 12.0, "y": 0.0, "length": 4.5, "width": 1.9, "prediction": ahead},
-            {"id": 2, "x": x + 8.0, "y": -6.0, "yaw": math.pi / 2, "length": 4.5, "width": 1.9,
+            {"id": ids[0], "x": x + 12.0, "y": 0.0, "length": 4.5, "width": 1.9,
+             "prediction": ahead},
+            {"id": ids[1], "x": x + 8.0, "y": -6.0, "yaw": math.pi / 2, "length": 4.5, "width": 1.9,
              "prediction": crossing},
         ],
     }  # fmt: skip
@@ -38,9 +39,12 @@ def _channel(t: float, offset: float) -> dict[str, Any]:
 
 def warm_up(frames: int = 12) -> None:
     """Step a throw-away engine over `frames` synthetic frames of two channels: enough for
-    every history (the comfort window is 10 positions) and so every kernel."""
+    every history (the comfort window is 10 positions) and so every kernel. Channel b's object
+    ids change every frame, so ompv's nearest matching (a channel that does not track) runs."""
     engine = MetricEngine(MetricParams(), _CHANNELS)
     for k in range(frames):
         t = round(0.1 * k, 1)
-        d = {"t": t, "channels": {"a": _channel(t, 0.0), "b": _channel(t, 0.3)}}
+        a = _channel(t, 0.0, (1, 2))
+        b = _channel(t, 0.3, (f"{k}-1", f"{k}-2"))
+        d = {"t": t, "channels": {"a": a, "b": b}}
         engine.step(parse_frame(d, _CHANNELS, line=k + 1))

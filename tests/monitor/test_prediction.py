@@ -192,14 +192,3 @@ def ompv_case(draw):
 def test_ompv_equals_the_reference(case, elapsed):
     prev, cur = case
     assert ompv(prev, elapsed, cur, TOL, GATE) == reference_ompv(prev, elapsed, cur, TOL, GATE)
-
-
-@settings(max_examples=60, deadline=None)
-@given(st.lists(st.integers(0, 4), max_size=40))
-def test_pairing_order_is_numpys_stable_argsort(keys):
-    """The kernel's merge sort orders the pairing candidates like a stable argsort (equal keys
-    keep their (A, B) order: the tie break by index)."""
-    from monitor.prediction import _stable_order
-
-    k = np.array(keys, dtype=float)
-    assert _stable_order(k).tolist() == np.argsort(k, kind="mergesort").tolist()

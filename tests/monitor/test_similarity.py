@@ -299,3 +299,14 @@ def test_crpps_plan_outside_the_common_horizon_is_an_error():
     b = np.array([[0.5, 1.0, 1.0], [1.0, 2.0, 2.0]])
     with pytest.raises(ValueError, match="common horizon"):
         crpps_inputs(a, b)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.integers(0, 4), max_size=40))
+def test_pairing_order_is_numpys_stable_argsort(keys):
+    """The kernel's merge sort orders the pairing candidates like a stable argsort (equal keys
+    keep their (A, B) order: the tie break by index)."""
+    from monitor.similarity import _stable_order
+
+    k = np.array(keys, dtype=float)
+    assert _stable_order(k).tolist() == np.argsort(k, kind="mergesort").tolist()
