@@ -16,6 +16,10 @@ Settings, and why:
 - `nogil=True`: a kernel does not hold the interpreter lock (harmless for one thread, and lets
   an embedding application score channels from threads).
 
+Rule: a kernel calls only kernels of its own module. numba's cache checks the source file of
+the kernel it loads, not of the kernels compiled into it, so a kernel from another module would
+silently keep its old code after that module changes. Across modules, call from Python.
+
 Setting the environment variable `NUMBA_DISABLE_JIT=1` runs the kernels as plain Python, which
 is slow but lets a debugger step through them.
 """
