@@ -107,20 +107,10 @@ def _point_at(pos, pred, pred_len, k, t, out):
     out[1] = ay + (pred[k, j1, 2] - ay) * frac
 
 
-@kernel
-def _positions_at(pos, pred, pred_len, t):  # pragma: no cover - compiled
-    """Every object's position at time t (K, 2)."""
-    k = pos.shape[0]
-    out = np.empty((k, 2))
-    for i in range(k):
-        _point_at(pos, pred, pred_len, i, t, out[i])
-    return out
-
-
 def positions_at(pos: np.ndarray, pred: np.ndarray, pred_len: np.ndarray, t: float) -> np.ndarray:
     """Object positions (K, 2) at one time `t` after the frame time: `interpolate_tracks` at a
-    single time, with the same arithmetic, in one compiled call."""
-    return _positions_at(pos, pred, pred_len, float(t))
+    single time, with the same arithmetic; the positions ompv predicts (`_predict`)."""
+    return _predict(pos, pred, pred_len, float(t))[0]
 
 
 @kernel

@@ -98,9 +98,9 @@ def predicted_objects(draw):
 @settings(max_examples=80, deadline=None)
 @given(predicted_objects(), st.floats(0.0, 3.0))
 def test_positions_at_one_time_equal_the_track_interpolation(data, t):
-    """ompv moves the previous objects to one time with `positions_at`, on Python scalars when
-    the objects share a grid; it must give `interpolate_tracks`' values (before the first
-    point, inside, after the end)."""
+    """ompv moves the previous objects to one time (`positions_at`, the positions its kernel
+    predicts); it must give `interpolate_tracks`' values (before the first point, inside,
+    after the end)."""
     objs, _ = data
     want = interpolate_tracks(objs.pos, objs.pred, objs.pred_len, np.array([t]))[:, 0]
     got = positions_at(objs.pos, objs.pred, objs.pred_len, t)
