@@ -94,29 +94,6 @@ LATERAL_MIN = 128
 REACH_MIN = 12
 
 
-def _runs(values: np.ndarray) -> np.ndarray:
-    """(..., N) -> (..., C, CHUNK): consecutive runs of CHUNK grid points, the last run padded
-    by repeating the last point (a real grid point)."""
-    n = values.shape[-1]
-    nc = -(-n // CHUNK)
-    pad = nc * CHUNK - n
-    if pad:
-        values = np.concatenate([values, np.repeat(values[..., -1:], pad, axis=-1)], axis=-1)
-    return values.reshape(*values.shape[:-1], nc, CHUNK)
-
-
-def _chunk_circles(
-    run_x: np.ndarray, run_y: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Bounding circles of the runs (..., C, CHUNK): centre x, centre y, radius (..., C)
-    (footprint radii are added by the caller)."""
-    mx = 0.5 * (run_x.max(axis=-1) + run_x.min(axis=-1))
-    my = 0.5 * (run_y.max(axis=-1) + run_y.min(axis=-1))
-    ox = run_x - mx[..., None]
-    oy = run_y - my[..., None]
-    return mx, my, np.sqrt(np.max(ox * ox + oy * oy, axis=-1))
-
-
 def boxes_intersect(
     dx: np.ndarray,
     dy: np.ndarray,
