@@ -31,7 +31,8 @@ from evaluator.status import StatusPropagator, Verdict, worst_status
 from safety_case.model import Case
 from spec.model import CompiledFormula, CompiledSpec
 
-#: Builds an object with rtamt's online interface (`update(i, [(name, value)])`, `reset()`).
+#: Builds an object with rtamt's online interface (`update(i, [(name, value)])`, `reset()`);
+#: `reset()` must work before the first update (it starts every run of samples).
 MonitorFactory = Callable[[CompiledFormula, float], Any]
 
 #: Receives each episode or data gap the moment it closes.
@@ -55,7 +56,6 @@ class FormulaState:
     gaps: GapTracker = field(default_factory=GapTracker)
     index: int = 0  # samples fed to the monitor since its last reset
     fresh: bool = True  # the monitor must be reset before its next update
-    used: bool = False  # the monitor has been updated at least once
     ticks_evaluated: int = 0
     ticks_violated: int = 0
     ticks_no_data: int = 0
@@ -132,11 +132,9 @@ class Evaluator:
             return "no-data"
         self._emit_gap(state, state.gaps.close())
         if state.fresh:
-            if state.used:  # rtamt 0.4.10's reset() fails on a monitor never updated
-                state.monitor.reset()
+            state.monitor.reset()  # build_rtamt_monitor's monitors reset before any update too
             state.index = 0
             state.fresh = False
-            state.used = True
         started = time.perf_counter()
         robustness = float(state.monitor.update(state.index, inputs))
         self.stl_seconds += time.perf_counter() - started
