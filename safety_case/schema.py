@@ -31,7 +31,9 @@ _NUMBER = r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?"
 _THRESHOLD_RE = re.compile(rf"^\s*(>=|<=|>|<)\s*({_NUMBER})\s*$")
 _DURATION_RE = re.compile(rf"^\s*({_NUMBER})\s*(ms|s|min|h)?\s*$")
 _UNIT_SECONDS = {"ms": 0.001, "s": 1.0, "min": 60.0, "h": 3600.0, None: 1.0}
-CHANNEL_RE = re.compile(r"^[a-z][a-z0-9_]*$")
+#: A channel name: an ASCII letter, then letters, digits and `_`; `channel_name_problem` also
+#: refuses `__` and a trailing `_`, so `metric__a__b` always splits back into its parts.
+CHANNEL_RE = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
 DECLARED_SIGNAL_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 
 
@@ -203,14 +205,29 @@ class RawModule(BaseModel):
     brief: StrictStr = ""
 
 
+def channel_name_problem(name: str) -> str | None:
+    """Why `name` cannot be a channel name, or None when it can.
+
+    Signal names join metric and channels with `__` (`ss__chA__Apollo7`), so a channel must not
+    contain `__` nor end in `_` (`a_` + `b` would read `x__a___b`, which splits two ways)."""
+    if not CHANNEL_RE.fullmatch(name):
+        return "must start with a letter and contain only letters, digits and '_'"
+    if SEP in name:
+        return "must not contain '__' (it separates the parts of a signal name)"
+    if name.endswith("_"):
+        return "must not end in '_' (signal names such as 'els__a__b' would become ambiguous)"
+    return None
+
+
 def _check_channels(channels: list[str]) -> list[str]:
     seen: set[str] = set()
     for index, name in enumerate(channels):
-        if not CHANNEL_RE.match(name) or SEP in name:
+        problem = channel_name_problem(name)
+        if problem is not None:
             raise PydanticCustomError(
                 "channels",
-                "channel name '{name}' must match [a-z][a-z0-9_]* without '__'",
-                {"name": name, "index": index},
+                "channel name '{name}' {problem}; e.g. lav, chA, Apollo7, front_cam",
+                {"name": name, "index": index, "problem": problem},
             )
         if name in seen:
             raise PydanticCustomError(

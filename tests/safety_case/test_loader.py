@@ -145,8 +145,11 @@ def test_signals_as_list() -> None:
 @pytest.mark.parametrize(
     ("channels", "fragment"),
     [
-        ("[lav, LAV]", "must match"),
-        ("[lav, tf__use]", "without '__'"),
+        ("[lav, 7up]", "must start with a letter"),
+        ("[lav, tf-use]", "only letters, digits and '_'"),
+        ('[lav, "tfuse\\n"]', "only letters, digits and '_'"),  # fullmatch: no newline
+        ("[lav, tf__use]", "must not contain '__'"),
+        ("[lav, tfuse_]", "must not end in '_'"),
         ("[lav, lav]", "listed twice"),
         ("[lav]", "at least two"),
     ],
@@ -156,6 +159,13 @@ def test_channel_rules(channels: str, fragment: str) -> None:
     _, findings = load_case_text(text)
     hits = [f for f in findings if f.code == "CW019"]
     assert len(hits) == 1 and fragment in hits[0].message and hits[0].line == 3
+
+
+@pytest.mark.parametrize("channels", ["[chA, Apollo7]", "[lav, LAV]", "[front_cam, rear_2]"])
+def test_channel_names_are_identifiers_of_any_case(channels: str) -> None:
+    text = f"module: {{name: m}}\nmonitor:\n  channels: {channels}\nG1: {{text: t}}\n"
+    value, findings = load_case_text(text)
+    assert value is not None and findings == []
 
 
 def test_unknown_metric_parameter_suggests_the_right_one() -> None:
