@@ -92,7 +92,8 @@ def evaluate_stream(
     evaluator = Evaluator(case, spec, on_event=emit, series_points=options.series_points)
     engine = MetricEngine(case.monitor.metrics, list(case.monitor.channels))
     text = io.TextIOWrapper(binary, encoding="utf-8", errors="strict")
-    reader = read_stream(text, strict=options.strict, channels=list(case.monitor.channels))
+    reader = read_stream(text, strict=options.strict, channels=list(case.monitor.channels),
+                         period=case.monitor.period)
     arbitration = RunLength()
     clock = _Clock()
     complete = True

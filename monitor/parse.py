@@ -38,6 +38,10 @@ DEFECT_KINDS: dict[str, str] = {
     "bad-trajectory": "plan or prediction dt negative or not strictly increasing",
     "bad-footprint": "footprint missing, given twice, or degenerate",
     "bad-header": "header malformed, of another format/version, or not on the first line",
+    "bad-time": "frame time t beyond 1e12 s, where floats no longer resolve the period",
+    "frame-spacing": "frame closer than half a period to the previous frame",
+    "oversized-line": "line longer than the reader's limit (16 Mi characters)",
+    "truncated-stream": "compressed stream ends early or is corrupt; reading stops there",
 }
 
 

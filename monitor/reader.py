@@ -11,6 +11,7 @@ import gzip
 import io
 import json
 import sys
+import zlib
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,6 +24,21 @@ try:  # optional: about five times faster on large frames; same results (see _de
     import orjson
 except ImportError:  # pragma: no cover - depends on the environment
     orjson = None
+
+#: The longest line read as one frame, in characters (bundled frames stay under 20 000). A
+#: longer line is an `oversized-line` defect; its rest is skipped in chunks, never held whole.
+MAX_LINE_CHARS = 16 * 1024 * 1024
+
+#: A frame less than this share of the period after the previous frame is a `frame-spacing`
+#: defect: rtamt counts samples, so a burst of close frames would shrink every time window.
+MIN_SPACING = 0.5
+
+#: Frame times beyond this many seconds from 0 are a `bad-time` defect: a float cannot resolve a
+#: 0.1 s period much further out (its spacing is 1e-4 s at 1e12 s, 0.125 s at 1e15 s).
+MAX_ABS_T = 1e12
+
+#: What a compressed stream raises when it ends before its end marker or its data is corrupt.
+_COMPRESSION_ERRORS: tuple[type[Exception], ...] = (EOFError, zlib.error, gzip.BadGzipFile)
 
 
 def decode(text: str) -> object:
@@ -94,10 +110,18 @@ class StreamReader:
     """
 
     def __init__(
-        self, source: str | Path | IO, strict: bool = False, channels: list[str] | None = None
+        self,
+        source: str | Path | IO,
+        strict: bool = False,
+        channels: list[str] | None = None,
+        period: float | None = None,
+        max_line_chars: int = MAX_LINE_CHARS,
     ):
         self._source = source
         self.strict = strict
+        # the caller's period (normally monitor.period), else the header's once read
+        self.period: float | None = period
+        self.max_line_chars = max_line_chars
         self.name = "<stdin>" if str(source) == "-" else str(getattr(source, "name", source))
         self.declared: list[str] | None = list(channels) if channels is not None else None
         self.channels: list[str] | None = self.declared
@@ -124,16 +148,51 @@ class StreamReader:
             if owned:
                 fh.close()
 
+    def _lines(self, fh: IO[str]) -> Iterator[tuple[int, str]]:
+        """(line number, text) of every line, with two limits: a line longer than
+        `max_line_chars` is an `oversized-line` defect, and a compressed stream that ends early
+        or is corrupt is a `truncated-stream` defect at the line it reached; reading stops
+        there and the frames before it stand."""
+        limit = self.max_line_chars
+        lineno = 0
+        while True:
+            lineno += 1
+            try:
+                text = fh.readline(limit)
+                oversized = len(text) >= limit and not text.endswith("\n")
+                while oversized and text:  # skip the rest of the line without keeping it
+                    text = fh.readline(limit)
+                    if text.endswith("\n"):
+                        break
+            except _COMPRESSION_ERRORS as exc:
+                self._defect(lineno, "truncated-stream", _compression_message(exc))
+                return
+            if oversized:
+                self._defect(
+                    lineno,
+                    "oversized-line",
+                    f"line longer than {limit} characters; a frame is far smaller, so it was "
+                    "skipped unread",
+                )
+                continue
+            if not text:
+                return
+            yield lineno, text
+
     def _frames(self, fh: IO[str]) -> Iterator[Frame]:
         last_t: float | None = None
         first_content = True
-        for lineno, text in enumerate(fh, start=1):
+        for lineno, text in self._lines(fh):
             if not text.strip():
                 continue  # blank lines carry nothing (documented in docs/streams.md)
             try:
                 obj = decode(text)
             except ValueError as exc:
                 self._defect(lineno, "malformed-json", f"not valid JSON: {exc}")
+                first_content = False
+                continue
+            except RecursionError:
+                self._defect(lineno, "malformed-json", _TOO_DEEP)
                 first_content = False
                 continue
             if isinstance(obj, dict) and "header" in obj:
@@ -154,11 +213,31 @@ class StreamReader:
             except FrameDefect as d:
                 self._defect(lineno, d.kind, d.message)
                 continue
+            except RecursionError:  # a value nested so deeply that even describing it fails
+                self._defect(lineno, "malformed-json", _TOO_DEEP)
+                continue
+            if abs(frame.t) > MAX_ABS_T:
+                self._defect(
+                    lineno,
+                    "bad-time",
+                    f"t = {frame.t:g} is beyond {MAX_ABS_T:g} s, where seconds as floating point "
+                    "no longer resolve the period; write t relative to the start of the drive",
+                )
+                continue
             if last_t is not None and frame.t <= last_t:
                 self._defect(
                     lineno,
                     "non-increasing-t",
                     f"t = {frame.t:g} does not increase strictly (previous frame t = {last_t:g})",
+                )
+                continue
+            if last_t is not None and self.period and frame.t - last_t < MIN_SPACING * self.period:
+                self._defect(
+                    lineno,
+                    "frame-spacing",
+                    f"t = {frame.t!r} comes {frame.t - last_t:.3g} s after the previous frame "
+                    f"(t = {last_t!r}); with a period of {self.period:g} s frames closer than "
+                    f"{MIN_SPACING * self.period:g} s are skipped",
                 )
                 continue
             if self.channels is None:
@@ -173,6 +252,8 @@ class StreamReader:
 
     def _adopt_header(self, lineno: int) -> None:
         assert self.header is not None
+        if self.period is None:
+            self.period = self.header.period
         if self.declared is None:
             if self.header.channels:
                 self.channels = list(self.header.channels)
@@ -188,9 +269,30 @@ class StreamReader:
             )
 
 
+_TOO_DEEP = (
+    "JSON nested too deeply (a frame needs about 7 levels of [ and {; the decoder stops at 1024)"
+)
+
+
+def _compression_message(exc: Exception) -> str:
+    if isinstance(exc, EOFError):
+        return (
+            "the compressed stream ends before its end marker (a truncated .gz file?); the "
+            "frames before this line were judged, nothing after it could be read"
+        )
+    return (
+        f"the compressed stream is corrupt ({exc}); the frames before this line were judged, "
+        "nothing after it could be read"
+    )
+
+
 def read_stream(
-    source: str | Path | IO, strict: bool = False, channels: list[str] | None = None
+    source: str | Path | IO,
+    strict: bool = False,
+    channels: list[str] | None = None,
+    period: float | None = None,
 ) -> StreamReader:
     """Open a frame stream: a path (gzip detected from its magic bytes), `-` for stdin, or an
-    open text/binary file. Nothing is read until you iterate."""
-    return StreamReader(source, strict=strict, channels=channels)
+    open text/binary file. Nothing is read until you iterate. `period` (seconds, normally the
+    case's `monitor.period`; else the header's) sets the `frame-spacing` check."""
+    return StreamReader(source, strict=strict, channels=channels, period=period)

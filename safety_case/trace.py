@@ -42,11 +42,16 @@ def parents(case: Case) -> dict[str, list[str]]:
 def traces_to_root(case: Case, node_id: str) -> list[list[tuple[str, str]]]:
     """Every path from `node_id` up to the root goal, each a list of (id, text), node first.
 
-    Raises KeyError for an id the case does not have. A node with no path to the root gets [].
+    Raises KeyError for an id the case does not have. A node with no path to the root gets [],
+    and so does every node of a case without a root goal (checks report that as CW035/CW036;
+    `casewatch check` still runs the formula checks on such a case, which ask for traces).
     """
     if node_id not in case.nodes:
         raise KeyError(f"no node {node_id!r} in {case.path}")
-    root = case.root_id()
+    try:
+        root = case.root_id()
+    except IndexError:
+        return []
     up = parents(case)
     paths: list[list[tuple[str, str]]] = []
 
