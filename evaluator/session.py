@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import datetime as dt
 import io
+import math
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
@@ -31,6 +32,7 @@ from evaluator.result import (
     Timings,
 )
 from monitor.engine import MetricEngine
+from monitor.frames import Coverage, Header
 from monitor.reader import StreamError, read_stream
 from safety_case.model import Case, NodeType
 from spec.model import CompiledSpec
@@ -108,6 +110,7 @@ def evaluate_stream(
                 if not period_checked:
                     period_checked = True
                     _check_period(reader, case, name)
+                    engine.coverage = channel_coverage(case, reader.header)
                 values = engine.step(frame)
                 t2 = time.perf_counter()
                 evaluator.step(frame.t, values)
@@ -216,6 +219,18 @@ def peak_rss_mib(pid: int | str = "self") -> float | None:
     except OSError:
         return None
     return None
+
+
+def channel_coverage(case: Case, header: Header | None) -> dict[str, Coverage]:
+    """What each channel can see: the case's `monitor.coverage` where it declares a channel,
+    else the stream header's `coverage`, else all-round (spi-reference "Channel coverage").
+    The case wins because it is the reviewed statement of the system under judgement."""
+    out = dict(header.coverage) if header is not None else {}
+    for channel, declared in case.monitor.coverage.items():
+        out[channel] = Coverage(
+            declared.fov_deg, math.inf if declared.range_m is None else declared.range_m
+        )
+    return {c: out.get(c, Coverage()) for c in case.monitor.channels}
 
 
 def _check_period(reader, case: Case, name: str) -> None:

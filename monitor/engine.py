@@ -10,16 +10,18 @@ absent for too long.
 from __future__ import annotations
 
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from itertools import combinations
 from time import perf_counter
 
 import numpy as np
 
-from monitor.comfort import MIN_POINTS, comfort_scores
-from monitor.frames import Frame
+from monitor.comfort import hcs, ppcs
+from monitor.coverage import common_view
+from monitor.frames import ChannelState, Coverage, Frame
 from monitor.history import PlanHistory, chpps_frame, els_var
 from monitor.prediction import ompv
+from monitor.resample import resample_objects, resample_plan
 from monitor.safety_score import arbitrate, safety_matrix
 from monitor.similarity import crpps_inputs, ego_similarities, ets, object_similarities
 from safety_case.model import MetricParams
@@ -33,7 +35,7 @@ from safety_case.signals import (
 )
 
 #: Metric families, as the benchmark reports them.
-FAMILIES = ("similarity", "motion_prediction", "comfort", "safety_score")
+FAMILIES = ("resampling", "similarity", "motion_prediction", "comfort", "safety_score")
 
 
 def _worst(values: list[float | None], use_max: bool) -> float | None:
@@ -65,31 +67,40 @@ class _Timed:
 
 
 class _PoseWindow:
-    """The last `size` ego poses (t, x, y, yaw) of a channel in one preallocated array, oldest
-    first, restarting like `_Timed` when a sample comes more than `max_gap` after the previous
-    one. The comfort kernel reads column views of it: no per-frame array building."""
+    """The ego positions (t, x, y) of a channel's last `span` seconds, oldest first, in one
+    growable array (rows `start:end`), restarting like `_Timed` when a sample comes more than
+    `max_gap` after the previous one. The comfort kernel reads column views of it: no
+    per-frame array building, whatever the frame rate."""
 
-    __slots__ = ("buf", "count", "max_gap")
+    __slots__ = ("buf", "end", "max_gap", "span", "start")
 
-    def __init__(self, size: int, max_gap: float):
-        self.buf = np.empty((size, 4))
-        self.count = 0
+    def __init__(self, span: float, max_gap: float, capacity: int = 64):
+        self.buf = np.empty((capacity, 3))
+        self.start = 0
+        self.end = 0
+        self.span = span
         self.max_gap = max_gap
 
-    def push(self, t: float, x: float, y: float, yaw: float) -> None:
+    def push(self, t: float, x: float, y: float) -> None:
         buf = self.buf
-        if self.count and t - buf[self.count - 1, 0] > self.max_gap + 1e-9:
-            self.count = 0
-        if self.count < len(buf):
-            buf[self.count] = (t, x, y, yaw)
-            self.count += 1
-        else:
-            buf[:-1] = buf[1:]  # numpy copies overlapping slices safely
-            buf[-1] = (t, x, y, yaw)
+        if self.end > self.start and t - buf[self.end - 1, 0] > self.max_gap + 1e-9:
+            self.start = self.end = 0
+        if self.end == len(buf):
+            live = buf[self.start : self.end].copy()
+            if len(live) * 2 > len(buf):
+                self.buf = buf = np.empty((2 * len(buf), 3))
+            buf[: len(live)] = live
+            self.start, self.end = 0, len(live)
+        buf[self.end] = (t, x, y)
+        self.end += 1
+        # keep the newest sample at or before t - span: it tells that the span is covered
+        cutoff = t - self.span - 1e-9
+        while self.end - self.start > 1 and buf[self.start + 1, 0] <= cutoff + 2e-9:
+            self.start += 1
 
-    @property
-    def full(self) -> bool:
-        return self.count == len(self.buf)
+    def window(self) -> np.ndarray:
+        """(n, 3) rows [t, x, y], oldest first (a view)."""
+        return self.buf[self.start : self.end]
 
 
 class MetricEngine:
@@ -101,11 +112,18 @@ class MetricEngine:
     float dict because the evaluator feeds that dict to STL.
     """
 
-    def __init__(self, params: MetricParams, channels: list[str]):
+    def __init__(
+        self,
+        params: MetricParams,
+        channels: list[str],
+        coverage: Mapping[str, Coverage] | None = None,
+    ):
         if len(set(channels)) != len(channels) or not channels:
             raise ValueError(f"channels must be a non-empty list of distinct names: {channels}")
         self.params = params
         self.channels = list(channels)
+        #: What each channel can see (spi-reference "Channel coverage"); all-round when absent.
+        self.coverage = {c: (coverage or {}).get(c, Coverage()) for c in self.channels}
         self.pairs = list(combinations(self.channels, 2))
         self.signal_names = list(builtin_signals(self.channels))
         self.last_arbitration: str | None = None
@@ -116,7 +134,7 @@ class MetricEngine:
         self._els = {pr: _Timed(p.els_window, p.max_gap) for pr in self.pairs}
         self._plans = PlanHistory(len(self.channels), p.plan_history, p.max_gap)
         self._objects = {c: _Timed(1, p.max_gap) for c in self.channels}
-        self._ego = {c: _PoseWindow(p.comfort_window, p.max_gap) for c in self.channels}
+        self._ego = {c: _PoseWindow(p.comfort_span, p.max_gap) for c in self.channels}
         #: crpps Fréchet inputs per pair of the current step (None: no value), see _similarity
         self._crpps_inputs: list[tuple[np.ndarray, np.ndarray] | None] = []
         # Signal names, built once: per pair {metric: name}, per channel {metric: name}.
@@ -137,7 +155,7 @@ class MetricEngine:
 
     def reset(self) -> None:
         """Forget all history (a new stream)."""
-        self.__init__(self.params, self.channels)  # type: ignore[misc]
+        self.__init__(self.params, self.channels, self.coverage)  # type: ignore[misc]
 
     def step(self, frame: Frame) -> dict[str, float | None]:
         if self.last_t is not None and frame.t <= self.last_t:
@@ -147,10 +165,13 @@ class MetricEngine:
             )
         self.last_t = frame.t
         out: dict[str, float | None] = dict.fromkeys(self.signal_names)
-        self._timed("similarity", self._similarity, frame, out)
-        self._timed("motion_prediction", self._motion_prediction, frame, out)
-        self._timed("comfort", self._comfort, frame, out)
-        self._timed("safety_score", self._safety, frame, out)
+        start = perf_counter()
+        states = self._resampled(frame)
+        self.timings["resampling"] = perf_counter() - start
+        self._timed("similarity", self._similarity, frame.t, states, out)
+        self._timed("motion_prediction", self._motion_prediction, frame.t, states, out)
+        self._timed("comfort", self._comfort, frame.t, states, out)
+        self._timed("safety_score", self._safety, frame.t, states, out)
         for key, val in frame.signals.items():
             if key not in out:
                 out[key] = val
@@ -159,19 +180,30 @@ class MetricEngine:
     def _timed(
         self,
         family: str,
-        fn: Callable[[Frame, dict[str, float | None]], None],
-        frame: Frame,
+        fn: Callable[[float, dict[str, ChannelState], dict[str, float | None]], None],
+        t: float,
+        states: dict[str, ChannelState],
         out: dict[str, float | None],
     ) -> None:
         start = perf_counter()
-        fn(frame, out)
+        fn(t, states, out)
         self.timings[family] = perf_counter() - start
+
+    def _resampled(self, frame: Frame) -> dict[str, ChannelState]:
+        """The frame's channels with plans and predictions on the canonical time grid
+        (spi-reference "Resampling"): every metric below reads these, never the raw samples."""
+        step = self.params.resample_step
+        return {
+            c: ChannelState(s.ego, resample_plan(s.plan, step), resample_objects(s.objects, step))
+            for c, s in frame.channels.items()
+        }
 
     # -- families -------------------------------------------------------------------------
 
-    def _similarity(self, frame: Frame, out: dict[str, float | None]) -> None:
+    def _similarity(
+        self, t: float, st: dict[str, ChannelState], out: dict[str, float | None]
+    ) -> None:
         p = self.params
-        st = frame.channels
         # crpps needs a Fréchet distance: its inputs wait for the motion family's GEOS call
         self._crpps_inputs = []
         per_pair: dict[str, list[float | None]] = {m: [] for m in PAIR_METRICS if m != "crpps"}
@@ -181,12 +213,15 @@ class MetricEngine:
             window = self._els[(a, b)]
             if sa is not None and sb is not None:
                 vals.update(ego_similarities(sa, sb))
-                vals.update(
-                    object_similarities(sa.objects, sb.objects, p.pairing_gate, p.trajectory_decay)
-                )
+                # spi-reference "Channel coverage": only objects both channels can see
+                oa, ob = common_view(
+                    sa.objects, sa.ego, self.coverage[a],
+                    sb.objects, sb.ego, self.coverage[b], p.coverage_margin,
+                )  # fmt: skip
+                vals.update(object_similarities(oa, ob, p.pairing_gate, p.trajectory_decay))
                 vals["ets"] = ets(sa.plan, sb.plan, p.trajectory_decay)
                 self._crpps_inputs.append(crpps_inputs(sa.plan, sb.plan))
-                window.push(frame.t, vals["els"])
+                window.push(t, vals["els"])
                 vals["els_var"] = els_var([v for _, v in window.items], p.els_window)
             else:
                 self._crpps_inputs.append(None)
@@ -212,9 +247,10 @@ class MetricEngine:
             mean = float(np.add.reduce(np.array(distances)) / len(distances))  # np.mean's sum
             out["crpps_mean"] = 1.0 / (1.0 + mean)
 
-    def _motion_prediction(self, frame: Frame, out: dict[str, float | None]) -> None:
+    def _motion_prediction(
+        self, t: float, states: dict[str, ChannelState], out: dict[str, float | None]
+    ) -> None:
         p = self.params
-        t = frame.t
         # chpps: every channel's plan joins its packed history first, then one compiled cut of
         # all channels' plan pairs and one GEOS call for them together with the crpps inputs
         # the similarity family left (so this family's timing includes crpps's Fréchet
@@ -222,7 +258,7 @@ class MetricEngine:
         plans = self._plans
         ompv_values: dict[str, float | None] = dict.fromkeys(self.channels)
         for i, c in enumerate(self.channels):
-            s = frame.channels.get(c)
+            s = states.get(c)
             if s is None:
                 continue
             if len(s.plan):
@@ -242,32 +278,27 @@ class MetricEngine:
                 out[self._channel_names[c][metric]] = v
             out[metric] = _worst(list(values.values()), False)
 
-    def _comfort(self, frame: Frame, out: dict[str, float | None]) -> None:
-        # hcs and ppcs of every channel in one batched computation (see comfort_scores).
-        series: list[tuple[np.ndarray, np.ndarray, np.ndarray | None]] = []
-        slots: list[str] = []
+    def _comfort(
+        self, t: float, states: dict[str, ChannelState], out: dict[str, float | None]
+    ) -> None:
+        p = self.params
         for c in self.channels:
-            s = frame.channels.get(c)
+            s = states.get(c)
             if s is None:
                 continue
-            hist = self._ego[c]
-            hist.push(frame.t, s.ego.x, s.ego.y, s.ego.yaw)
+            window = self._ego[c]
+            window.push(t, s.ego.x, s.ego.y)
+            rows = window.window()
             names = self._channel_names[c]
-            if hist.full:
-                buf = hist.buf
-                series.append((buf[:, 0], buf[:, 1:3], buf[:, 3]))
-                slots.append(names["hcs"])
-            if len(s.plan) >= MIN_POINTS:
-                series.append((s.plan[:, 0], s.plan[:, 1:3], None))
-                slots.append(names["ppcs"])
-        scores = comfort_scores(series, self.params.comfort_steepness)
-        for name, value in zip(slots, scores, strict=True):
-            out[name] = value
+            out[names["hcs"]] = hcs(rows[:, 0], rows[:, 1:3], p.comfort_span, p.comfort_steepness)
+            out[names["ppcs"]] = ppcs(s.plan, p.comfort_span, p.comfort_steepness)
         out["hcs"] = _worst([out[n] for n in self._hcs_names], False)
         out["ppcs"] = _worst([out[n] for n in self._ppcs_names], False)
 
-    def _safety(self, frame: Frame, out: dict[str, float | None]) -> None:
-        matrix = safety_matrix(self.channels, frame.channels, self.params.pet_ref)
+    def _safety(
+        self, t: float, states: dict[str, ChannelState], out: dict[str, float | None]
+    ) -> None:
+        matrix = safety_matrix(self.channels, states, self.params.pet_ref)
         per_channel: list[float | None] = []
         for ij, v in matrix.items():
             out[self._ss_names[ij]] = v

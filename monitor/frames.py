@@ -152,6 +152,22 @@ class Objects:
             n = np.where(empty, 1, n)
         return xy, n
 
+    def subset(self, keep: np.ndarray) -> Objects:
+        """The objects where the boolean mask `keep` (K,) is True, in their order."""
+        idx = np.flatnonzero(keep)
+        return Objects(
+            ids=[self.ids[i] for i in idx],
+            cls=[self.cls[i] for i in idx],
+            pos=self.pos[idx],
+            yaw=self.yaw[idx],
+            vel=self.vel[idx],
+            footprints=self.footprints[idx],
+            pred=self.pred[idx],
+            pred_len=self.pred_len[idx],
+            convex=self.convex[idx],
+            half=self.half[idx],
+        )
+
     @staticmethod
     def empty() -> Objects:
         return Objects(
@@ -187,6 +203,19 @@ class Frame:
     line: int = 0  # 1-based line of the stream it came from (0 = built in memory)
 
 
+@dataclass(frozen=True, slots=True)
+class Coverage:
+    """What a channel can see: a field of view of `fov_deg` degrees centred on its ego heading,
+    out to `range_m` metres. The default sees everything (a channel that declares nothing)."""
+
+    fov_deg: float = 360.0
+    range_m: float = float("inf")
+
+    @property
+    def all_round(self) -> bool:
+        return self.fov_deg >= 360.0 and self.range_m == float("inf")
+
+
 @dataclass(slots=True)
 class Header:
     """The optional first line of a stream."""
@@ -196,3 +225,5 @@ class Header:
     channels: list[str] = field(default_factory=list)
     period: float = 0.1
     meta: dict[str, Any] = field(default_factory=dict)
+    #: channel -> declared coverage (`"coverage"` in the header; channels not named: all-round)
+    coverage: dict[str, Coverage] = field(default_factory=dict)

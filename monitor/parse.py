@@ -18,6 +18,7 @@ from monitor.frames import (
     FORMAT_NAME,
     FORMAT_VERSION,
     ChannelState,
+    Coverage,
     Ego,
     Frame,
     Header,
@@ -433,5 +434,34 @@ def parse_header(obj: Any) -> Header:
     if not isinstance(meta, dict):
         raise FrameDefect("bad-header", "header.meta: expected an object")
     return Header(
-        format=fmt, version=version, channels=list(chans), period=float(period), meta=meta
+        format=fmt, version=version, channels=list(chans), period=float(period), meta=meta,
+        coverage=parse_coverage(h.get("coverage", {}), "header.coverage"),
     )
+
+
+def parse_coverage(v: Any, where: str) -> dict[str, Coverage]:
+    """`{"lav": {"fov_deg": 360, "range_m": 80}, ...}`: per channel, the field of view in
+    degrees (0 < fov <= 360, centred on the ego heading) and the range in metres (> 0); either
+    may be left out (all-round / unlimited)."""
+    if not isinstance(v, dict):
+        raise FrameDefect("bad-header", f"{where}: expected an object of channel -> coverage")
+    out: dict[str, Coverage] = {}
+    for channel, spec in v.items():
+        here = f"{where}.{channel}"
+        if not isinstance(spec, dict):
+            raise FrameDefect("bad-header", f"{here}: expected {{fov_deg, range_m}}")
+        unknown = set(spec) - {"fov_deg", "range_m"}
+        if unknown:
+            raise FrameDefect(
+                "bad-header", f"{here}: unknown key(s) {sorted(unknown)}; expected fov_deg, range_m"
+            )
+        fov = spec.get("fov_deg", 360.0)
+        rng = spec.get("range_m", math.inf)
+        if not _is_num(fov) or not 0 < fov <= 360:
+            raise FrameDefect(
+                "bad-header", f"{here}.fov_deg: expected 0 < degrees <= 360, got {fov!r}"
+            )
+        if not _is_num(rng) or not rng > 0 or math.isnan(rng):
+            raise FrameDefect("bad-header", f"{here}.range_m: expected metres > 0, got {rng!r}")
+        out[channel] = Coverage(float(fov), float(rng))
+    return out

@@ -156,11 +156,12 @@ def _object_kernel(
 ) -> tuple[float, float, float, float]:
     """(ols, oos, oas, ots) of two object sets, not both empty; all 0.0 when no pair forms.
 
-    Each object's prediction is its first `len` points of `pred[:, :, 1:3]`; no prediction
-    (length 0, or no prediction columns at all) is the single current position. A pair
-    compares its predictions over the longer of the two, the shorter padded by its last point
-    (spi-reference "ots"); `w` holds the weights k^(n-1), at least as many as the longest
-    prediction.
+    Each object's prediction is its first `len` points of `pred[:, :, 1:3]`, on the canonical
+    time grid (`monitor.resample`); no prediction (length 0, or no prediction columns at all)
+    is the object staying at its current position. A pair compares its predictions over the
+    horizon both cover (spi-reference "ots": a shorter horizon is not a disagreement); an
+    object without prediction stays put over the other's whole horizon. `w` holds the weights
+    k^(n-1), at least as many as the longest prediction.
     """
     ia, ib, dist = _pair_kernel(pos_a, pos_b, gate)
     n = ia.shape[0]
@@ -186,7 +187,8 @@ def _object_kernel(
         oas += lo / hi if hi > 0 else 1.0
         la = len_a[i] if cols_a > 0 else 0
         lb = len_b[j] if cols_b > 0 else 0
-        length = max(la, lb, 1)
+        # common horizon when both predict; a staying object is compared over the other's
+        length = min(la, lb) if la > 0 and lb > 0 else max(la, lb, 1)
         num = 0.0
         den = 0.0
         for p in range(length):
@@ -252,13 +254,28 @@ def _ets_kernel(plan_a: np.ndarray, plan_b: np.ndarray, w: np.ndarray) -> float:
     return num / den
 
 
+def common_range(plan_a: np.ndarray, plan_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The points of two plans on the same time grid (`monitor.resample`) inside the time
+    range both cover: equal-length slices whose rows have equal `dt`."""
+    lo = max(plan_a[0, 0], plan_b[0, 0]) - 1e-9
+    hi = min(plan_a[-1, 0], plan_b[-1, 0]) + 1e-9
+    ta, tb = plan_a[:, 0], plan_b[:, 0]
+    a = plan_a[np.searchsorted(ta, lo) : np.searchsorted(ta, hi, side="right")]
+    b = plan_b[np.searchsorted(tb, lo) : np.searchsorted(tb, hi, side="right")]
+    return a, b
+
+
 def ets(plan_a: np.ndarray, plan_b: np.ndarray, decay: float) -> float | None:
-    """Weighted point-wise similarity of the plans truncated to the shorter; None if one is
-    empty."""
-    n = min(len(plan_a), len(plan_b))
+    """Weighted point-wise similarity of two plans on the canonical time grid over the time
+    range both cover (spi-reference "ets"); None if a plan is empty or the ranges do not
+    overlap."""
+    if len(plan_a) == 0 or len(plan_b) == 0:
+        return None
+    a, b = common_range(plan_a, plan_b)
+    n = min(len(a), len(b))
     if n == 0:
         return None
-    return _ets_kernel(plan_a, plan_b, _weights(decay, n))
+    return _ets_kernel(a, b, _weights(decay, n))
 
 
 def frechet(p: np.ndarray, q: np.ndarray) -> float:
@@ -275,20 +292,21 @@ def frechet(p: np.ndarray, q: np.ndarray) -> float:
 
 @kernel
 def _crpps_kernel(plan_a: np.ndarray, plan_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The points of both plans with dt <= the common horizon (+1e-9), plan B translated so
-    its first kept point is plan A's first kept point (empty when a plan keeps nothing)."""
+    """The points of both plans inside their common time range (+-1e-9 s), plan B translated
+    so its first kept point is plan A's first kept point (empty when a plan keeps nothing)."""
     horizon = min(plan_a[-1, 0], plan_b[-1, 0]) + 1e-9
+    begin = max(plan_a[0, 0], plan_b[0, 0]) - 1e-9
     pa = np.empty((plan_a.shape[0], 2))
     pb = np.empty((plan_b.shape[0], 2))
     na = 0
     for i in range(plan_a.shape[0]):
-        if plan_a[i, 0] <= horizon:
+        if begin <= plan_a[i, 0] <= horizon:
             pa[na, 0] = plan_a[i, 1]
             pa[na, 1] = plan_a[i, 2]
             na += 1
     nb = 0
     for i in range(plan_b.shape[0]):
-        if plan_b[i, 0] <= horizon:
+        if begin <= plan_b[i, 0] <= horizon:
             pb[nb, 0] = plan_b[i, 1]
             pb[nb, 1] = plan_b[i, 2]
             nb += 1
@@ -307,10 +325,7 @@ def crpps_inputs(plan_a: np.ndarray, plan_b: np.ndarray) -> tuple[np.ndarray, np
         return None
     pa, pb = _crpps_kernel(plan_a, plan_b)
     if len(pa) == 0 or len(pb) == 0:
-        raise ValueError(
-            "crpps: a plan has no point within the common horizon "
-            f"(plan dt must start at or before {min(plan_a[-1, 0], plan_b[-1, 0])} s)"
-        )
+        return None  # the plans cover no common time: nothing to compare, no value
     return pa, pb
 
 

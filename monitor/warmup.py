@@ -37,9 +37,9 @@ def _channel(t: float, offset: float, ids: tuple[Any, Any]) -> dict[str, Any]:
     }  # fmt: skip
 
 
-def warm_up(frames: int = 12) -> None:
+def warm_up(frames: int = 35) -> None:
     """Step a throw-away engine over `frames` synthetic frames of two channels: enough for
-    every history (the comfort window is 10 positions) and so every kernel. Channel b's object
+    every history (the comfort fits need 3 s of positions) and so every kernel. Channel b's object
     ids change every frame, so ompv's nearest matching (a channel that does not track) runs."""
     engine = MetricEngine(MetricParams(), _CHANNELS)
     for k in range(frames):

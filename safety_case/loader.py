@@ -274,6 +274,7 @@ class _Builder:
             period=raw.period,
             signals=raw.signals,
             metrics=raw.metrics,
+            coverage=raw.coverage,
             merge_gap=raw.merge_gap,
             min_duration=raw.min_duration,
             mark=entry.key_mark,

@@ -44,9 +44,17 @@ class MetricParams(BaseModel):
     els_window: int = Field(5, ge=2, description="ticks in the ELS moving variance")
     plan_history: int = Field(10, ge=1, description="stored plans for chpps")
     prediction_tolerance: float = Field(1.0, gt=0, description="ompv hit radius [m]")
-    comfort_window: int = Field(10, ge=4, description="ego positions for hcs")
+    comfort_span: float = Field(
+        3.0, gt=0, description="time span [s] of the cubic fits behind hcs and ppcs"
+    )
     pet_ref: float = Field(2.0, gt=0, description="post-encroachment time reference [s]")
     max_gap: float = Field(0.5, gt=0, description="gap [s] after which history restarts")
+    resample_step: float = Field(
+        0.1, gt=0, description="step [s] of the time grid plans and predictions are resampled to"
+    )
+    coverage_margin: float = Field(
+        2.0, ge=0, description="objects this close [m] to a coverage edge are not compared"
+    )
 
 
 class Threshold(BaseModel):
@@ -113,6 +121,18 @@ class Module(BaseModel):
     brief: str = ""
 
 
+class ChannelCoverage(BaseModel):
+    """What one channel can see (`monitor.coverage.<channel>`): a field of view centred on its
+    ego heading and a range; the cross-channel object metrics compare only what both channels
+    of a pair can see (docs/spi-reference.md, "Channel coverage")."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    fov_deg: float = Field(360.0, gt=0, le=360, description="field of view [degrees]")
+    range_m: float | None = Field(
+        None, gt=0, le=1e5, description="sensing range [m]; none: unlimited"
+    )
+
+
 class MonitorConfig(BaseModel):
     """The `monitor:` block: what is observed and how often."""
 
@@ -121,6 +141,7 @@ class MonitorConfig(BaseModel):
     period: float = 0.1  # seconds
     signals: dict[str, str] = {}  # declared stream signals: name -> description
     metrics: MetricParams = MetricParams()
+    coverage: dict[str, ChannelCoverage] = {}  # channel -> what it can see (default: all)
     merge_gap: float = 1.0  # seconds; episodes closer than this merge
     min_duration: float = 0.0  # seconds; shorter episodes are dropped (and counted)
     mark: Mark = Mark()

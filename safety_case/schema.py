@@ -24,7 +24,7 @@ from pydantic import (
 )
 from pydantic_core import PydanticCustomError
 
-from safety_case.model import MetricParams, Threshold
+from safety_case.model import ChannelCoverage, MetricParams, Threshold
 from safety_case.signals import SEP, builtin_signals
 
 _NUMBER = r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?"
@@ -271,11 +271,19 @@ class RawMonitor(BaseModel):
     period: PositiveDuration = 0.1
     signals: Annotated[dict[str, StrictStr], BeforeValidator(_signals_to_dict)] = {}
     metrics: MetricParams = MetricParams()
+    coverage: dict[StrictStr, ChannelCoverage] = {}
     merge_gap: Duration = 1.0
     min_duration: Duration = 0.0
 
     @model_validator(mode="after")
     def _declared_names(self) -> RawMonitor:
+        for name in self.coverage:
+            if name not in self.channels:
+                raise PydanticCustomError(
+                    "coverage_channel",
+                    "coverage is declared for '{name}', which is not one of the channels {known}",
+                    {"name": name, "known": self.channels, "field": "coverage", "key": name},
+                )
         builtin = builtin_signals(self.channels)
         for index, name in enumerate(self.signals):
             if not DECLARED_SIGNAL_RE.match(name):

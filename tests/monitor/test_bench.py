@@ -30,6 +30,7 @@ def test_run_reports_every_family():
     assert set(rows) == {
         "similarity",
         "motion_prediction",
+        "resampling",
         "comfort",
         "safety_score",
         "all metrics",
@@ -42,7 +43,7 @@ def test_stream_run_measures_a_recorded_stream(tmp_path, capsys):
     path = tmp_path / "s.jsonl"
     path.write_text("\n".join(json.dumps(d) for d in reference_load_dicts(4, 1)) + "\n")
     rows = stream_run(str(path), limit=3)
-    assert set(rows) == {"similarity", "motion_prediction", "comfort", "safety_score",
+    assert set(rows) == {"resampling", "similarity", "motion_prediction", "comfort", "safety_score",
                          "all metrics"}  # fmt: skip
     assert all(r["p99"] >= r["p50"] > 0 and r["mean"] > 0 for r in rows.values())
     assert main(["--stream", str(path), "--frames", "0"]) == 0

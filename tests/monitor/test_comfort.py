@@ -1,4 +1,6 @@
-"""hcs and ppcs, hand-computed."""
+"""hcs and ppcs: hand-computed values, an independent reference, and the noise / manoeuvre
+behaviour spi-reference promises (0.12 m of localisation noise reads comfortable, a -6 m/s^2
+brake and a swerve do not)."""
 
 from __future__ import annotations
 
@@ -9,9 +11,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from monitor.comfort import comfort_score, comfort_scores, hcs, nv, ppcs
+from monitor.comfort import STILL_SPEED, hcs, nv, ppcs
+from monitor.resample import resample_plan
 
 W = 0.2
+SPAN = 3.0
+DT = 0.1
 
 
 def test_nv_symmetric_form():
@@ -21,138 +26,191 @@ def test_nv_symmetric_form():
     assert nv(-2.0, W) == nv(2.0, W)
 
 
-def test_hcs_constant_speed_is_one_and_constant_acceleration():
-    t = np.arange(10) * 0.1
-    yaw = np.full(10, 0.7)
+def window(n: int = 31, step: float = DT) -> np.ndarray:
+    return np.arange(n) * step
+
+
+def test_hcs_constant_speed_and_constant_acceleration():
+    t = window()
     u = np.array([math.cos(0.7), math.sin(0.7)])
-    xy = (5 * t)[:, None] * u
-    assert hcs(t, xy, yaw, 10, W) == pytest.approx(1.0)
-    # s = t^2 along the heading: a_lon = 2, a_lat = 0, jerk 0
+    assert hcs(t, (5 * t)[:, None] * u, SPAN, W) == pytest.approx(1.0, abs=1e-12)
+    # s = 10 t + t^2 along u: a_lon = 2, a_lat = 0, jerk 0 (a cubic fit is exact)
     # score = 1 - ((NV(2) + 0) / 2 + 0) / 2 = 1 - 0.197375 / 4 = 0.950656
-    xy = (t**2)[:, None] * u
-    assert hcs(t, xy, yaw, 10, W) == pytest.approx(1 - nv(2.0, W) / 4, abs=1e-9)
-    assert hcs(t, xy, yaw, 10, W) == pytest.approx(0.950656, abs=1e-6)
+    xy = (10 * t + t**2)[:, None] * u
+    assert hcs(t, xy, SPAN, W) == pytest.approx(1 - nv(2.0, W) / 4, abs=1e-9)
+    assert hcs(t, xy, SPAN, W) == pytest.approx(0.950656, abs=1e-6)
 
 
-def test_hcs_uses_the_channel_yaw_not_the_path():
-    t = np.arange(10) * 0.1
-    xy = np.column_stack([t**2, np.zeros(10)])  # a = 2 along +x
-    # heading +y: the acceleration is all lateral: 1 - ((0 + NV(2)) / 2 + NV(0)) / 2
-    # (a_lon = 0 everywhere, so j_lon = 0 too)
-    assert hcs(t, xy, np.full(10, math.pi / 2), 10, W) == pytest.approx(1 - nv(2.0, W) / 4)
+def test_hcs_cubic_motion_hand_computed():
+    # x = t^3 on [0, 3], centre 1.5: v = 3 * 2.25 = 6.75, a = 6 * 1.5 = 9 (longitudinal),
+    # jerk 6: score = 1 - (NV(9) / 2 + NV(6)) / 2
+    t = window()
+    xy = np.column_stack([t**3, np.zeros_like(t)])
+    assert hcs(t, xy, SPAN, W) == pytest.approx(1 - (nv(9.0, W) / 2 + nv(6.0, W)) / 2, abs=1e-9)
 
 
-def test_hcs_warm_up():
-    t = np.arange(9) * 0.1
-    assert hcs(t, np.zeros((9, 2)), np.zeros(9), 10, W) is None
+def test_hcs_reads_only_the_last_span_and_warms_up():
+    t = window(40)
+    xy = np.column_stack([10 * t, np.zeros_like(t)])
+    xy[:5] += 3.0  # a jump older than the span is forgotten
+    assert hcs(t, xy, SPAN, W) == pytest.approx(1.0, abs=1e-12)
+    assert hcs(t[:30], xy[:30], SPAN, W) is None  # 2.9 s of history: not yet a full span
+    assert hcs(t[:3], xy[:3], 0.2, W) is None  # three samples cannot fix a cubic
 
 
-def test_ppcs_circle_lateral_acceleration():
-    # 5 m/s on a 10 m radius circle: a_lat = v^2 / R = 2.5, a_lon = 0, jerk 0
-    # score = 1 - NV(2.5) / 4 = 1 - 0.244919 / 4 = 0.938770 (finite differences within 1e-4)
-    dt = np.arange(30) * 0.1
-    ang = 0.5 * dt
-    plan = np.column_stack([dt, 10 * np.cos(ang), 10 * np.sin(ang)])
-    assert ppcs(plan, W) == pytest.approx(1 - nv(2.5, W) / 4, abs=1e-4)
-    assert ppcs(plan, W) == pytest.approx(0.938770, abs=1e-4)
+def test_lateral_acceleration_on_a_circle():
+    # 10 m/s on a 40 m circle: a_lat = v^2 / R = 2.5, a_lon = 0, and the jerk vector turns with
+    # the velocity: |j| = v^3 / R^2 = 0.625. score = 1 - (NV(2.5) / 2 + NV(0.625)) / 2
+    # = 1 - (0.244919 / 2 + 0.062418) / 2 = 0.907561; the cubic fit's bias on a 0.75 rad arc
+    # stays within 1e-3 of it
+    want = 1 - (nv(2.5, W) / 2 + nv(0.625, W)) / 2
+    assert want == pytest.approx(0.907561, abs=1e-6)
+    t = window()
+    ang = 0.25 * t
+    xy = np.column_stack([40 * np.cos(ang), 40 * np.sin(ang)])
+    assert hcs(t, xy, SPAN, W) == pytest.approx(want, abs=1e-3)
+    plan = np.column_stack([np.arange(51) * DT, *(40 * f(0.25 * np.arange(51) * DT)
+                                                  for f in (np.cos, np.sin))])  # fmt: skip
+    assert ppcs(plan, SPAN, W) == pytest.approx(want, abs=1e-3)
 
 
-def test_ppcs_straight_and_too_short():
+def test_standstill_counts_the_whole_acceleration_as_longitudinal():
+    # starts from rest: |v| < STILL_SPEED at the centre, so a_lon = |a|, whatever the frame
+    t = window()
+    s = 0.05 * (t - 1.5) ** 2  # v = 0 at the centre, a = 0.1
+    for ang in (0.0, 1.0, 2.5):
+        xy = np.column_stack([s * math.cos(ang), s * math.sin(ang)])
+        assert hcs(t, xy, SPAN, W) == pytest.approx(1 - nv(0.1, W) / 4, abs=1e-9)
+    assert STILL_SPEED > 0
+
+
+def test_ppcs_short_plans():
     dt = np.arange(5) * 0.2
     plan = np.column_stack([dt, 3 * dt, -dt])
-    assert ppcs(plan, W) == pytest.approx(1.0)
-    assert ppcs(plan[:3], W) is None
+    assert ppcs(plan, SPAN, W) == pytest.approx(1.0)  # shorter than the span: one whole fit
+    assert ppcs(plan[:3], SPAN, W) is None  # three points cannot fix a cubic
 
 
-def test_jerk_counts():
-    # x = t^3: v = 3t^2, a = 6t, jerk 6 (finite differences on a uniform grid: exact jerk 6)
-    t = np.arange(6) * 0.1
-    xy = np.column_stack([t**3, np.zeros(6)])
-    got = comfort_score(t, xy, np.zeros(6), W)
-    # peak |a_lon| = 6 * t at the last acceleration sample (t = 0.4) -> 2.4
-    a_peak = 6 * 0.4
-    assert got == pytest.approx(1 - (nv(a_peak, W) / 2 + nv(6.0, W)) / 2, abs=1e-6)
-
-
-@st.composite
-def comfort_series(draw):
-    """A (times, xy, yaw or None) series: 2 to 12 samples on an irregular increasing grid,
-    sometimes standing still (an undefined plan tangent)."""
-    n = draw(st.integers(2, 12))
-    t0 = draw(st.floats(-5, 100))
-    steps = draw(st.lists(st.floats(0.05, 0.3), min_size=n - 1, max_size=n - 1))
-    times = t0 + np.concatenate([[0.0], np.cumsum(steps)])
-    # smooth motion: a velocity that changes by up to 3 m/s per step
-    v0 = np.array([draw(st.floats(-20, 20)), draw(st.floats(-20, 20))])
-    dv = st.tuples(st.floats(-3, 3), st.floats(-3, 3))
-    vel = v0 + np.cumsum(np.array(draw(st.lists(dv, min_size=n, max_size=n))), axis=0)
-    xy = draw(st.floats(-100, 100)) + np.cumsum(vel * np.append(steps, 0.1)[:, None], axis=0)
-    if draw(st.booleans()):
-        xy[: n // 2] = xy[0]  # stands still first
-    yaw = np.array(draw(st.lists(st.floats(-4, 4), min_size=n, max_size=n)))
-    return times, xy, yaw if draw(st.booleans()) else None
-
-
-@settings(max_examples=80, deadline=None)
-@given(st.lists(comfort_series(), min_size=1, max_size=5))
-def test_batched_scores_equal_one_at_a_time(series):
-    """The engine scores every hcs and ppcs series of a frame in one call; each value must be
-    the single-series score (None below four samples)."""
-    w = 0.02  # a gentle steepness keeps NV away from saturation: peaks stay distinguishable
-    got = comfort_scores(series, w)
-    for (times, xy, yaw), value in zip(series, got, strict=True):
-        want = comfort_score(times, xy, yaw, w)
-        if want is None:
-            assert value is None
+def numpy_reference(times: np.ndarray, xy: np.ndarray, centres: np.ndarray, half: float,
+                    steepness: float) -> float:
+    """Independent formulation: np.polyfit per centre, derivatives of the polynomial."""
+    peaks = np.zeros(3)
+    for c in centres:
+        sel = np.abs(times - c) <= half + 1e-9
+        px = np.polyfit(times[sel] - c, xy[sel, 0], 3)
+        py = np.polyfit(times[sel] - c, xy[sel, 1], 3)
+        v = np.array([px[2], py[2]])
+        a = 2 * np.array([px[1], py[1]])
+        j = 6 * np.array([px[0], py[0]])
+        speed = np.hypot(*v)
+        if speed >= STILL_SPEED:
+            u = v / speed
+            lon, lat = a @ u, -a[0] * u[1] + a[1] * u[0]
         else:
-            assert value == pytest.approx(want, abs=1e-12)
-
-
-def reference_score(
-    times: np.ndarray, xy: np.ndarray, yaw: np.ndarray | None, steepness: float
-) -> float | None:
-    """Independent numpy formulation of spi-reference comfort (the pre-kernel code): world-frame
-    differences, acceleration rotated onto the heading (yaw, else the chord tangent; no tangent:
-    all longitudinal), jerk of a_lon, peaks through NV."""
-    if len(times) < 4:
-        return None
-    vel = np.diff(xy, axis=0) / np.diff(times)[:, None]
-    tm = 0.5 * (times[1:] + times[:-1])
-    acc = np.diff(vel, axis=0) / np.diff(tm)[:, None]
-    if yaw is not None:
-        ux, uy = np.cos(yaw[1:-1]), np.sin(yaw[1:-1])
-        ok = np.ones(len(acc), dtype=bool)
-    else:
-        chord = xy[2:] - xy[:-2]
-        norm = np.hypot(chord[:, 0], chord[:, 1])
-        ok = norm > 1e-12
-        safe = np.where(ok, norm, 1.0)
-        ux, uy = chord[:, 0] / safe, chord[:, 1] / safe
-    a_lon = np.where(ok, acc[:, 0] * ux + acc[:, 1] * uy, np.hypot(acc[:, 0], acc[:, 1]))
-    a_lat = np.where(ok, -acc[:, 0] * uy + acc[:, 1] * ux, 0.0)
-    j_lon = np.diff(a_lon) / np.diff(times[1:-1])
-    peaks = [np.max(np.abs(a_lon)), np.max(np.abs(a_lat)), np.max(np.abs(j_lon))]
+            lon, lat = np.hypot(*a), 0.0
+        peaks = np.maximum(peaks, [abs(lon), abs(lat), np.hypot(*j)])
     v = [2.0 / (1.0 + math.exp(-steepness * p)) - 1.0 for p in peaks]
     return 1.0 - ((v[0] + v[1]) / 2 + v[2]) / 2
 
 
-@settings(max_examples=120, deadline=None)
-@given(comfort_series(), st.sampled_from([0.02, 0.3, 1.0]))
-def test_kernel_equals_numpy_reference(series, steepness):
-    """The compiled kernel against the numpy formulation, on random irregular series."""
-    times, xy, yaw = series
-    want = reference_score(times, xy, yaw, steepness)
-    got = comfort_score(times, xy, yaw, steepness)
-    if want is None:
-        assert got is None
-    else:
-        assert got == pytest.approx(want, abs=1e-9)
+@settings(max_examples=80, deadline=None)
+@given(
+    st.lists(st.floats(0.02, 0.3), min_size=12, max_size=60),
+    st.tuples(st.floats(-20, 20), st.floats(-20, 20)),
+    st.tuples(st.floats(-3, 3), st.floats(-3, 3)),
+    st.integers(0, 2**32 - 1),
+)
+def test_kernel_equals_numpy_reference(steps, v0, acc, seed):
+    """hcs and ppcs against np.polyfit on random irregular series with noise."""
+    times = np.concatenate([[0.0], np.cumsum(steps)])
+    rng = np.random.default_rng(seed)
+    xy = (np.outer(times, v0) + 0.5 * np.outer(times**2, acc)
+          + rng.normal(0.0, 0.1, (len(times), 2)))  # fmt: skip
+    span = times[-1] - times[0]
+    if span < 0.5 or np.sum(np.abs(times - span / 2) <= span / 2 + 1e-9) < 4:
+        return
+    want = numpy_reference(times, xy, np.array([times[-1] - span / 2]), span / 2, W)
+    assert hcs(times, xy, span, W) == pytest.approx(want, abs=1e-7)
 
 
-def test_kernel_accepts_strided_engine_views():
-    """The engine passes column views of one (n, 4) history array: non-contiguous inputs."""
-    t = np.arange(6) * 0.1
-    arr = np.column_stack([t, t**3, 0.5 * t**2, np.full(6, 0.3)])
-    got = comfort_scores([(arr[:, 0], arr[:, 1:3], arr[:, 3]), (arr[:, 0], arr[:, 1:3], None)], W)
-    assert got[0] == pytest.approx(reference_score(t, arr[:, 1:3].copy(), arr[:, 3].copy(), W))
-    assert got[1] == pytest.approx(reference_score(t, arr[:, 1:3].copy(), None, W))
+def ar1(rng: np.random.Generator, n: int, sigma: float, phi: float) -> np.ndarray:
+    e = np.empty(n)
+    e[0] = rng.normal(0.0, sigma)
+    w = rng.normal(0.0, sigma * math.sqrt(1 - phi**2), n)
+    for k in range(1, n):
+        e[k] = phi * e[k - 1] + w[k]
+    return e
+
+
+def rolling_hcs(t: np.ndarray, xy: np.ndarray) -> np.ndarray:
+    n = round(SPAN / DT) + 1
+    return np.array([hcs(t[i - n + 1 : i + 1], xy[i - n + 1 : i + 1], SPAN, W)
+                     for i in range(n - 1, len(t))])  # fmt: skip
+
+
+@pytest.mark.parametrize("speed", [0.0, 13.9, 33.3])
+@pytest.mark.parametrize("phi", [0.3, 0.6, 0.9])
+def test_localisation_noise_reads_comfortable(speed, phi):
+    """A stationary or constant-speed ego with 0.12 m of AR(1) noise per axis (more than the
+    0.1 m the issue names) stays above the 0.8 threshold on every tick of 60 s."""
+    rng = np.random.default_rng(round(speed * 10 + phi * 100))
+    t = np.arange(601) * DT
+    xy = np.column_stack([speed * t + ar1(rng, len(t), 0.12, phi), ar1(rng, len(t), 0.12, phi)])
+    assert rolling_hcs(t, xy).min() > 0.85
+
+
+def brake(t: np.ndarray, decel: float, ramp: float = 0.5, v0: float = 25.0) -> np.ndarray:
+    """Distance along a straight road: cruise, then brake at `decel` (reached in `ramp` s) to
+    a stop at t = 10 s."""
+    a = np.where(t < 10.0, 0.0, np.maximum(decel, decel * (t - 10.0) / ramp))
+    v = np.maximum(v0 + np.cumsum(a) * DT, 0.0)
+    return np.cumsum(v) * DT
+
+
+def test_harsh_brake_reads_uncomfortable_through_noise():
+    rng = np.random.default_rng(7)
+    t = np.arange(301) * DT
+    noise = np.column_stack([ar1(rng, len(t), 0.12, 0.6), ar1(rng, len(t), 0.12, 0.6)])
+    scores = rolling_hcs(t, np.column_stack([brake(t, -6.0), np.zeros_like(t)]) + noise)
+    assert scores.min() < 0.75
+    assert (scores < 0.8).sum() >= 10  # a second or more of violation, not a blip
+
+
+def lane_change(t: np.ndarray, duration: float, speed: float = 30.0) -> np.ndarray:
+    """3.5 m to the left in `duration` s from t = 10 s, lateral acceleration a full sine."""
+    s = np.clip((t - 10.0) / duration, 0.0, 1.0)
+    y = 3.5 * (s - np.sin(2 * np.pi * s) / (2 * np.pi))
+    return np.column_stack([speed * t, y])
+
+
+def test_swerve_reads_uncomfortable_and_a_lane_change_does_not():
+    rng = np.random.default_rng(11)
+    t = np.arange(301) * DT
+    noise = np.column_stack([ar1(rng, len(t), 0.12, 0.6), ar1(rng, len(t), 0.12, 0.6)])
+    swerve = rolling_hcs(t, lane_change(t, 1.5) + noise)
+    assert swerve.min() < 0.8
+    relaxed = rolling_hcs(t, lane_change(t, 4.0) + noise)
+    assert relaxed.min() > 0.8
+
+
+def path(times: np.ndarray) -> np.ndarray:
+    """A braking left turn: speed 15 - 1.5 t, curvature growing with t."""
+    s = 15 * times - 0.75 * times**2
+    heading = 0.002 * s**1.5
+    ds = np.gradient(s)
+    x = np.cumsum(np.cos(heading) * ds)
+    y = np.cumsum(np.sin(heading) * ds)
+    return np.column_stack([times, x - x[0], y - y[0]])
+
+
+def test_ppcs_is_sampling_invariant():
+    """The same planned motion sampled every 0.1 s, every 0.5 s and every metre reads the same
+    ppcs within 0.01 once resampled onto the canonical grid."""
+    fine = path(np.linspace(0.0, 5.0, 5001))
+    by_time = {step: fine[:: round(step / 0.001)] for step in (0.1, 0.5)}
+    dist = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(fine[:, 1:], axis=0).T))])
+    marks = np.searchsorted(dist, np.arange(0.0, dist[-1], 1.0))
+    by_distance = fine[np.unique(np.append(marks, len(fine) - 1))]
+    values = [ppcs(resample_plan(p, DT), SPAN, W) for p in (*by_time.values(), by_distance)]
+    assert max(values) - min(values) < 0.01
+    assert values[0] < 0.95  # the manoeuvre is there to be measured
