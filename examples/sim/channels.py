@@ -18,12 +18,17 @@ disagree with each other, which the time-based metrics (ompv, chpps, hcs, ppcs) 
   in short runs (`miss_len` ticks), ghosts live a fraction of a second, track ids rarely switch.
   Objects are reported in the channel's own world frame, so its localisation error shifts them.
 - Predictions: constant velocity from the tracked velocity vector, `prediction_points` points
-  from `prediction_step` to `prediction_points * prediction_step` seconds. Both channels use the
-  same points (ots compares them index by index) and cover at least their plan horizon (an object
-  whose prediction has ended "stays at its last point" in the safety score).
+  from `prediction_step` to `prediction_points * prediction_step` seconds. The LAV/TFUSE pair use
+  the same points (ots compares them index by index) and cover at least their plan horizon (an
+  object whose prediction has ended "stays at its last point" in the safety score). The
+  real-stack pair does neither, as real stacks do not (`plan_beyond_prediction`).
 - Plan: the ego's smoothed true future path over the channel's horizon, shifted by the channel's
   localisation error and distorted by a lateral and a longitudinal offset that grow with the
   square of the look-ahead time and vary slowly in time (second-order low-pass processes).
+  Built on the 0.1 s simulation grid, then sampled: every `plan_step` seconds
+  (`plan_sampling="time"`), or every `plan_spacing` metres of arc length along the plan with each
+  point's dt the time the ego reaches it (`plan_sampling="distance"`, as Autoware resamples its
+  trajectories), see `resample_by_distance`.
 
 The per-tick work is vectorised over vehicles and plan/prediction points with numpy; the random
 processes are drawn for the whole run when the model is built, so a tick's report does not
@@ -33,8 +38,8 @@ depend on which ticks were asked for before (apart from the track-id bookkeeping
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from dataclasses import asdict, dataclass, fields
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
@@ -97,6 +102,46 @@ class ChannelParams:
     prediction_points: int = 30
     prediction_step: float = 0.1
     loc_jitter_period: tuple[float, float] = (3.0, 10.0)
+    # Added with the real-stack profiles (`ADDED_FIELDS`). Their defaults are the original model,
+    # so LAV and TFUSE (and the streams made with them) are unchanged.
+    profile: str = ""  # profile name, written to the header meta ("" = the original LAV/TFUSE)
+    plan_sampling: Literal["time", "distance"] = "time"
+    plan_step: float = 0.1  # s between plan points when sampled by time (a multiple of 0.1 s)
+    plan_spacing: float = 1.0  # m of arc length between plan points when sampled by distance
+    # "smooth": loc_sigma is the std of a smooth jitter (sinusoids, periods loc_jitter_period);
+    # "ar1": loc_sigma is the stationary std per axis of an AR(1) error with lag-1 correlation
+    # loc_phi at 0.1 s, and loc_yaw_sigma that of an AR(1) heading error with the same loc_phi
+    # (the drift, loc_drift, is added in both models)
+    loc_noise: Literal["smooth", "ar1"] = "smooth"
+    loc_phi: float = 0.0
+    # allow a plan horizon longer than the predictions (real stacks do; objects then "stay at
+    # their last point" in the safety score for the remaining plan seconds)
+    plan_beyond_prediction: bool = False
+
+    def meta(self) -> dict[str, Any]:
+        """Every parameter, for the stream header. A profile whose added fields all hold their
+        defaults (the original LAV/TFUSE model) is written without them, as before they
+        existed, so the streams made with it stay byte-identical."""
+        out = asdict(self)
+        if all(out[k] == _DEFAULTS[k] for k in ADDED_FIELDS):
+            for k in ADDED_FIELDS:
+                del out[k]
+        return out
+
+    @property
+    def original(self) -> bool:
+        """True for the original channel model (every added field at its default)."""
+        return all(getattr(self, k) == _DEFAULTS[k] for k in ADDED_FIELDS)
+
+    def coverage(self) -> dict[str, float]:
+        """The sensing coverage written to the header's `coverage` key."""
+        return {"fov_deg": float(self.fov_deg), "range_m": float(self.range_m)}
+
+
+#: ChannelParams fields added after the first bundled data set (see `ChannelParams.meta`).
+ADDED_FIELDS = ("profile", "plan_sampling", "plan_step", "plan_spacing", "loc_noise", "loc_phi",
+                "plan_beyond_prediction")
+_DEFAULTS = {f.name: f.default for f in fields(ChannelParams) if f.name in ADDED_FIELDS}
 
 
 #: The all-round channel (the study's LAV stack: 360-degree LiDAR perception).
@@ -119,6 +164,61 @@ TFUSE = ChannelParams(
     loc_drift_period=(15.0, 45.0), loc_yaw_sigma=0.006, ego_speed_sigma=0.08, plan_horizon=2.5,
     plan_lateral=0.20, plan_longitudinal=0.30, plan_tau=4.0, loc_jitter_period=(3.0, 8.0),
 )
+
+
+#: Real-stack profile with 360-degree LiDAR perception (reported as channel `lav`): long range,
+#: a plan resampled every metre along the path over 5 s (Autoware-like), predictions of 4 s at
+#: 0.5 s, an unsmoothed AR(1) localisation error of 6 cm per axis (lag-1 correlation 0.7 at
+#: 0.1 s, i.e. a correlation time of -0.1 / ln 0.7 = 0.28 s: scan matching at 10 Hz fused with
+#: odometry) and no slow drift.
+LIDAR_STACK = ChannelParams(
+    name="lav", seed=303, range_m=80.0, fov_deg=360.0, pos_sigma=0.06, pos_range_growth=0.8,
+    pos_white=0.02, yaw_sigma=0.01, speed_sigma=0.10, lat_speed_sigma=0.04, size_sigma=0.04,
+    track_tau=0.8, p_miss=0.02, miss_len=3.0, ghost_rate=0.03, ghost_life=(0.3, 1.0),
+    p_id_switch=0.001, track_timeout=1.0, loc_sigma=0.06, loc_drift=0.0,
+    loc_drift_period=(20.0, 60.0), loc_yaw_sigma=0.003, ego_speed_sigma=0.05, plan_horizon=5.0,
+    plan_lateral=0.30, plan_longitudinal=0.50, plan_tau=5.0, prediction_points=8,
+    prediction_step=0.5, profile="LIDAR_STACK", plan_sampling="distance", plan_spacing=1.0,
+    loc_noise="ar1", loc_phi=0.7, plan_beyond_prediction=True,
+)
+
+#: Real-stack profile with forward camera perception (reported as channel `tfuse`): 120-degree
+#: field of view (blind behind and to the sides), 70 m, depth error growing strongly with range,
+#: a plan every 0.5 s over 3 s, predictions of 2.5 s at 0.1 s, an unsmoothed AR(1) localisation
+#: error of 12 cm per axis (lag-1 correlation 0.6 at 0.1 s, correlation time 0.20 s: visual
+#: odometry and GNSS) and no slow drift.
+CAMERA_STACK = ChannelParams(
+    name="tfuse", seed=404, range_m=70.0, fov_deg=120.0, pos_sigma=0.08, pos_range_growth=1.5,
+    pos_white=0.04, yaw_sigma=0.02, speed_sigma=0.15, lat_speed_sigma=0.06, size_sigma=0.08,
+    track_tau=0.6, p_miss=0.03, miss_len=3.0, ghost_rate=0.05, ghost_life=(0.2, 0.8),
+    p_id_switch=0.002, track_timeout=0.5, loc_sigma=0.12, loc_drift=0.0,
+    loc_drift_period=(15.0, 45.0), loc_yaw_sigma=0.005, ego_speed_sigma=0.08, plan_horizon=3.0,
+    plan_lateral=0.20, plan_longitudinal=0.30, plan_tau=4.0, prediction_points=25,
+    prediction_step=0.1, profile="CAMERA_STACK", plan_sampling="time", plan_step=0.5,
+    loc_noise="ar1", loc_phi=0.6, plan_beyond_prediction=True,
+)
+
+#: Every named profile, by profile name.
+PROFILES: dict[str, ChannelParams] = {
+    "LAV": LAV, "TFUSE": TFUSE, "LIDAR_STACK": LIDAR_STACK, "CAMERA_STACK": CAMERA_STACK,
+}
+
+
+def ar1_noise(
+    rng: np.random.Generator, n: int, sigma: float, phi: float, shape: tuple[int, ...] = (),
+) -> np.ndarray:
+    """(n, *shape) zero-mean AR(1) noise x_k = phi x_(k-1) + sqrt(1 - phi^2) sigma w_k with
+    white w, started in its stationary state (x_0 ~ N(0, sigma^2)): standard deviation `sigma`
+    and lag-1 correlation `phi` at every tick."""
+    white = rng.standard_normal((n, *shape))
+    out = np.empty((n, *shape))
+    if n == 0:
+        return out
+    gain = math.sqrt(1.0 - phi * phi)
+    out[0] = white[0]
+    for k in range(1, n):
+        out[k] = phi * out[k - 1] + gain * white[k]
+    return sigma * out
 
 
 def smooth_process(
@@ -240,10 +340,18 @@ def localize(
     gt: GroundTruth, params: ChannelParams, faults: tuple[LocalizationFault, ...], seed: int,
     motion: EgoMotion | None = None,
 ) -> Localization:
-    """The channel's ego pose over the whole run: path + smooth jitter + drift + faults."""
+    """The channel's ego pose over the whole run: path + jitter + drift + faults. The jitter is
+    smooth (`loc_noise="smooth"`) or an unsmoothed AR(1) error (`"ar1"`)."""
     rng = np.random.default_rng([seed, params.seed, 1])
     m = motion if motion is not None else ego_motion(gt)
     t = gt.times
+    if params.loc_noise == "ar1":
+        noise = ar1_noise(rng, len(t), params.loc_sigma, params.loc_phi, (2,))
+        drift = np.stack([smooth_process(rng, t, params.loc_drift, params.loc_drift_period)
+                          for _ in range(2)], axis=1)
+        offset = noise + drift + fault_offsets(rng, t, faults, params.name)
+        yaw = m.yaw + ar1_noise(rng, len(t), params.loc_yaw_sigma, params.loc_phi)
+        return Localization(m.x + offset[:, 0], m.y + offset[:, 1], yaw, offset)
     drift = np.stack([smooth_process(rng, t, params.loc_drift, params.loc_drift_period)
                       for _ in range(2)], axis=1)
     # a fused localisation is smooth at 10 Hz: its error is correlated from tick to tick, not
@@ -268,6 +376,29 @@ def true_plan_points(
     idx = idx[idx < len(gt.times)]
     dt = gt.times[idx] - gt.times[tick]
     return np.column_stack([dt, m.x[idx], m.y[idx]])
+
+
+def resample_by_distance(pts: np.ndarray, spacing: float) -> np.ndarray:
+    """Resample a (N, 3) [dt, x, y] plan every `spacing` metres of arc length from its first
+    point; each new point's dt is the time at which the plan reaches it (linear between the
+    input points), so dt is non-uniform when the speed varies. The points run up to the arc
+    length the plan covers, so the last one lies within `spacing` of the plan's end.
+
+    Standstill decision: when the plan covers less than one `spacing`, the result is its first
+    and last point, [0, x0, y0] and [H, xH, yH]: "stay (or creep) for the whole horizon". A plan
+    always has at least two points, and its last dt is then the horizon.
+    """
+    seg = np.hypot(np.diff(pts[:, 1]), np.diff(pts[:, 2]))
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    n = math.floor(s[-1] / spacing + 1e-9) + 1
+    if n < 2 or len(pts) < 2:
+        return pts[[0, -1]].copy()
+    target = spacing * np.arange(n)
+    j = np.clip(np.searchsorted(s, target, side="left"), 1, len(s) - 1)
+    s0, s1 = s[j - 1], s[j]
+    length = s1 - s0
+    w = np.where(length > 0.0, (target - s0) / np.where(length > 0.0, length, 1.0), 0.0)
+    return pts[j - 1] + w[:, None] * (pts[j] - pts[j - 1])
 
 
 def markov_misses(
@@ -297,12 +428,26 @@ class ChannelModel:
     ) -> None:
         p = params
         horizon = p.prediction_points * p.prediction_step
-        if p.plan_horizon > horizon + 1e-9:
+        if p.plan_horizon > horizon + 1e-9 and not p.plan_beyond_prediction:
             raise ValueError(
                 f"channel {p.name}: plan horizon {p.plan_horizon} s is longer than its "
                 f"predictions ({horizon:g} s); objects would stop at the end of their "
                 "prediction and stand in the plan's way"
             )
+        sim_step = float(gt.times[1] - gt.times[0]) if len(gt.times) > 1 else 0.1
+        self.plan_every = round(p.plan_step / sim_step)
+        if p.plan_sampling == "time" and (
+            self.plan_every < 1 or abs(self.plan_every * sim_step - p.plan_step) > 1e-9
+            or abs(p.plan_horizon / p.plan_step - round(p.plan_horizon / p.plan_step)) > 1e-9
+        ):
+            raise ValueError(
+                f"channel {p.name}: plan_step {p.plan_step} s must be a multiple of the "
+                f"simulation step {sim_step:g} s and divide the plan horizon {p.plan_horizon} s"
+            )
+        if p.plan_sampling == "distance" and not p.plan_spacing > 0.0:
+            raise ValueError(f"channel {p.name}: plan_spacing must be positive")
+        if p.loc_noise == "ar1" and not 0.0 <= p.loc_phi < 1.0:
+            raise ValueError(f"channel {p.name}: loc_phi must lie in [0, 1)")
         self.gt = gt
         self.p = p
         self.motion = ego_motion(gt)
@@ -346,7 +491,8 @@ class ChannelModel:
 
     def plan(self, tick: int) -> np.ndarray:
         """(N, 3) plan: the physical future path, offset along and across itself by amounts that
-        grow with (dt / H)^2, shifted by the localisation error."""
+        grow with (dt / H)^2, shifted by the localisation error; built on the 0.1 s grid, then
+        sampled by time (every `plan_step` s) or by distance (every `plan_spacing` m)."""
         m = self.motion
         pts = true_plan_points(self.gt, tick, self.p.plan_horizon, 0.1, m)
         idx = tick + np.arange(len(pts))
@@ -357,6 +503,10 @@ class ChannelModel:
         lat = scale * self.plan_lat[tick] * frac
         pts[:, 1] += lon * np.cos(yaw) - lat * np.sin(yaw) + self.loc.offset[tick, 0]
         pts[:, 2] += lon * np.sin(yaw) + lat * np.cos(yaw) + self.loc.offset[tick, 1]
+        if self.p.plan_sampling == "distance":
+            return resample_by_distance(pts, self.p.plan_spacing)
+        if self.plan_every > 1:
+            return pts[:: self.plan_every]
         return pts
 
     def objects(self, tick: int) -> list[dict[str, Any]]:

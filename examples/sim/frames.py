@@ -35,24 +35,30 @@ def _num(v: float) -> float | None:
 
 
 def header(sc: Scenario) -> dict[str, Any]:
-    """The stream's header line: format, channels, period, and the generator parameters."""
-    return {"header": {
+    """The stream's header line: format, channels, period, the channels' sensing `coverage`
+    (field of view centred on the ego heading, range; written only when a channel uses a
+    profile newer than the original LAV/TFUSE, so the first bundled streams stay byte-identical)
+    and the generator parameters."""
+    head: dict[str, Any] = {
         "format": FORMAT, "version": VERSION, "channels": [c.name for c in sc.channels],
         "period": STEP,
-        "meta": {
-            "scenario": sc.name, "seed": sc.seed, "description": sc.description,
-            "generator": "examples.sim (Eclipse SUMO via libsumo)", "network": sc.network,
-            "duration": sc.duration,
-            "channel_params": {c.name: asdict(c) for c in sc.channels},
-            "faults": [asdict(f) for f in sc.faults],
-            # the channels see SUMO's ego path through this Gaussian low-pass (s); SUMO's lane
-            # changes take this long (s)
-            "ego_smoothing": EGO_SMOOTHING, "lane_change_duration": LANE_CHANGE_DURATION,
-            "labels": {"time_gap_threshold": lab.TIME_GAP_THRESHOLD,
-                       "min_speed": lab.MIN_SPEED, "min_duration": lab.MIN_DURATION,
-                       "merge_gap": lab.MERGE_GAP},
-        },
-    }}
+    }
+    if not all(c.original for c in sc.channels):
+        head["coverage"] = {c.name: c.coverage() for c in sc.channels}
+    head["meta"] = {
+        "scenario": sc.name, "seed": sc.seed, "description": sc.description,
+        "generator": "examples.sim (Eclipse SUMO via libsumo)", "network": sc.network,
+        "duration": sc.duration,
+        "channel_params": {c.name: c.meta() for c in sc.channels},
+        "faults": [asdict(f) for f in sc.faults],
+        # the channels see SUMO's ego path through this Gaussian low-pass (s); SUMO's lane
+        # changes take this long (s)
+        "ego_smoothing": EGO_SMOOTHING, "lane_change_duration": LANE_CHANGE_DURATION,
+        "labels": {"time_gap_threshold": lab.TIME_GAP_THRESHOLD,
+                   "min_speed": lab.MIN_SPEED, "min_duration": lab.MIN_DURATION,
+                   "merge_gap": lab.MERGE_GAP},
+    }
+    return {"header": head}
 
 
 def frames(sc: Scenario, gt: GroundTruth) -> Iterator[dict[str, Any]]:

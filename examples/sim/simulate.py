@@ -21,7 +21,14 @@ from pathlib import Path
 
 import numpy as np
 
-from examples.sim.networks import GridSpec, HighwaySpec, build_grid, build_highway
+from examples.sim.networks import (
+    GridSpec,
+    HighwaySpec,
+    MergeSpec,
+    build_grid,
+    build_highway,
+    build_merge,
+)
 from examples.sim.scenarios import Scenario, VehicleSpec
 
 STEP = 0.1
@@ -100,7 +107,7 @@ def sumo_to_centre(
 
 def _vehicle_xml(v: VehicleSpec, route_id: str, ssm_file: Path | None) -> str:
     attrs = (
-        f'id="{v.id}" type="{v.vtype}" route="{route_id}" depart="0" '
+        f'id="{v.id}" type="{v.vtype}" route="{route_id}" depart="{v.depart:g}" '
         f'departPos="{v.depart_pos}" departLane="{v.depart_lane}" departSpeed="{v.depart_speed}"'
     )
     params = ""
@@ -150,6 +157,49 @@ def _background_highway(sc: Scenario, rng: np.random.Generator, length: float) -
     return "".join(out)
 
 
+def _background_merge(sc: Scenario, rng: np.random.Generator, spec: MergeSpec) -> str:
+    """Cars spread along the main road and the road after the merge at t=0 (as on the
+    highway), a flow entering the main road at its western end and a flow on the ramp."""
+    scripted = [(v.depart_pos, v.depart_lane) for v in (sc.ego, *sc.vehicles)
+                if v.route[0] == "main"]
+    placed: list[tuple[str, float, int]] = []
+    n = 0
+    out_length = spec.length - spec.merge_x - spec.acc_length
+    while n < sc.background.initial:
+        on_main = rng.random() < spec.merge_x / (spec.merge_x + out_length)
+        edge = "main" if on_main else "out"
+        pos = float(rng.uniform(20.0, (spec.merge_x if on_main else out_length) - 50.0))
+        lane = int(rng.integers(0, spec.lanes))
+        near_scripted = on_main and any(abs(pos - p) < 120.0 and lane == ln
+                                        for p, ln in scripted)
+        crowded = any(e == edge and abs(pos - p) < 25.0 and lane == ln for e, p, ln in placed)
+        if near_scripted or crowded:
+            continue
+        placed.append((edge, pos, lane))
+        n += 1
+    out = []
+    for k, (edge, pos, lane) in enumerate(sorted(placed)):
+        vtype = "truck" if rng.random() < 0.1 else "car"
+        speed = 20.0 if vtype == "truck" else float(rng.uniform(22.0, 30.0))
+        route = "through" if edge == "main" else "tail"
+        out.append(
+            f'  <vehicle id="bg{k}" type="{vtype}" route="{route}" depart="0" '
+            f'departPos="{pos:.1f}" departLane="{lane}" departSpeed="{speed:.1f}"/>\n'
+        )
+    if sc.background.flow_per_hour > 0:
+        out.append(
+            f'  <flow id="in" type="car" route="through" begin="0" end="{sc.duration + 10}" '
+            f'vehsPerHour="{sc.background.flow_per_hour}" departLane="best" '
+            'departSpeed="desired"/>\n'
+        )
+        out.append(
+            f'  <flow id="onramp" type="car" route="onramp" begin="0" '
+            f'end="{sc.duration + 10}" vehsPerHour="{sc.background.flow_per_hour / 3:.0f}" '
+            'departLane="best" departSpeed="desired"/>\n'
+        )
+    return "".join(out)
+
+
 def _background_grid(sc: Scenario, rng: np.random.Generator, net_file: Path) -> str:
     """Random trips between grid edges, departing uniformly over the run (SUMO routes them)."""
     import sumolib
@@ -174,6 +224,10 @@ def write_inputs(sc: Scenario, work_dir: Path) -> tuple[Path, Path, Path]:
         hw = HighwaySpec()
         net = build_highway(hw, work_dir)
         background = _background_highway(sc, rng, hw.length)
+    elif sc.network == "merge":
+        ms = MergeSpec()
+        net = build_merge(ms, work_dir)
+        background = _background_merge(sc, rng, ms)
     else:
         net = build_grid(GridSpec(), work_dir)
         background = _background_grid(sc, rng, net)
@@ -182,13 +236,25 @@ def write_inputs(sc: Scenario, work_dir: Path) -> tuple[Path, Path, Path]:
               for v in (sc.ego, *sc.vehicles)]
     if sc.network == "highway":
         routes.append('  <route id="hw" edges="hw"/>\n')
+    elif sc.network == "merge":
+        routes.append('  <route id="through" edges="main acc out"/>\n')
+        routes.append('  <route id="tail" edges="out"/>\n')
+        routes.append('  <route id="onramp" edges="ramp acc out"/>\n')
     # scripted vehicles first, the ego last: at equal depart times SUMO inserts in file order,
     # and a lead placed before the ego must not be refused for violating the ego's safe gap
-    vehicles = [_vehicle_xml(v, f"r_{v.id}", None) for v in sc.vehicles]
+    vehicles = [_vehicle_xml(v, f"r_{v.id}", None) for v in sc.vehicles if v.depart == 0.0]
     vehicles.append(_vehicle_xml(sc.ego, f"r_{sc.ego.id}", ssm_file))
+    # SUMO reads a route file in depart order: scripted vehicles departing later go after the
+    # background (which departs at 0 on the highways)
+    if sc.ego.depart != 0.0 or (sc.network == "grid" and any(v.depart for v in sc.vehicles)):
+        raise SimulationError(f"scenario {sc.name}: only non-ego highway vehicles may depart "
+                              "after t=0")
+    late = [_vehicle_xml(v, f"r_{v.id}", None)
+            for v in sorted(sc.vehicles, key=lambda v: v.depart) if v.depart > 0.0]
     rou = work_dir / f"{sc.name}.rou.xml"
     rou.write_text(
-        "<routes>\n" + VTYPES + "".join(routes) + "".join(vehicles) + background + "</routes>\n"
+        "<routes>\n" + VTYPES + "".join(routes) + "".join(vehicles) + background
+        + "".join(late) + "</routes>\n"
     )
     return net, rou, ssm_file
 

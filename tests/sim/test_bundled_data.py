@@ -27,8 +27,14 @@ def _labels(name: str) -> list[dict]:
     return _rows(DATA / f"{name}.labels.jsonl")
 
 
-def test_index_lists_three_scenarios_with_files() -> None:
-    assert NAMES == ["highway-tailgating", "highway-tailgated", "urban-grid"]
+ORIGINAL = ["highway-tailgating", "highway-tailgated", "urban-grid"]
+REALSTACK = ["highway-realstack", "urban-realstack"]
+COVERAGE = {"lav": {"fov_deg": 360.0, "range_m": 80.0},
+            "tfuse": {"fov_deg": 120.0, "range_m": 70.0}}
+
+
+def test_index_lists_five_scenarios_with_files() -> None:
+    assert NAMES == ORIGINAL + REALSTACK
     for e in INDEX:
         for key in ("stream", "labels", "ssm_labels"):
             assert (DATA / e[key]).is_file(), e[key]
@@ -45,6 +51,8 @@ def test_stream_has_header_and_increasing_frames(name: str) -> None:
     assert np.all(np.diff(t) > 0)
     # 1 to 3 minutes at 0.1 s: duration / 0.1 + 1 frames
     assert 60.0 <= t[-1] - t[0] <= 180.0
+    entry = next(e for e in INDEX if e["scenario"] == name)
+    assert entry["bytes"] == (DATA / entry["stream"]).stat().st_size <= 2_500_000
     assert len(t) == round((t[-1] - t[0]) / 0.1) + 1
 
 
@@ -94,3 +102,79 @@ def test_localization_labels_are_where_els_var_exceeds_reference_threshold(name:
         assert var[sel].max() > 0.05, lab
         inside |= sel
     assert var[~inside].max() < 0.05
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_coverage_header_only_in_the_real_stack_drives(name: str) -> None:
+    head = _rows(DATA / f"{name}.jsonl.gz")[0]["header"]
+    if name in ORIGINAL:
+        assert "coverage" not in head
+        assert "profile" not in head["meta"]["channel_params"]["lav"]
+    else:
+        assert head["coverage"] == COVERAGE
+        params = head["meta"]["channel_params"]
+        assert (params["lav"]["profile"], params["tfuse"]["profile"]) == (
+            "LIDAR_STACK", "CAMERA_STACK")
+
+
+@pytest.mark.parametrize("name", REALSTACK)
+def test_real_stack_drives_have_the_profiles_properties(name: str) -> None:
+    """Plans (tfuse every 0.5 s over 3 s; lav every 1 m while moving, two points at a
+    standstill), predictions (lav 4.0 s at 0.5 s, tfuse 2.5 s at 0.1 s), and a forward camera
+    that reports nothing behind the ego. Spacing: 1 m to 0.1 mm on a straight road; where the
+    plan distortion folds the path back on itself near a stop the chord is a few cm short."""
+    frames = _rows(DATA / f"{name}.jsonl.gz")[1:]
+    steps = []
+    for f in frames:
+        cam, lid = f["channels"]["tfuse"], f["channels"]["lav"]
+        np.testing.assert_allclose(np.array(cam["plan"])[:, 0], 0.5 * np.arange(7), atol=1e-9)
+        plan = np.array(lid["plan"])
+        assert len(plan) >= 2 and np.all(np.diff(plan[:, 0]) > 0) and plan[-1, 0] <= 5.0
+        if f["signals"]["ego_speed"] > 3.0:
+            steps.append(np.hypot(*np.diff(plan[:, 1:], axis=0).T))
+        for o in lid["objects"]:
+            assert [p[0] for p in o["prediction"]] == [0.5 * k for k in range(1, 9)]
+        ego = cam["ego"]
+        for o in cam["objects"]:
+            assert len(o["prediction"]) == 25 and o["prediction"][-1][0] == 2.5
+            dx, dy = o["x"] - ego["x"], o["y"] - ego["y"]
+            bearing = abs((np.degrees(np.arctan2(dy, dx) - ego["yaw"]) + 180.0) % 360.0 - 180.0)
+            r = np.hypot(dx, dy)
+            assert bearing <= 60.0 + np.degrees(np.arcsin(min(1.0, 1.0 / r))) and r <= 71.0
+    step = np.concatenate(steps)
+    assert np.abs(step - 1.0).max() < 0.05
+    assert np.mean(np.abs(step - 1.0) < 1e-3) > 0.99
+
+
+@pytest.mark.parametrize("name", REALSTACK)
+def test_real_stack_localisation_difference_is_the_two_ar1_processes(name: str) -> None:
+    """Both channels add their own AR(1) offset to the same physical path, so outside the
+    faults ego_lav - ego_tfuse = e_lav - e_tfuse: std per axis sqrt(0.06^2 + 0.12^2) = 0.134 m,
+    lag-1 correlation (0.7 * 0.06^2 + 0.6 * 0.12^2) / 0.134^2 = 0.62."""
+    frames = _rows(DATA / f"{name}.jsonl.gz")[1:]
+    t = np.array([f["t"] for f in frames])
+    d = np.array([[f["channels"]["lav"]["ego"][k] - f["channels"]["tfuse"]["ego"][k]
+                   for k in ("x", "y")] for f in frames])
+    faults = [lab for lab in _labels(name) if lab["hazard"] == "CSn1"]
+    assert len(faults) == 1
+    before = t < faults[0]["start"] - 0.05
+    assert before.sum() > 700
+    d = d[before]
+    assert np.sqrt((d**2).mean(axis=0)) == pytest.approx([np.hypot(0.06, 0.12)] * 2, rel=0.1)
+    r1 = [np.corrcoef(d[:-1, a], d[1:, a])[0, 1] for a in (0, 1)]
+    expected = (0.7 * 0.06**2 + 0.6 * 0.12**2) / (0.06**2 + 0.12**2)
+    assert r1 == pytest.approx([expected] * 2, abs=0.06)
+
+
+@pytest.mark.parametrize("name", REALSTACK)
+def test_real_stack_drives_are_mostly_unlabelled(name: str) -> None:
+    """False alarms are measured on the nominal stretches: most of the drive carries no label,
+    and there is an unlabelled stretch of at least 30 s."""
+    frames = _rows(DATA / f"{name}.jsonl.gz")[1:]
+    t = np.array([f["t"] for f in frames])
+    labelled = np.zeros(len(t), dtype=bool)
+    for lab in _labels(name):
+        labelled |= (t >= lab["start"] - 1e-9) & (t <= lab["end"] + 1e-9)
+    assert labelled.mean() < 0.15
+    edges = np.flatnonzero(np.diff(np.concatenate([[1], labelled.astype(int), [1]])))
+    assert np.diff(edges)[::2].max() * 0.1 >= 30.0
