@@ -1,0 +1,98 @@
+"""`python -m casewatch.nominal OUT_DIR`: each SPI's violated share of nominal ticks, per drive.
+
+OUT_DIR is the output folder of `casewatch run ... --labels auto` (one run or a fleet folder
+with `summary.json`). Every run must have been judged with labels: a tick counts as nominal
+when it lies farther than `--margin` seconds from every label (`evaluator.nominal`). `make demo`
+prints this table for the bundled drives; run it on freshly generated drives to check that a
+change holds on data it was not tuned on:
+
+    python -m examples.sim.build_data --only highway-realstack --seed 7 --out /tmp/heldout
+    casewatch run examples/reference-case.yaml /tmp/heldout --labels auto -o /tmp/heldout-run
+    python -m casewatch.nominal /tmp/heldout-run
+
+Exit 0 when every SPI is within `--limit` (default 1 %) on every run, 1 otherwise, 2 for a
+folder that holds no usable run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from evaluator.ground_truth import LabelsError, read_labels
+from evaluator.nominal import DEFAULT_MARGIN, NominalShare, nominal_shares
+from reports.render import ResultError, load_result
+
+
+def run_folders(out_dir: Path) -> list[Path]:
+    """The run folders under `out_dir`: the fleet's `per_log` entries, or `out_dir` itself."""
+    summary = out_dir / "summary.json"
+    if summary.is_file():
+        logs = json.loads(summary.read_text(encoding="utf-8")).get("per_log", [])
+        return [Path(log["out_dir"]) for log in logs if log.get("ok", True)]
+    return [out_dir]
+
+
+def table(rows: dict[str, list[NominalShare]], limit: float) -> tuple[str, bool]:
+    """The per-SPI x per-drive table as text, and whether every share is within `limit`."""
+    drives = list(rows)
+    spis = [(s.node_id, s.signal) for s in next(iter(rows.values()))]
+    width = max(8, *(len(d) for d in drives))
+    lines = [f"{'SPI':<14}" + "".join(f"{d:>{width + 2}}" for d in drives)]
+    ok = True
+    for k, (node, signal) in enumerate(spis):
+        cells = []
+        for d in drives:
+            share = rows[d][k].share
+            if share is None:
+                cells.append("n/a")
+            else:
+                ok &= share <= limit
+                flag = "" if share <= limit else " !"
+                cells.append(f"{share:.2%}{flag}")
+        lines.append(f"{node + ' ' + signal:<14}" + "".join(f"{c:>{width + 2}}" for c in cells))
+    evaluated = "".join(f"{sum(r.evaluated for r in rows[d]):>{width + 2}}" for d in drives)
+    lines.append(f"{'(ticks)':<14}" + evaluated)
+    return "\n".join(lines), ok
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m casewatch.nominal", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("out_dir", type=Path, help="output folder of `casewatch run --labels ...`")
+    ap.add_argument("--margin", type=float, default=DEFAULT_MARGIN,
+                    help="seconds around each label that are not nominal (default %(default)s)")
+    ap.add_argument("--limit", type=float, default=0.01,
+                    help="largest acceptable violated share (default %(default)s)")
+    args = ap.parse_args(argv)
+    rows: dict[str, list[NominalShare]] = {}
+    for folder in run_folders(args.out_dir):
+        try:
+            result = load_result(folder / "result.json")
+        except ResultError as exc:
+            print(f"casewatch.nominal: {exc}", file=sys.stderr)
+            return 2
+        if result.ground_truth is None:
+            print(f"casewatch.nominal: {folder}: the run was judged without labels; run it "
+                  "with --labels FILE (or --labels auto)", file=sys.stderr)
+            return 2
+        try:
+            labels, _ = read_labels(result.ground_truth.labels_path)
+        except LabelsError as exc:
+            print(f"casewatch.nominal: {exc}", file=sys.stderr)
+            return 2
+        rows[folder.name] = nominal_shares(result, labels, args.margin)
+    if not rows:
+        print(f"casewatch.nominal: {args.out_dir}: no run folders found", file=sys.stderr)
+        return 2
+    text, ok = table(rows, args.limit)
+    print(f"SPI violated share of nominal ticks (farther than {args.margin:g} s from every "
+          f"label); limit {args.limit:.0%}")
+    print(text)
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
