@@ -8,7 +8,7 @@ development status. Each finding points at the offending node key or list item. 
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from pathlib import Path
 
 import networkx as nx
@@ -55,7 +55,7 @@ def check_file(path: str | Path) -> tuple[Case | None, list[Finding]]:
     result = load_file(path)
     findings = list(result.findings)
     if result.partial is not None:
-        findings += check_case(result.partial, skipped=result.skipped)
+        findings += check_case(result.partial, skipped=result.skipped, invalid=result.invalid)
     return result.case, sort_findings(findings)
 
 
@@ -64,19 +64,26 @@ def sort_findings(findings: list[Finding]) -> list[Finding]:
     return sorted(findings, key=lambda f: (f.line, f.col))
 
 
-def check_case(case: Case, skipped: Mapping[str, Mark] | None = None) -> list[Finding]:
+def check_case(
+    case: Case,
+    skipped: Mapping[str, Mark] | None = None,
+    invalid: Collection[str] = (),
+) -> list[Finding]:
     """Every structural check on `case`. `skipped` names ids the loader could not type (their
-    references are not reported again as dangling)."""
-    checker = _Checker(case, dict(skipped or {}))
+    references are not reported again as dangling); `invalid` names nodes that failed
+    validation (their missing support is not reported again as CW039)."""
+    checker = _Checker(case, dict(skipped or {}), frozenset(invalid))
     checker.run()
     return checker.findings
 
 
 class _Checker:
-    def __init__(self, case: Case, skipped: dict[str, Mark]) -> None:
+    def __init__(self, case: Case, skipped: dict[str, Mark], invalid: frozenset[str]) -> None:
         self.case = case
         self.nodes = case.nodes
         self.skipped = skipped
+        self.invalid = invalid
+        self.root: str | None = None
         self.findings: list[Finding] = []
 
     def add(self, code: str, message: str, mark: Mark, hint: str = "") -> None:
@@ -93,6 +100,7 @@ class _Checker:
             self.references(node)
         self.cycles()
         roots = self.roots()
+        self.root = roots[0] if len(roots) == 1 else None
         if roots:
             self.reachability(roots)
         for node in self.nodes.values():
@@ -137,9 +145,11 @@ class _Checker:
                 self.add(
                     "CW026",
                     f"{node.id} challenges {target}, a {_TYPE_NAMES[target_type]}; a counter "
-                    "node challenges a claim of the argument (G, S, Sn, C, A, J)",
+                    "node challenges a goal of the argument",
                     mark,
                 )
+            elif relation == CHALLENGES and target_type is not G:
+                self.challenged_non_goal(node, target, target_type, mark)
 
     def relation_type(
         self,
@@ -170,6 +180,43 @@ class _Checker:
             mark,
             hint,
         )
+
+    def challenged_non_goal(
+        self, node: Node, target: str, target_type: NodeType, mark: Mark
+    ) -> None:
+        # A challenged C, A or J would show `in-doubt` and nothing above it would ever notice:
+        # context is not support. Goals are the claims casewatch judges, so doubt goes there.
+        goals = self.goals_above(target)
+        hint = (
+            f"challenge the goal {target} belongs to: `challenges: {goals[0]}`"
+            if goals
+            else "name a goal (G) in `challenges`"
+        )
+        self.add(
+            "CW027",
+            f"{node.id} challenges {target}, a {_TYPE_NAMES[target_type]}; counter nodes "
+            "challenge goals, the claims that carry doubt up to the root goal",
+            mark,
+            hint,
+        )
+
+    def goals_above(self, node_id: str) -> list[str]:
+        """The nearest goals that name `node_id` (or a node between) in supportedBy or
+        inContextOf, in YAML order."""
+        found: list[str] = []
+        frontier, seen = [node_id], {node_id}
+        while frontier and not found:
+            upper = [
+                n.id
+                for n in self.nodes.values()
+                if n.id not in seen
+                and n.type not in COUNTER_TYPES
+                and any(t in frontier for t in (*n.supported_by, *n.in_context_of))
+            ]
+            seen.update(upper)
+            found = [i for i in upper if self.nodes[i].type is G]
+            frontier = upper
+        return found
 
     def cycles(self) -> None:
         graph = supported_by_graph(self.case)
@@ -274,16 +321,24 @@ class _Checker:
                 "remove `undeveloped: true` once the node is developed, or drop its support",
             )
         # A `supportedBy` that failed validation was already reported; do not add a warning.
-        written = "supportedBy" in node.key_marks
+        # One that validated but is empty (`supportedBy: []`) is no support at all.
+        reported = "supportedBy" in node.key_marks and node.id in self.invalid
         if (
             node.type in DEVELOPABLE
             and not node.supported_by
             and not node.undeveloped
-            and not written
+            and not reported
         ):
+            kind = _TYPE_NAMES[node.type]
+            message = f"{kind} {node.id} has no support and is not marked undeveloped"
+            if node.id == self.root:
+                message = (
+                    f"the root goal {node.id} has no support and is not marked undeveloped: "
+                    "nothing is argued below it, so every run judges nothing and passes"
+                )
             self.add(
                 "CW039",
-                f"{_TYPE_NAMES[node.type]} {node.id} has no support and is not marked undeveloped",
-                node.mark,
+                message,
+                node.key_marks.get("supportedBy", node.mark),
                 "add `supportedBy: [...]`, or `undeveloped: true` to say the gap is known",
             )

@@ -45,6 +45,7 @@ from safety_case.schema import (
     RawModule,
     RawMonitor,
     RawNode,
+    bounds_text,
     describe_value,
 )
 from safety_case.yamltree import YNode, compose, to_plain
@@ -65,6 +66,13 @@ _CODE_BY_ERROR = {
     "channels": "CW019",
     "declared_signal": "CW025",
 }
+
+#: pydantic's range errors; for a metric parameter the message states its documented bounds.
+_BOUND_ERRORS = frozenset(
+    {"greater_than", "greater_than_equal", "less_than", "less_than_equal", "finite_number"}
+)
+#: Our own CW012 errors whose message already says everything.
+_OWN_MESSAGES = frozenset({"max_gap_below_period"})
 
 _EXPECTED = {
     "string_type": "text",
@@ -92,13 +100,14 @@ class LoadResult:
     case built even when some nodes are invalid, so the structural checks can still report
     everything in one run; never hand `partial` to a later stage. `skipped` names top-level keys
     that could not become nodes (unknown type), so references to them are not also reported as
-    dangling.
+    dangling. `invalid` names nodes that failed validation (kept leniently in `partial`).
     """
 
     case: Case | None
     partial: Case | None
     findings: list[Finding]
     skipped: dict[str, Mark] = field(default_factory=dict)
+    invalid: set[str] = field(default_factory=set)
 
 
 def node_type_of(node_id: str) -> NodeType | None:
@@ -135,7 +144,7 @@ def require_case(path: str | Path) -> Case:
     result = load_file(path)
     findings = list(result.findings)
     if result.partial is not None:
-        findings += check_case(result.partial, skipped=result.skipped)
+        findings += check_case(result.partial, skipped=result.skipped, invalid=result.invalid)
     if result.case is None or has_errors(findings):
         raise CaseError([f for f in findings if f.severity == "error"])
     return result.case
@@ -206,6 +215,7 @@ class _Builder:
         self.digest = digest
         self.findings = findings
         self.valid = True
+        self.invalid: set[str] = set()  # ids of nodes that failed validation
 
     def add(self, code: str, message: str, mark: Mark, hint: str = "") -> None:
         self.findings.append(finding(code, message, self.path, mark, hint))
@@ -240,7 +250,7 @@ class _Builder:
         )
         errors = has_errors(self.findings)
         case = partial if (not errors and module is not None and monitor is not None) else None
-        return LoadResult(case, partial, self.findings, skipped)
+        return LoadResult(case, partial, self.findings, skipped, self.invalid)
 
     # -- reserved blocks -------------------------------------------------------------------
 
@@ -334,6 +344,7 @@ class _Builder:
                 ref_marks=ref_marks,
             )
         # Best effort, so the graph checks can still run; the case is already marked invalid.
+        self.invalid.add(node_id)
         lenient = plain if isinstance(plain, dict) else {}
         text = lenient.get("text")
         return Node(
@@ -436,8 +447,15 @@ class _Builder:
         subject = f"{where}, `{keypath}`" if keypath else where
         if code != "CW012":
             return finding(code, f"{subject}: {error['msg']}", self.path, mark)
-        got = describe_value(error.get("input"))
-        if names and names[0] in RELATIONS and kind in ("list_type", "string_type"):
+        got = ctx.get("got") or describe_value(error.get("input"))
+        if kind in _BOUND_ERRORS and len(names) == 2 and names[0] == "metrics":
+            message = (
+                f"{subject} must be a number in {bounds_text(names[1])}, got {got} (the bounds "
+                "of every metric parameter: docs/safety-case-language.md, `metrics:`)"
+            )
+        elif kind in _OWN_MESSAGES:
+            message = f"{subject}: {error['msg']}"
+        elif names and names[0] in RELATIONS and kind in ("list_type", "string_type"):
             expected = "a node id" if len(names) > 1 else "a node id or a list of node ids"
             message = f"{subject} must be {expected}, got {got}"
         elif kind in _EXPECTED:

@@ -35,25 +35,36 @@ class NodeType(str, Enum):  # noqa: UP042 - keep str() and format() as they are
 
 
 class MetricParams(BaseModel):
-    """Parameters of the built-in metrics; defaults are those of `docs/spi-reference.md`."""
+    """Parameters of the built-in metrics; defaults are those of `docs/spi-reference.md`.
+
+    Every parameter declares a lower and an upper bound here, next to its definition: generous,
+    but finite, so `.inf`, `1e5000` or a window of 10^12 ticks is refused by `check` (CW012)
+    instead of switching a metric off or exhausting memory. `docs/safety-case-language.md`
+    lists the same bounds; a test keeps the two in step and fails for a parameter without both.
+    """
 
     model_config = ConfigDict(extra="forbid", frozen=True)
-    pairing_gate: float = Field(3.0, gt=0, description="max centre distance to pair objects [m]")
-    trajectory_decay: float = Field(0.95, gt=0, le=1, description="k in w_n = k^(n-1)")
-    comfort_steepness: float = Field(0.2, gt=0, description="w in NV(s)")
-    els_window: int = Field(5, ge=2, description="ticks in the ELS moving variance")
-    plan_history: int = Field(10, ge=1, description="stored plans for chpps")
-    prediction_tolerance: float = Field(1.0, gt=0, description="ompv hit radius [m]")
-    comfort_span: float = Field(
-        3.0, gt=0, description="time span [s] of the cubic fits behind hcs and ppcs"
+    pairing_gate: float = Field(
+        3.0, gt=0, le=100, description="max centre distance to pair objects [m]"
     )
-    pet_ref: float = Field(2.0, gt=0, description="post-encroachment time reference [s]")
-    max_gap: float = Field(0.5, gt=0, description="gap [s] after which history restarts")
+    trajectory_decay: float = Field(0.95, gt=0, le=1, description="k in w_n = k^(n-1)")
+    comfort_steepness: float = Field(0.2, gt=0, le=100, description="w in NV(s)")
+    els_window: int = Field(5, ge=2, le=10_000, description="ticks in the ELS moving variance")
+    plan_history: int = Field(10, ge=1, le=1_000, description="stored plans for chpps")
+    prediction_tolerance: float = Field(1.0, gt=0, le=100, description="ompv hit radius [m]")
+    comfort_span: float = Field(
+        3.0, gt=0, le=60, description="time span [s] of the cubic fits behind hcs and ppcs"
+    )
+    pet_ref: float = Field(2.0, gt=0, le=60, description="post-encroachment time reference [s]")
+    max_gap: float = Field(0.5, gt=0, le=60, description="gap [s] after which history restarts")
     resample_step: float = Field(
-        0.1, gt=0, description="step [s] of the time grid plans and predictions are resampled to"
+        0.1,
+        ge=0.01,
+        le=10,
+        description="step [s] of the time grid plans and predictions are resampled to",
     )
     coverage_margin: float = Field(
-        2.0, ge=0, description="objects this close [m] to a coverage edge are not compared"
+        2.0, ge=0, le=100, description="objects this close [m] to a coverage edge are not compared"
     )
 
 

@@ -12,6 +12,7 @@ import math
 import re
 from typing import Annotated
 
+import annotated_types
 from pydantic import (
     AfterValidator,
     BaseModel,
@@ -27,7 +28,8 @@ from pydantic_core import PydanticCustomError
 from safety_case.model import ChannelCoverage, MetricParams, Threshold
 from safety_case.signals import SEP, builtin_signals
 
-_NUMBER = r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?"
+# [0-9], not \d: \d also matches digits of other scripts, which float() reads (U+0661 -> 1.0)
+_NUMBER = r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?"
 _THRESHOLD_RE = re.compile(rf"^\s*(>=|<=|>|<)\s*({_NUMBER})\s*$")
 _DURATION_RE = re.compile(rf"^\s*({_NUMBER})\s*(ms|s|min|h)?\s*$")
 _UNIT_SECONDS = {"ms": 0.001, "s": 1.0, "min": 60.0, "h": 3600.0, None: 1.0}
@@ -48,6 +50,11 @@ def parse_threshold(raw: object) -> Threshold:
         hint = ""
         if re.match(r"^\s*(=>|=<|==|=|!=)", raw):
             hint = "; comparisons are >=, <=, > or <"
+        elif "_" in raw:
+            hint = (
+                "; write the number without '_' digit separators (YAML 1.1 and Python read "
+                "'1_0' as 10, JSON and YAML 1.2 do not)"
+            )
         raise PydanticCustomError(
             "malformed_threshold",
             "expected an operator and a number such as '>= 0.6' or '< 0.05', got {got}{hint}",
@@ -263,6 +270,40 @@ def _signals_to_dict(raw: object) -> object:
     return raw
 
 
+def _metric_numbers(raw: object) -> object:
+    """Metric parameters are numbers: pydantic alone would read `true` as 1 and the text
+    "inf" as infinity. Text that is a plain number stays allowed, because YAML 1.1 reads
+    `1e-3` (no dot) as text."""
+    if isinstance(raw, dict):
+        for key, value in raw.items():
+            plain_text = isinstance(value, str) and re.fullmatch(_NUMBER, value.strip())
+            if isinstance(value, bool) or not (isinstance(value, int | float) or plain_text):
+                raise PydanticCustomError(
+                    "float_type",
+                    "expected a number",
+                    {"key": key, "got": _describe(value)},
+                )
+    return raw
+
+
+def bounds_text(name: str) -> str:
+    """The declared range of metric parameter `name` as documented: `(0, 60]`, `[2, 10000]`.
+
+    Empty ends (`(0, ?`) mean the parameter lacks a bound, which a test refuses."""
+    field = MetricParams.model_fields[name]
+    low, high = "?", "?"
+    for rule in field.metadata:
+        if isinstance(rule, annotated_types.Gt):
+            low = f"({rule.gt:g}"
+        elif isinstance(rule, annotated_types.Ge):
+            low = f"[{rule.ge:g}"
+        elif isinstance(rule, annotated_types.Lt):
+            high = f"{rule.lt:g})"
+        elif isinstance(rule, annotated_types.Le):
+            high = f"{rule.le:g}]"
+    return f"{low}, {high}"
+
+
 class RawMonitor(BaseModel):
     """`monitor:` as written."""
 
@@ -270,10 +311,26 @@ class RawMonitor(BaseModel):
     channels: Annotated[list[StrictStr], AfterValidator(_check_channels)]
     period: PositiveDuration = 0.1
     signals: Annotated[dict[str, StrictStr], BeforeValidator(_signals_to_dict)] = {}
-    metrics: MetricParams = MetricParams()
+    metrics: Annotated[MetricParams, BeforeValidator(_metric_numbers)] = MetricParams()
     coverage: dict[StrictStr, ChannelCoverage] = {}
     merge_gap: Duration = 1.0
     min_duration: Duration = 0.0
+
+    @model_validator(mode="after")
+    def _gap_covers_a_period(self) -> RawMonitor:
+        if self.metrics.max_gap < self.period:
+            raise PydanticCustomError(
+                "max_gap_below_period",
+                "{gap} s is shorter than the period ({period} s), so every frame would start a "
+                "data gap; use at least the period",
+                {
+                    "gap": f"{self.metrics.max_gap:g}",
+                    "period": f"{self.period:g}",
+                    "field": "metrics",
+                    "key": "max_gap",
+                },
+            )
+        return self
 
     @model_validator(mode="after")
     def _declared_names(self) -> RawMonitor:

@@ -5,11 +5,12 @@ pyyaml's `safe_load` throws the marks away and silently keeps the last of two eq
 from tags); we then convert it to a small positioned tree (`YNode`) ourselves. Only the YAML core
 scalar types are interpreted (str, int, float, bool, null); anything else is reported.
 
-Problems are collected as findings (codes CW003, CW005, CW006), never raised.
+Problems are collected as findings (codes CW003, CW005, CW006, CW007), never raised.
 """
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -80,6 +81,21 @@ def mark_of(ymark: yaml.Mark | None) -> Mark:
     return Mark(line=ymark.line + 1, col=ymark.column + 1)
 
 
+def yaml11_number_form(text: str) -> str | None:
+    """The YAML 1.1-only notation a plain number uses (`1_000`, `1:30`, `0b101`, `017`), or
+    None for a number every YAML and JSON reader agrees on."""
+    digits = text.lstrip("+-")
+    if "_" in digits:
+        return "digits with '_' separators"
+    if ":" in digits:
+        return "base 60 (sexagesimal)"
+    if re.fullmatch(r"0b[01]+", digits):
+        return "a binary 0b number"
+    if re.fullmatch(r"0[0-7]+", digits):
+        return "an octal number with a leading zero"
+    return None
+
+
 class _Composer(yaml.SafeLoader):
     """Composes nodes only; an alias becomes an empty scalar and is reported (no sharing, no
     cycles, no exponential expansion)."""
@@ -134,10 +150,24 @@ class _Converter:
             if tag == _TAG + "bool":
                 return self.loader.construct_yaml_bool(node)
             if tag == _TAG + "int":
-                return self.loader.construct_yaml_int(node)
-            return self.loader.construct_yaml_float(node)
+                value: object = self.loader.construct_yaml_int(node)
+            else:
+                value = self.loader.construct_yaml_float(node)
         except (ValueError, OverflowError, yaml.YAMLError):
             return node.value
+        form = yaml11_number_form(node.value)
+        if form is not None:
+            self.findings.append(
+                finding(
+                    "CW007",
+                    f"the number {node.value} is written as {form}, which only YAML 1.1 reads as "
+                    f"{value!r}; YAML 1.2, JSON and most other tools read it differently",
+                    self.path,
+                    mark_of(node.start_mark),
+                    f"write {value!r}",
+                )
+            )
+        return value
 
     def convert(self, node: yaml.Node, depth: int = 0) -> YNode:
         mark = mark_of(node.start_mark)

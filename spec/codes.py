@@ -13,6 +13,7 @@ FORMULA_CODES: dict[str, tuple[Severity, str]] = {
     "CW044": ("error", "binding has no formula to compile"),
     "CW045": ("error", "division by the constant zero"),
     "CW046": ("error", "sampling period is not a positive whole number of nanoseconds"),
+    "CW047": ("error", "formula reads no signal (a constant verdict)"),
 }
 
 

@@ -143,7 +143,21 @@ def _check(
 ) -> list[Finding]:
     findings: list[Finding] = []
     path = case.path
-    _known, unknown = resolve_signals(formula, case.monitor.channels, case.monitor.signals)
+    known, unknown = resolve_signals(formula, case.monitor.channels, case.monitor.signals)
+    if not known and not unknown:
+        verdict = "holds" if src.kind == "hazard" else "is judged"
+        findings.append(
+            formula_finding(
+                "CW047",
+                f"the formula of node {src.node.id} reads no signal, so its verdict is the same "
+                f"at every tick (a constant {src.kind} {verdict} or not regardless of the drive)",
+                path,
+                src.mark.line,
+                src.mark.col,
+                hint="compare a signal, e.g. 'els >= 0.6'; for a fixed verdict, use evidence "
+                "outside the monitor (an Sn without spi:)",
+            )
+        )
     for miss in unknown:
         line, col = _at(case, src, miss.col)
         findings.append(

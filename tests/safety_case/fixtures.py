@@ -23,6 +23,15 @@ LOADER_FIXTURES: list[tuple[str, str, int, int | None]] = [
     ("CW004", "- G1\n- G2\n", 1, 1),
     ("CW005", case("G1:\n  text: a\n  text: b\n"), 5, 3),
     ("CW006", case("G1: &top\n  text: a\nG2:\n  text: b\n  supportedBy: *top\n"), 7, 16),
+    (
+        "CW007",
+        case(
+            "G1: {text: t, supportedBy: Sn1}\nSn1:\n  text: e\n"
+            "  spi: {signal: els, threshold: '>= 0.6', for: 1_0}\n"
+        ),
+        6,
+        48,
+    ),
     ("CW010", "monitor: {channels: [lav, tfuse]}\nG1: {text: a, undeveloped: true}\n", 1, 1),
     ("CW011", "module: {name: t}\nG1: {text: a, undeveloped: true}\n", 1, 1),
     ("CW012", case("G1:\n  text: top\n  undeveloped: maybe\n"), 5, 16),
@@ -89,6 +98,16 @@ CHECK_FIXTURES: list[tuple[str, str, int, int | None]] = [
         BASE + "CG1:\n  text: c\n  challenges: G1\n  supportedBy: [CSn1]\n"
         "CSn1:\n  text: d\n  challenges: [CG1]\n",
         14,
+        16,
+    ),
+    (
+        "CW027",
+        case(
+            "G1:\n  text: top\n  supportedBy: [Sn1]\n  inContextOf: [C1]\nSn1: {text: e}\n"
+            "C1: {text: c}\nCSn1:\n  text: d\n  challenges: [C1]\n"
+            "  hazard: {when: 'els < 0.5'}\n"
+        ),
+        11,
         16,
     ),
     ("CW030", case("G1:\n  text: top\n  supportedBy: [Sn1, Sn2]\nSn1: {text: e}\n"), 5, 22),

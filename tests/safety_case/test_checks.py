@@ -17,7 +17,7 @@ def all_findings(text: str) -> list:
     result = load_text(text, "fixture.yaml")
     findings = list(result.findings)
     if result.partial is not None:
-        findings += check_case(result.partial, skipped=result.skipped)
+        findings += check_case(result.partial, skipped=result.skipped, invalid=result.invalid)
     return findings
 
 
@@ -100,3 +100,20 @@ def test_undeveloped_warning_is_only_a_warning() -> None:
     findings = all_findings(case("G1:\n  text: top\n"))
     assert [(f.code, f.severity) for f in findings] == [("CW039", "warning")]
     assert all_findings(case("G1:\n  text: top\n  undeveloped: true\n")) == []
+
+
+def test_root_goal_with_empty_support_list_is_warned() -> None:
+    findings = all_findings(case("G1:\n  text: top\n  supportedBy: []\n"))
+    assert [(f.code, f.severity, f.line, f.col) for f in findings] == [("CW039", "warning", 5, 3)]
+    assert "root goal G1 has no support" in findings[0].message
+
+
+def test_invalid_support_list_is_not_warned_again() -> None:
+    findings = all_findings(case("G1:\n  text: top\n  supportedBy: [1]\n"))
+    assert [f.code for f in findings] == ["CW012"]
+
+
+def test_challenging_a_solution_suggests_the_goal_above() -> None:
+    text = BASE + "CSn1:\n  text: d\n  challenges: Sn1\n"
+    hit = next(f for f in all_findings(text) if f.code == "CW027")
+    assert (hit.line, hit.col) == (10, 15) and hit.hint.endswith("`challenges: G1`")

@@ -17,11 +17,18 @@ def test_thresholds(raw: str, op: str, value: float) -> None:
     assert parse_threshold(raw) == Threshold(op=op, value=value)
 
 
-@pytest.mark.parametrize("raw", ["0.6", "=> 0.6", "== 1", ">= x", ">= nan", 0.6, None, ">= 1e999"])
+@pytest.mark.parametrize(
+    "raw", ["0.6", "=> 0.6", "== 1", ">= x", ">= nan", 0.6, None, ">= 1e999", ">= 1_0", ">= \u0661"]
+)
 def test_bad_thresholds(raw: object) -> None:
     with pytest.raises(PydanticCustomError) as info:
         parse_threshold(raw)
     assert info.value.type == "malformed_threshold"
+
+
+def test_threshold_with_digit_separators_says_so() -> None:
+    with pytest.raises(PydanticCustomError, match="without '_' digit separators"):
+        parse_threshold(">= 1_0")
 
 
 @pytest.mark.parametrize(

@@ -1,4 +1,4 @@
-"""Compilation of SPI and hazard bindings, and the formula checks (CW040-CW046)."""
+"""Compilation of SPI and hazard bindings, and the formula checks (CW040-CW047)."""
 
 from __future__ import annotations
 
@@ -179,3 +179,17 @@ def test_reference_case_compiles_and_rtamt_matches_hand_values() -> None:
         trace = {name: [REFERENCE_SAMPLE[name]] for name in formula.signals}
         (got,) = online(formula.rtamt, trace)  # rtamt parses the emitted text and evaluates it
         assert abs(got - REFERENCE_EXPECTED[formula.id]) <= 1e-9, (formula.id, formula.rtamt, got)
+
+
+def test_formula_without_any_signal_is_refused() -> None:
+    (finding,) = check_formulas(make_case(hazard_node("CSn1", "1 > 0", 30, 12)))
+    assert (finding.code, finding.line, finding.col) == ("CW047", 30, 12)
+    assert "reads no signal" in finding.message
+    (finding,) = check_formulas(make_case(stl_node("Sn1", "once[0:1s] (2 >= 1)", 20, 10)))
+    assert (finding.code, finding.line, finding.col) == ("CW047", 20, 10)
+
+
+def test_numbers_are_ascii_digits_without_separators() -> None:
+    for text in ("els >= 1_0", "els >= \u0661"):  # a digit separator; ARABIC-INDIC DIGIT ONE
+        (finding,) = check_formulas(make_case(stl_node("Sn1", text, 20, 10)))
+        assert finding.code == "CW040", text
