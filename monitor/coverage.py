@@ -21,33 +21,49 @@ from monitor.frames import Coverage, Ego, Objects
 
 def inside(coverage: Coverage, ego: Ego, pos: np.ndarray, margin: float) -> np.ndarray:
     """(K,) True where the points `pos` (K, 2) lie inside `coverage` seen from `ego`, at least
-    `margin` metres from its edges (the range arc and, below 360 degrees, the two edge rays)."""
+    `margin` metres from its edges (the range arc and, below 360 degrees, the two edge rays).
+    A negative margin grows the coverage by as much instead."""
     rel = pos - np.array([ego.x, ego.y])
     r = np.hypot(rel[:, 0], rel[:, 1])
     keep = r <= coverage.range_m - margin
     if coverage.fov_deg < 360.0:
         bearing = np.arctan2(rel[:, 1], rel[:, 0]) - ego.yaw
         bearing = np.abs((bearing + math.pi) % (2.0 * math.pi) - math.pi)
-        # distance to the nearer edge ray: r sin(angle to it), or r past a right angle
-        to_edge = np.minimum(math.radians(coverage.fov_deg) / 2.0 - bearing, math.pi / 2.0)
-        keep &= (to_edge >= 0.0) & (r * np.sin(np.maximum(to_edge, 0.0)) >= margin)
+        # signed distance to the nearer edge ray (positive inside): r sin(angle to the ray),
+        # and r itself once the nearest point of the ray is its apex (past a right angle)
+        to_edge = np.clip(math.radians(coverage.fov_deg) / 2.0 - bearing, -math.pi / 2,
+                          math.pi / 2)  # fmt: skip
+        keep &= r * np.sin(to_edge) >= margin
     return keep
+
+
+def _view(objects: Objects, views: tuple[tuple[Coverage, Ego], ...], margin: float
+          ) -> tuple[Objects, np.ndarray]:
+    """The objects inside every coverage grown by `margin`, and which of them lie inside every
+    coverage shrunk by it (the core)."""
+    outer = np.ones(len(objects), dtype=bool)
+    core = np.ones(len(objects), dtype=bool)
+    for cov, ego in views:
+        if not cov.all_round and len(objects):
+            outer &= inside(cov, ego, objects.pos, -margin)
+            core &= inside(cov, ego, objects.pos, margin)
+    if outer.all():
+        return objects, core
+    return objects.subset(outer), core[outer]
 
 
 def common_view(
     a: Objects, ego_a: Ego, cov_a: Coverage,
     b: Objects, ego_b: Ego, cov_b: Coverage,
     margin: float,
-) -> tuple[Objects, Objects]:
-    """The objects of A and of B inside the coverage of both channels (each channel's coverage
-    seen from its own ego estimate). All-round channels of unlimited range filter nothing."""
-    if cov_a.all_round and cov_b.all_round:
-        return a, b
-    out = []
-    for objects in (a, b):
-        keep = np.ones(len(objects), dtype=bool)
-        for cov, ego in ((cov_a, ego_a), (cov_b, ego_b)):
-            if not cov.all_round and len(objects):
-                keep &= inside(cov, ego, objects.pos, margin)
-        out.append(objects if keep.all() else objects.subset(keep))
-    return out[0], out[1]
+) -> tuple[Objects, np.ndarray, Objects, np.ndarray]:
+    """What the pair (A, B) compares: each channel's objects within `margin` of the coverage of
+    both (each coverage seen from its own channel's ego estimate), with a core flag per object:
+    inside both coverages by at least `margin`. The object metrics count a pair when either
+    object is core and an unpaired object only when it is core (spi-reference "Channel
+    coverage"): a car whose centre one channel places just inside an edge and the other just
+    outside is neither a disagreement nor dropped from one side only."""
+    views = ((cov_a, ego_a), (cov_b, ego_b))
+    va, core_a = _view(a, views, margin)
+    vb, core_b = _view(b, views, margin)
+    return va, core_a, vb, core_b

@@ -214,11 +214,13 @@ class MetricEngine:
             if sa is not None and sb is not None:
                 vals.update(ego_similarities(sa, sb))
                 # spi-reference "Channel coverage": only objects both channels can see
-                oa, ob = common_view(
+                oa, core_a, ob, core_b = common_view(
                     sa.objects, sa.ego, self.coverage[a],
                     sb.objects, sb.ego, self.coverage[b], p.coverage_margin,
                 )  # fmt: skip
-                vals.update(object_similarities(oa, ob, p.pairing_gate, p.trajectory_decay))
+                vals.update(object_similarities(
+                    oa, ob, p.pairing_gate, p.trajectory_decay, core_a, core_b
+                ))  # fmt: skip
                 vals["ets"] = ets(sa.plan, sb.plan, p.trajectory_decay)
                 self._crpps_inputs.append(crpps_inputs(sa.plan, sb.plan))
                 window.push(t, vals["els"])

@@ -226,13 +226,21 @@ def _cut(plans, lens, times, count, head, t, decay, pair_xy, pair_lens):  # prag
         for side in range(2):
             slot = src[i, 3 * side]
             first = src[i, 3 * side + 1]
+            # spi-reference chpps Decision: the stored plan moves onto the current plan's first
+            # common point (a plan that moves with the localisation estimate is not unstable)
+            off_x = 0.0
+            off_y = 0.0
+            if slot >= 0 and side == 1:
+                o = owner[i]
+                off_x = plans[o, src[i, 0], src[i, 1], 1] - plans[o, slot, first, 1]
+                off_y = plans[o, src[i, 0], src[i, 1], 2] - plans[o, slot, first, 2]
             for j in range(src[i, 3 * side + 2]):
                 if slot < 0:
                     coords[pos, 0] = pair_xy[first + j, 0]
                     coords[pos, 1] = pair_xy[first + j, 1]
                 else:
-                    coords[pos, 0] = plans[owner[i], slot, first + j, 1]
-                    coords[pos, 1] = plans[owner[i], slot, first + j, 2]
+                    coords[pos, 0] = plans[owner[i], slot, first + j, 1] + off_x
+                    coords[pos, 1] = plans[owner[i], slot, first + j, 2] + off_y
                 index[pos] = g + side
                 pos += 1
         table[i, OWNER] = owner[i]

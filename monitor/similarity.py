@@ -153,8 +153,14 @@ def _object_kernel(
     len_b: np.ndarray,
     gate: float,
     w: np.ndarray,
-) -> tuple[float, float, float, float]:
-    """(ols, oos, oas, ots) of two object sets, not both empty; all 0.0 when no pair forms.
+    core_a: np.ndarray,
+    core_b: np.ndarray,
+) -> tuple[float, float, float, float, int, int, int]:
+    """(ols, oos, oas, ots) summed over the counted pairs of two object sets, then the number
+    of counted pairs and of unpaired core objects of A and of B.
+
+    A pair counts when either of its objects is core, an unpaired object when it is core
+    (`monitor.coverage.common_view`; without coverage every object is core).
 
     Each object's prediction is its first `len` points of `pred[:, :, 1:3]`, on the canonical
     time grid (`monitor.resample`); no prediction (length 0, or no prediction columns at all)
@@ -164,17 +170,22 @@ def _object_kernel(
     k^(n-1), at least as many as the longest prediction.
     """
     ia, ib, dist = _pair_kernel(pos_a, pos_b, gate)
-    n = ia.shape[0]
-    if n == 0:
-        return 0.0, 0.0, 0.0, 0.0
+    paired_a = np.zeros(pos_a.shape[0], dtype=np.bool_)
+    paired_b = np.zeros(pos_b.shape[0], dtype=np.bool_)
+    n = 0
     ols = 0.0
     oos = 0.0
     oas = 0.0
     ots = 0.0
     two_pi = 2 * math.pi
     cols_a, cols_b = pred_a.shape[1], pred_b.shape[1]
-    for k in range(n):
+    for k in range(ia.shape[0]):
         i, j = ia[k], ib[k]
+        paired_a[i] = True
+        paired_b[j] = True
+        if not (core_a[i] or core_b[j]):
+            continue
+        n += 1
         ols += 1.0 / (1.0 + dist[k])
         d = abs((yaw_a[i] - yaw_b[j]) % two_pi)
         oos += 1.0 - min(d, two_pi - d) / math.pi
@@ -205,7 +216,15 @@ def _object_kernel(
             num += w[p] * (1.0 / (1.0 + math.hypot(xa - xb, ya - yb)))
             den += w[p]
         ots += num / den
-    return ols / n, oos / n, oas / n, ots / n
+    lone_a = 0
+    for i in range(pos_a.shape[0]):
+        if core_a[i] and not paired_a[i]:
+            lone_a += 1
+    lone_b = 0
+    for j in range(pos_b.shape[0]):
+        if core_b[j] and not paired_b[j]:
+            lone_b += 1
+    return ols, oos, oas, ots, n, lone_a, lone_b
 
 
 @lru_cache(maxsize=64)
@@ -216,21 +235,37 @@ def _weights(decay: float, n: int) -> np.ndarray:
     return w
 
 
-def object_similarities(a: Objects, b: Objects, gate: float, decay: float) -> dict[str, float]:
-    """ocs, ols, oos, oas, ots for one channel pair (one kernel call)."""
-    na, nb = len(a), len(b)
-    ocs = 1.0 / (1.0 + abs(na - nb))
-    if na == 0 and nb == 0:
+def object_similarities(
+    a: Objects,
+    b: Objects,
+    gate: float,
+    decay: float,
+    core_a: np.ndarray | None = None,
+    core_b: np.ndarray | None = None,
+) -> dict[str, float]:
+    """ocs, ols, oos, oas, ots for one channel pair (one kernel call).
+
+    `core_a` / `core_b` flag the objects well inside both channels' coverage
+    (`monitor.coverage.common_view`); None: every object is core.
+    """
+    all_a = np.ones(len(a), dtype=np.bool_) if core_a is None else core_a
+    all_b = np.ones(len(b), dtype=np.bool_) if core_b is None else core_b
+    if len(a) == 0 and len(b) == 0:
         # spi-reference: 1.0 when both channels see nothing.
-        return {"ocs": ocs, "ols": 1.0, "oos": 1.0, "oas": 1.0, "ots": 1.0}
+        return {"ocs": 1.0, "ols": 1.0, "oos": 1.0, "oas": 1.0, "ots": 1.0}
     w = _weights(decay, max(a.pred.shape[1], b.pred.shape[1], 1))
-    ols, oos, oas, ots = _object_kernel(
+    ols, oos, oas, ots, n, lone_a, lone_b = _object_kernel(
         a.pos, a.yaw, a.half, a.footprints, a.pred, a.pred_len,
         b.pos, b.yaw, b.half, b.footprints, b.pred, b.pred_len,
-        float(gate), w,
+        float(gate), w, all_a, all_b,
     )  # fmt: skip
-    # spi-reference Decision: 0.0 when objects exist but no pair forms (the kernel's zeros).
-    return {"ocs": ocs, "ols": ols, "oos": oos, "oas": oas, "ots": ots}
+    ocs = 1.0 / (1.0 + abs(lone_a - lone_b))
+    if n:
+        return {"ocs": ocs, "ols": ols / n, "oos": oos / n, "oas": oas / n, "ots": ots / n}
+    # spi-reference Decision: 0.0 when objects exist but no pair forms; 1.0 when nothing both
+    # channels can compare is there (every object in a coverage margin, or none at all)
+    empty = 0.0 if lone_a or lone_b else 1.0
+    return {"ocs": ocs, "ols": empty, "oos": empty, "oas": empty, "ots": empty}
 
 
 def ego_similarities(a: ChannelState, b: ChannelState) -> dict[str, float]:

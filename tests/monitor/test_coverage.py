@@ -47,17 +47,37 @@ def test_inside_hand_computed():
 
 def test_common_view_keeps_what_both_can_see():
     lidar = frame(0.0, {"a": channel(ego(), objects=[
-        obj(1, 20.0, 0.0), obj(2, -15.0, 0.0), obj(3, 0.0, 30.0), obj(4, 75.0, 0.0)])})
+        obj(1, 20.0, 0.0), obj(2, -15.0, 0.0), obj(3, 0.0, 30.0), obj(4, 75.0, 0.0),
+        obj(5, 69.0, 0.0)])})  # fmt: skip
     camera = frame(0.0, {"a": channel(ego(0.2, 0.0), objects=[obj(7, 20.3, 0.1)])})
-    oa, ob = common_view(
+    oa, core_a, ob, core_b = common_view(
         lidar.channels["a"].objects, lidar.channels["a"].ego, LIDAR,
         camera.channels["a"].objects, camera.channels["a"].ego, CAMERA, 2.0,
     )  # fmt: skip
-    # behind (2), to the side (3) and beyond the camera's 70 m (4) are out of the camera's view
-    assert oa.ids == ["1"] and ob.ids == ["7"]
+    # behind (2), to the side (3) and beyond the camera's 70 + 2 m (4) are out of view; 5 is
+    # in the camera's range margin (68.8 m from the camera's ego, 68-72 m): kept, not core
+    assert oa.ids == ["1", "5"] and core_a.tolist() == [True, False]
+    assert ob.ids == ["7"] and core_b.tolist() == [True]
     # all-round unlimited channels filter nothing
     same = common_view(oa, ego_at(), Coverage(), ob, ego_at(), Coverage(), 2.0)
-    assert same[0] is oa and same[1] is ob
+    assert same[0] is oa and same[2] is ob and same[1].all() and same[3].all()
+
+
+def test_a_car_straddling_the_range_edge_is_neither_dropped_nor_a_disagreement():
+    # the lead 68 m ahead: the lidar places it at 68.2 m, the camera at 67.9 m, around the
+    # camera's 70 - 2 m core edge. Compared as a pair (one core member): ols = 1 / 1.3
+    eng = MetricEngine(MetricParams(), ["a", "b"], {"b": CAMERA})
+    out = eng.step(frame(0.0, {
+        "a": channel(ego(), objects=[obj(1, 68.2, 0.0)]),
+        "b": channel(ego(), objects=[obj(1, 67.9, 0.0)]),
+    }))  # fmt: skip
+    assert out["ols"] == pytest.approx(1 / 1.3) and out["ocs"] == 1.0
+    # both in the margin: nothing to compare, which is agreement, not a gap
+    out = eng.step(frame(0.1, {
+        "a": channel(ego(), objects=[obj(1, 69.2, 0.0)]),
+        "b": channel(ego(), objects=[]),
+    }))  # fmt: skip
+    assert out["ols"] == 1.0 and out["ocs"] == 1.0
 
 
 def run(coverage: dict[str, Coverage] | None) -> dict[str, float | None]:

@@ -37,17 +37,25 @@ def test_els_var_warm_up_and_constant():
 
 CURRENT = np.array([[0, 0, 0], [0.1, 1, 0], [0.2, 2, 0]], dtype=float)
 # age 0.1: dt shifted to -0.1, 0, 0.1, 0.2 -> common range [0, 0.2]; kept points
-# (0,.5),(1,.5),(2,.5) vs (0,0),(1,0),(2,0): Frechet 0.5 -> f1 = 1/1.5 = 2/3
-OLDER1 = np.array([[0, -1, 0], [0.1, 0, 0.5], [0.2, 1, 0.5], [0.3, 2, 0.5]], dtype=float)
+# (0,0),(1,.5),(2,1) (already on the current plan's first point (0,0)) vs (0,0),(1,0),(2,0):
+# Frechet 1 (the end points must couple) -> f1 = 1/2
+OLDER1 = np.array([[0, -1, 0], [0.1, 0, 0], [0.2, 1, 0.5], [0.3, 2, 1.0]], dtype=float)
 # age 0.2: dt -0.2 .. 0.2 -> kept (0,0),(1,0),(2,0): Frechet 0 -> f2 = 1
 OLDER2 = np.array([[0, -2, 0], [0.1, -1, 0], [0.2, 0, 0], [0.3, 1, 0], [0.4, 2, 0]], dtype=float)
 
 
 def test_chpps_hand_computed():
-    # (1 * 2/3 + 0.95 * 1) / (1 + 0.95) = 1.616667 / 1.95 = 0.829060
+    # (1 * 1/2 + 0.95 * 1) / (1 + 0.95) = 1.45 / 1.95 = 0.743590
     got = chpps(CURRENT, [(0.1, OLDER1), (0.2, OLDER2)], K)
-    assert got == pytest.approx((2 / 3 + 0.95) / 1.95)
-    assert got == pytest.approx(0.829060, abs=1e-6)
+    assert got == pytest.approx((0.5 + 0.95) / 1.95)
+    assert got == pytest.approx(0.743590, abs=1e-6)
+
+
+def test_chpps_moves_the_stored_plan_onto_the_current_start():
+    # the same path, every point 0.3 m to the left (a localisation jump between two cycles):
+    # not instability, chpps 1; the study's untranslated reading would give 1 / 1.3
+    shifted = OLDER2 + np.array([0.0, 0.0, 0.3])
+    assert chpps(CURRENT, [(0.2, shifted)], K) == pytest.approx(1.0)
 
 
 def test_chpps_no_overlap_is_no_value():
@@ -69,20 +77,23 @@ def test_chpps_weights_use_rank_including_skipped():
     # rank 1 overlaps with f = 1 (identical path), rank 2 skipped -> 1.0
     assert chpps(CURRENT, [(0.1, same), (0.2, far)], K) == pytest.approx(1.0)
     # rank 1 skipped, rank 2 = OLDER2 (f = 1) keeps weight 0.95: 0.95 * 1 / 0.95 = 1.0; with
-    # OLDER1 at rank 3 (age 0.1 -> same cut as above, f = 2/3, weight 0.95^2 = 0.9025):
-    # (0.95 * 1 + 0.9025 * 2/3) / (0.95 + 0.9025) = 1.551667 / 1.8525 = 0.837606
+    # OLDER1 at rank 3 (age 0.1 -> same cut as above, f = 1/2, weight 0.95^2 = 0.9025):
+    # (0.95 * 1 + 0.9025 * 1/2) / (0.95 + 0.9025) = 1.40125 / 1.8525 = 0.756410
     got = chpps(CURRENT, [(0.2, far), (0.2, OLDER2), (0.1, OLDER1)], K)
-    assert got == pytest.approx((0.95 + 0.9025 * 2 / 3) / 1.8525)
+    assert got == pytest.approx((0.95 + 0.9025 / 2) / 1.8525)
+    assert got == pytest.approx(0.756410, abs=1e-6)
 
 
 def test_one_point_common_range_uses_the_largest_distance():
-    # age 0.2: OLDER1 shifted to -0.2 .. 0.1 -> current keeps dt 0, 0.1 = (0,0),(1,0); the
-    # stored plan keeps dt 0.2, 0.3 = (1,.5),(2,.5): Frechet max(|(0,0)-(1,.5)|, |(1,0)-(2,.5)|)
-    # = sqrt(1.25). A one-point cut: current [[0, 3, 4]] vs OLDER1 at age 0.1 keeps (0,.5):
-    # distance 3.640055 -> inv = 1 / 4.640055 = 0.215515
-    one = np.array([[0.0, 3.0, 4.0]])
-    assert chpps(one, [(0.1, OLDER1)], K) == pytest.approx(1 / (1 + np.hypot(3, 3.5)))
-    assert chpps(CURRENT[:2], [(0.2, OLDER1)], K) == pytest.approx(1 / (1 + np.sqrt(1.25)))
+    # current dt 0, 0.4; stored (age 0.1) dt 0.1 .. 0.4 -> shifted 0 .. 0.3: common range
+    # [0, 0.3] holds one current point (0,0) and four stored points, which move onto it:
+    # (0,0),(1,.5),(2,1),(3,1.5); largest distance sqrt(9 + 2.25) = 3.354102
+    current = np.array([[0.0, 0.0, 0.0], [0.4, 4.0, 0.0]])
+    stored = np.array([[0.1, 10, 10], [0.2, 11, 10.5], [0.3, 12, 11], [0.4, 13, 11.5]])
+    assert chpps(current, [(0.1, stored)], K) == pytest.approx(1 / (1 + np.sqrt(11.25)))
+    # two-point cuts: current keeps (0,0),(1,0), OLDER1 at age 0.2 keeps (1,.5),(2,1) moved to
+    # (0,0),(1,.5): Frechet 0.5
+    assert chpps(CURRENT[:2], [(0.2, OLDER1)], K) == pytest.approx(1 / 1.5)
 
 
 def test_history_restarts_after_max_gap_and_keeps_plan_history_plans():
@@ -90,21 +101,19 @@ def test_history_restarts_after_max_gap_and_keeps_plan_history_plans():
     hist.push(0, 0.0, OLDER2[:3] + np.array([0.2, 0, 0]))  # dt .2 .3 .4, x -2 -1 0
     hist.push(0, 0.1, OLDER1[:3])
     hist.push(0, 0.2, CURRENT)
-    # channel 0 at t 0.2: rank 1 = OLDER1[:3] at age 0.1 -> dt -0.1, 0, 0.1: kept (0,.5),(1,.5)
+    # channel 0 at t 0.2: rank 1 = OLDER1[:3] at age 0.1 -> dt -0.1, 0, 0.1: kept (0,0),(1,.5)
     # vs (0,0),(1,0): fd 0.5, f = 2/3; rank 2 = the t 0 plan at age 0.2: dt 0 .. 0.2, points
-    # (-2,0),(-1,0),(0,0) vs (0,0),(1,0),(2,0): fd 2, f = 1/3.
-    # (2/3 + 0.95/3) / 1.95 = 0.538462; channel 1 has no plan from t 0.2: None
+    # (-2,0),(-1,0),(0,0) moved onto (0,0): (0,0),(1,0),(2,0), the current path: fd 0, f = 1.
+    # (2/3 + 0.95) / 1.95 = 0.829060; channel 1 has no plan from t 0.2: None
     values, fds = chpps_frame(hist, 0.2, K)
-    assert values[0] == pytest.approx((2 / 3 + 0.95 / 3) / 1.95)
+    assert values[0] == pytest.approx((2 / 3 + 0.95) / 1.95)
     assert values[1] is None and fds == []
     # The ring keeps plan_history = 2 stored plans: at t 0.3 the t 0 plan (age 0.3: dt -0.1 ..
-    # 0.1, would overlap) is gone; CURRENT at age 0.1 -> dt -0.1 .. 0.1: kept (1,0),(2,0) vs
-    # (0,0),(1,0): fd 1, f = 1/2; OLDER1[:3] at age 0.2: dt -0.2 .. 0: kept (1,.5) vs (0,0):
-    # one point, distance sqrt(1.25), f = 1/(1 + 1.118034) = 0.472136.
-    # (0.5 + 0.95 * 0.472136) / 1.95 = 0.486427
+    # 0.1, would overlap, and its x -2, -1, 0 would not line up) is gone; CURRENT at age 0.1 ->
+    # dt -0.1 .. 0.1: kept (1,0),(2,0) moved onto (0,0): the current path, fd 0; OLDER1[:3] at
+    # age 0.2: dt -0.2 .. 0: one point each, moved together: fd 0. chpps 1.
     hist.push(0, 0.3, CURRENT)
-    want = (0.5 + 0.95 / (1 + np.sqrt(1.25))) / 1.95
-    assert chpps_frame(hist, 0.3, K)[0][0] == pytest.approx(want)
+    assert chpps_frame(hist, 0.3, K)[0][0] == pytest.approx(1.0)
     # 1.1 - 0.6 = 0.5000000000000001 s is within max_gap + 1e-9: no restart. The t 0.6 plan at
     # that age lines up with CURRENT point for point: fd 0, chpps 1.
     hist.push(1, 0.6, CURRENT + np.array([0.5, 0, 0]))
@@ -163,7 +172,9 @@ def mask_pairs(current, stored, k):
         cm = (current[:, 0] >= lo) & (current[:, 0] <= hi)
         sm = (plan[:, 0] >= lo + age) & (plan[:, 0] <= hi + age)
         if lo <= hi and cm.any() and sm.any():
-            pairs.append((current[cm, 1:3], plan[sm, 1:3]))
+            # the stored cut moves onto the current cut's first point (spi-reference chpps)
+            q = plan[sm, 1:3]
+            pairs.append((current[cm, 1:3], q + (current[cm][0, 1:3] - q[0])))
             weights.append(k**rank)
     return pairs, weights
 

@@ -142,12 +142,12 @@ def run_engine(b_sampling: str, b_plan_horizon: float, b_pred_horizon: float, v0
 )
 def test_plan_and_prediction_metrics_are_sampling_invariant(v0, acc, yaw_rate, lead_gap, how):
     """Channel b samples the same motion every 0.5 s or every metre instead of every 0.1 s:
-    every plan and prediction metric within 0.02 of the 0.1 s value (spi-reference tolerance)."""
+    every plan and prediction metric within 0.03 of the 0.1 s value (spi-reference tolerance)."""
     ref = run_engine("0.1s", 5.0, 4.0, v0, acc, yaw_rate, lead_gap)
     got = run_engine(how, 5.0, 4.0, v0, acc, yaw_rate, lead_gap)
     for m in PLAN_METRICS:
         assert ref[m] is not None and got[m] is not None, m
-        assert got[m] == pytest.approx(ref[m], abs=0.02), m
+        assert got[m] == pytest.approx(ref[m], abs=0.03), m
     # identical motion: the cross-channel similarities read agreement
     for m in ("ets", "crpps", "ots", "chpps"):
         assert got[m] > 0.97, m
