@@ -15,7 +15,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from evaluator.result import RunResult
-from evaluator.session import RunOptions, evaluate_stream
+from evaluator.session import DEFAULT_MAX_NO_DATA, RunOptions, evaluate_stream
 from safety_case.checks import check_file, sort_findings
 from safety_case.findings import CaseError, Finding, has_errors
 from safety_case.model import Case
@@ -53,14 +53,19 @@ def run(
     labels: str | Path | None = None,
     strict: bool = False,
     formats: Sequence[str] = ("html", "md", "junit"),
+    max_no_data: float = DEFAULT_MAX_NO_DATA,
 ) -> RunResult:
-    """Judge one stream; with `out_dir`, write events.jsonl, result.json and the reports."""
+    """Judge one stream; with `out_dir`, write events.jsonl, result.json and the reports.
+
+    `result.root_no_data.exceeded` says whether the root goal was `no-data` on more than
+    `max_no_data` of the ticks (what `casewatch run` reports as unusable input, exit 2)."""
     case, spec = prepare(case_path)
     out = Path(out_dir) if out_dir is not None else None
     options = RunOptions(
         strict=strict,
         labels=Path(labels) if labels is not None else None,
         events_path=out / "events.jsonl" if out is not None else None,
+        max_no_data=max_no_data,
     )
     result = evaluate_stream(case, spec, stream, options)
     if out is not None:

@@ -15,8 +15,9 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
+from casewatch.crash import write_crash_log
 from evaluator.ground_truth import LabelsError
-from evaluator.session import InputError, RunOptions, evaluate_stream
+from evaluator.session import DEFAULT_MAX_NO_DATA, InputError, RunOptions, evaluate_stream
 from evaluator.summary import LogSummary, summarise, summarise_result
 from monitor.warmup import warm_up
 from safety_case.findings import CaseError
@@ -83,10 +84,12 @@ class Job:
     labels: str | None
     strict: bool
     formats: tuple[str, ...]
+    max_no_data: float = DEFAULT_MAX_NO_DATA
 
 
 def run_job(job: Job) -> LogSummary:
-    """Judge one log; never raises for bad input (the summary says what went wrong)."""
+    """Judge one log; never raises (the summary says what went wrong; an internal error leaves
+    its traceback in the log's folder and marks the summary `crashed`)."""
     from casewatch import api
 
     started = time.perf_counter()
@@ -97,6 +100,7 @@ def run_job(job: Job) -> LogSummary:
             strict=job.strict,
             labels=Path(job.labels) if job.labels else None,
             events_path=out / "events.jsonl",
+            max_no_data=job.max_no_data,
         )
         result = evaluate_stream(case, spec, job.stream, options)
         api.write_result(result, out)
@@ -104,6 +108,12 @@ def run_job(job: Job) -> LogSummary:
             api.render(out, job.formats)
     except (InputError, LabelsError, CaseError, OSError) as exc:
         return LogSummary(stream=job.stream, out_dir=str(out), ok=False, error=str(exc),
+                          seconds=round(time.perf_counter() - started, 3))
+    except Exception as exc:  # a bug: keep the other logs going, exit 3 at the end
+        log = write_crash_log(exc, ["run", job.case_path, job.stream, "-o", job.out_dir], out)
+        return LogSummary(stream=job.stream, out_dir=str(out), ok=False, crashed=True,
+                          error=f"internal error ({type(exc).__name__}: {exc}); please attach "
+                                f"{log} to a bug report",
                           seconds=round(time.perf_counter() - started, 3))
     return summarise_result(result, str(out), time.perf_counter() - started)
 
@@ -118,6 +128,7 @@ def run_many(
     strict: bool,
     formats: Sequence[str],
     on_done: Callable[[LogSummary], None] | None = None,
+    max_no_data: float = DEFAULT_MAX_NO_DATA,
 ) -> dict[str, object]:
     """Judge every stream (in `jobs` processes) and write `out_dir/summary.json`."""
     used: set[str] = set()
@@ -130,7 +141,7 @@ def run_many(
         used.add(name)
         work.append(Job(case_path, str(stream), str(out_dir / name),
                         labels_for(str(stream), labels),
-                        strict, tuple(formats)))
+                        strict, tuple(formats), max_no_data))
     results: list[LogSummary] = []
     if jobs <= 1:
         for job in work:

@@ -1,7 +1,8 @@
 """The `casewatch` command line. It only parses arguments and dispatches to a command module.
 
 Exit codes are shared by every command: 0 success, 1 findings/violations, 2 usage or input
-that cannot be read.
+that cannot be used, 3 an internal error (a bug: one line on the terminal, the traceback in
+`casewatch-crash.log`, see `casewatch/crash.py`).
 """
 
 from __future__ import annotations
@@ -11,6 +12,7 @@ import importlib
 import sys
 
 from casewatch import __version__
+from casewatch.crash import report_crash
 
 COMMANDS = ("check", "compile", "run", "report")
 
@@ -31,7 +33,11 @@ def build_parser() -> tuple[argparse.ArgumentParser, dict[str, object]]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser, modules = build_parser()
+    argv = list(sys.argv[1:] if argv is None else argv)
+    try:
+        parser, modules = build_parser()
+    except Exception as exc:  # an import or registration bug: still exit 3, not a traceback
+        return report_crash(exc, argv, None)
     try:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # argparse exits 2 on usage errors, 0 on --help
@@ -46,6 +52,8 @@ def main(argv: list[str] | None = None) -> int:
         return 130
     except BrokenPipeError:
         return 0
+    except Exception as exc:  # a bug, never a verdict: exit 3 with the traceback in a file
+        return report_crash(exc, argv, args)
 
 
 if __name__ == "__main__":

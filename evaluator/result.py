@@ -223,6 +223,19 @@ class Timings(_Record):
     peak_rss_mib: float | None = None  # the process's peak resident memory (Linux VmHWM)
 
 
+class RootNoData(_Record):
+    """How much of the run the root goal could not be judged, against the run's limit.
+
+    A run whose root goal is `no-data` on more than `limit` of its ticks is unusable input
+    (exit code 2), not a pass: missing data is never a pass, not even when most of it is."""
+
+    ticks: int  # root-goal ticks: frames plus the ticks of frames missing from the stream
+    no_data_ticks: int
+    share: float  # no_data_ticks / ticks; 1.0 for a run without any tick
+    limit: float  # the largest share accepted (`casewatch run --max-no-data`)
+    exceeded: bool  # share > limit
+
+
 class RunResult(_Record):
     format: str = RESULT_FORMAT
     version: int = RESULT_VERSION
@@ -240,3 +253,4 @@ class RunResult(_Record):
     ground_truth: GroundTruth | None = None
     timings: Timings = Timings()
     complete: bool = True  # False when the run stopped early (interrupted, strict-mode defect)
+    root_no_data: RootNoData | None = None  # None in results written before it existed

@@ -26,6 +26,7 @@ from evaluator.result import (
     CaseInfo,
     DataGap,
     Episode,
+    RootNoData,
     RunResult,
     StreamDefect,
     StreamInfo,
@@ -40,6 +41,10 @@ from spec.model import CompiledSpec
 #: How many defects result.json lists in full (the count is always exact).
 MAX_LISTED_DEFECTS = 1000
 
+#: Default of `--max-no-data`: the bundled drives' root goal is `no-data` on 2-3 % of ticks
+#: (warm-up), a drive with a channel missing throughout on all of them.
+DEFAULT_MAX_NO_DATA = 0.5
+
 
 class InputError(Exception):
     """Input the run cannot use (unreadable stream, period mismatch, strict-mode defect)."""
@@ -53,6 +58,8 @@ class RunOptions:
     on_event: Callable[[Episode | DataGap], None] | None = None
     progress: Callable[[int, float], None] | None = None  # (frames, stream time) every ~1 s
     series_points: int = 1000
+    # the largest share of ticks the root goal may be `no-data` before the run is unusable input
+    max_no_data: float = DEFAULT_MAX_NO_DATA
 
 
 @dataclass
@@ -156,6 +163,9 @@ def evaluate_stream(
     )
     statuses = evaluator.node_statuses()
     root = next(s for s in statuses if s.node_id == spec.root_id)
+    root_ticks = sum(root.ticks.values())
+    no_data_ticks = root.ticks.get("no-data", 0)
+    share = no_data_ticks / root_ticks if root_ticks else 1.0
     ground_truth = None
     if labels is not None:
         hazards = {n.id: n.text for n in case.nodes.values()
@@ -189,6 +199,13 @@ def evaluate_stream(
             peak_rss_mib=peak_rss_mib(),
         ),
         complete=complete,
+        root_no_data=RootNoData(
+            ticks=root_ticks,
+            no_data_ticks=no_data_ticks,
+            share=round(share, 6),
+            limit=options.max_no_data,
+            exceeded=share > options.max_no_data,
+        ),
     )
 
 

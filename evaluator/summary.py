@@ -40,6 +40,9 @@ class LogSummary(BaseModel):
     out_dir: str
     ok: bool  # False when the log could not be judged (then `error` says why)
     error: str = ""
+    crashed: bool = False  # the error was an internal one (a bug; traceback in the log folder)
+    no_data_share: float | None = None  # share of ticks the root goal was `no-data`
+    too_little_data: bool = False  # that share exceeded the run's --max-no-data
     verdict: str = ""
     frames: int = 0
     duration_s: float = 0.0
@@ -59,6 +62,8 @@ def summarise_result(result: RunResult, out_dir: str, seconds: float) -> LogSumm
         duration_s=result.stream.duration,
         defects=result.stream.defect_count,
         seconds=round(seconds, 3),
+        no_data_share=None if result.root_no_data is None else result.root_no_data.share,
+        too_little_data=result.root_no_data is not None and result.root_no_data.exceeded,
         formulas=[
             FormulaCount(
                 formula_id=f.id,
@@ -139,6 +144,8 @@ def summarise(logs: list[LogSummary], case_path: str, case_digest: str) -> dict[
         "case": {"path": case_path, "digest": case_digest},
         "logs": len(logs),
         "logs_failed": len(logs) - len(judged),
+        "logs_crashed": sum(log.crashed for log in logs),
+        "logs_without_data": sum(log.too_little_data for log in judged),
         "hours": round(hours, 6),
         "frames": sum(log.frames for log in judged),
         "verdicts": verdicts,

@@ -5,7 +5,9 @@ One stream (a file, or `-` for standard input, judged live as frames arrive) wri
 or several paths) write one such folder per log under OUTDIR plus `OUTDIR/summary.json`, in
 `--jobs` parallel processes.
 
-Exit codes: 0 nothing violated, 1 any SPI episode or hazard event, 2 invalid input.
+Exit codes: 0 nothing violated, 1 any SPI episode or hazard event, 2 input that cannot be used
+(including a run whose root goal was `no-data` on more than `--max-no-data` of its ticks; this
+wins over 1), 3 an internal error (see `casewatch/crash.py`).
 """
 
 from __future__ import annotations
@@ -15,9 +17,10 @@ import sys
 from pathlib import Path
 
 from casewatch import api, batch
+from casewatch.crash import INTERNAL_ERROR
 from evaluator.ground_truth import LabelsError
 from evaluator.result import DataGap, Episode, RunResult
-from evaluator.session import InputError, RunOptions, evaluate_stream
+from evaluator.session import DEFAULT_MAX_NO_DATA, InputError, RunOptions, evaluate_stream
 from evaluator.summary import LogSummary
 from monitor.warmup import warm_up
 from reports.render import FORMATS, parse_formats
@@ -43,6 +46,18 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--format", default=",".join(FORMATS),
                    help="reports to write: any of html,md,junit, or 'none' (default: all)")
     p.add_argument("--quiet", action="store_true", help="no progress or event lines")
+    p.add_argument("--max-no-data", type=_share, default=DEFAULT_MAX_NO_DATA, metavar="SHARE",
+                   help="largest share (0-1) of ticks the root goal may read no-data; above it "
+                        "the stream is unusable input, exit code 2, not a pass "
+                        f"(default: {DEFAULT_MAX_NO_DATA:g})")
+
+
+def _share(text: str) -> float:
+    """A share between 0 and 1 for `--max-no-data` (argparse turns ValueError into exit 2)."""
+    value = float(text)
+    if not 0.0 <= value <= 1.0:  # NaN fails this too
+        raise argparse.ArgumentTypeError(f"expected a share between 0 and 1, got {text!r}")
+    return value
 
 
 def _formats(text: str) -> tuple[str, ...]:
@@ -108,6 +123,7 @@ def _run_single(args, case, spec, formats: tuple[str, ...]) -> int:
         events_path=args.out / "events.jsonl",
         on_event=on_event,
         progress=None if live else progress,
+        max_no_data=args.max_no_data,
     )
     warm_up()  # compiled kernels ready before the first frame (matters for a live stream)
     try:
@@ -125,6 +141,13 @@ def _run_single(args, case, spec, formats: tuple[str, ...]) -> int:
         print(f"casewatch run: {stream}: no frames could be read "
               f"({result.stream.defect_count} defects); nothing was judged", file=sys.stderr)
         return 2
+    no_data = result.root_no_data
+    if no_data is not None and no_data.exceeded:
+        print(f"casewatch run: {stream}: the root goal {result.case.root_id} had no data on "
+              f"{no_data.share:.1%} of {no_data.ticks} ticks (limit {no_data.limit:.0%}, "
+              "--max-no-data); the stream cannot vouch for the case: unusable input, not a "
+              "pass", file=sys.stderr)
+        return 2
     return 1 if result.episodes else 0
 
 
@@ -136,6 +159,10 @@ def _print_summary(result: RunResult, path: Path, written: dict[str, Path]) -> N
     print(f"{result.case.module}: {s.frames_read} frames, {s.duration:.1f} s, "
           f"{s.defect_count} defects; root goal {result.case.root_id}: {result.verdict.upper()}")
     print(f"  {spi} SPI episodes, {hazards} hazard events, {gaps} formula-ticks without data")
+    if result.root_no_data is not None:
+        n = result.root_no_data
+        print(f"  root goal without data on {n.no_data_ticks} of {n.ticks} ticks ({n.share:.1%}; "
+              f"limit {n.limit:.0%})")
     if result.ground_truth is not None:
         o = result.ground_truth.overall
         p = "n/a" if o.precision is None else f"{o.precision:.1%}"
@@ -166,17 +193,21 @@ def _run_many(args, case, formats: tuple[str, ...]) -> int:
         if args.quiet:
             return
         if log.ok:
-            print(f"  {log.stream}: {log.frames} frames, {log.verdict} ({log.seconds:.1f} s)",
-                  file=sys.stderr)
+            short = " (too little data: --max-no-data)" if log.too_little_data else ""
+            print(f"  {log.stream}: {log.frames} frames, {log.verdict}{short} "
+                  f"({log.seconds:.1f} s)", file=sys.stderr)
         else:
             print(f"  {log.stream}: FAILED: {log.error}", file=sys.stderr)
 
     summary = batch.run_many(args.case, case.digest, streams, args.out, args.jobs,
-                             args.labels, args.strict, formats, on_done)
+                             args.labels, args.strict, formats, on_done, args.max_no_data)
     if not args.quiet:
         print(f"{summary['logs']} logs, {summary['hours']:.3f} h judged, "
-              f"{summary['logs_failed']} failed; summary: {args.out / 'summary.json'}")
-    if summary["logs_failed"]:
+              f"{summary['logs_failed']} failed, {summary['logs_without_data']} with too little "
+              f"data; summary: {args.out / 'summary.json'}")
+    if summary["logs_crashed"]:
+        return INTERNAL_ERROR
+    if summary["logs_failed"] or summary["logs_without_data"]:
         return 2
     episodes = sum(int(f["episodes"]) for f in summary["formulas"])
     return 1 if episodes else 0

@@ -6,6 +6,8 @@ import gzip
 import json
 from pathlib import Path
 
+import pytest
+
 from casewatch.cli import main
 from tests.evaluator.streams import frame, write_case, write_stream
 
@@ -75,3 +77,132 @@ def test_deeply_nested_line_is_one_malformed_json_defect(tmp_path):
         (21, "malformed-json")
     ]
     assert result["stream"]["frames_read"] == 40
+
+
+# -- exit codes ----------------------------------------------------------------------------------
+
+
+def test_internal_error_exits_3_with_one_line_and_the_traceback_in_the_output_folder(
+    tmp_path, capsys, monkeypatch
+):
+    case = write_case(tmp_path / "case.yaml")
+    stream = write_stream(tmp_path / "s.jsonl")
+
+    def boom(*args, **kwargs):
+        raise ZeroDivisionError("forced for the test")
+
+    monkeypatch.setattr("casewatch.commands.run.evaluate_stream", boom)
+    out = tmp_path / "out"
+    assert main(["run", str(case), str(stream), "-o", str(out), "--quiet"]) == 3
+    captured = capsys.readouterr()
+    (line,) = captured.err.strip().splitlines()
+    log = out / "casewatch-crash.log"
+    assert line.startswith("casewatch: internal error (ZeroDivisionError: forced for the test)")
+    assert str(log) in line and "Traceback" not in captured.out + captured.err
+    text = log.read_text()
+    assert "Traceback (most recent call last)" in text and f"command: casewatch run {case}" in text
+
+
+def test_internal_error_without_output_folder_logs_to_a_temporary_file(capsys, monkeypatch):
+    def boom(*args, **kwargs):
+        raise RuntimeError("forced")
+
+    monkeypatch.setattr("casewatch.api.check", boom)
+    assert main(["check", str(REFERENCE)]) == 3
+    line = capsys.readouterr().err.strip()
+    path = Path(line.split("please attach ", 1)[1].split(" to a bug report")[0])
+    try:
+        assert path.name.startswith("casewatch-crash-")
+        assert "RuntimeError: forced" in path.read_text()
+    finally:
+        path.unlink()
+
+
+def test_a_crash_in_one_of_many_logs_exits_3_and_the_others_are_judged(tmp_path, monkeypatch):
+    case = write_case(tmp_path / "case.yaml")
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    write_stream(logs / "a.jsonl")
+    write_stream(logs / "b.jsonl", frames=50)
+    real = __import__("casewatch.batch", fromlist=["evaluate_stream"]).evaluate_stream
+
+    def flaky(case_value, spec, stream, options):
+        if stream.endswith("b.jsonl"):
+            raise KeyError("forced")
+        return real(case_value, spec, stream, options)
+
+    monkeypatch.setattr("casewatch.batch.evaluate_stream", flaky)
+    out = tmp_path / "out"
+    assert main(["run", str(case), str(logs), "-o", str(out), "--quiet", "--format", "none"]) == 3
+    summary = json.loads((out / "summary.json").read_text())
+    assert (summary["logs_failed"], summary["logs_crashed"]) == (1, 1)
+    assert (out / "a" / "result.json").exists() and (out / "b" / "casewatch-crash.log").exists()
+
+
+def _stream_without_tfuse(path: Path, frames: int = 60) -> Path:
+    rows = []
+    for i in range(frames):
+        row = frame(i)
+        row["channels"].pop("tfuse", None)
+        rows.append(json.dumps(row))
+    path.write_text("\n".join(rows) + "\n")
+    return path
+
+
+def test_root_goal_without_data_on_most_ticks_is_unusable_input_not_a_pass(tmp_path, capsys):
+    case = write_case(tmp_path / "case.yaml")
+    stream = _stream_without_tfuse(tmp_path / "s.jsonl")
+    out = tmp_path / "o"
+    assert main(["run", str(case), str(stream), "-o", str(out), "--format", "none"]) == 2
+    captured = capsys.readouterr()
+    assert "root goal G1 had no data on 100.0% of 60 ticks (limit 50%" in captured.err
+    assert "root goal without data on 60 of 60 ticks (100.0%; limit 50%)" in captured.out
+    no_data = json.loads((out / "result.json").read_text())["root_no_data"]
+    assert no_data == {"ticks": 60, "no_data_ticks": 60, "share": 1.0, "limit": 0.5,
+                       "exceeded": True}
+    # the limit is the user's: with 1 (anything goes) the same run is an ordinary pass
+    assert main(["run", str(case), str(stream), "-o", str(out), "--format", "none", "--quiet",
+                 "--max-no-data", "1"]) == 0
+
+
+def test_half_the_ticks_without_data_is_within_the_default_limit(tmp_path):
+    case = write_case(tmp_path / "case.yaml")
+    rows = [frame(i) for i in range(30, 50)]  # 3.0-4.9 s: tfuse 2 m off only at 3.0 s
+    for row in rows[:10]:  # tfuse missing from 3.0 to 3.9 s: 10 of 20 ticks without data
+        row["channels"].pop("tfuse")
+    stream = tmp_path / "s.jsonl"
+    stream.write_text("".join(json.dumps(r) + "\n" for r in rows))
+    out = tmp_path / "o"
+    assert main(["run", str(case), str(stream), "-o", str(out), "--format", "none",
+                 "--quiet"]) == 0
+    assert json.loads((out / "result.json").read_text())["root_no_data"]["share"] == 0.5
+    assert main(["run", str(case), str(stream), "-o", str(out), "--format", "none",
+                 "--quiet", "--max-no-data", "0.4"]) == 2
+
+
+@pytest.mark.parametrize("bad", ["1.5", "-0.1", "nan", "half"])
+def test_max_no_data_must_be_a_share(tmp_path, bad, capsys):
+    case = write_case(tmp_path / "case.yaml")
+    assert main(["run", str(case), "-", "-o", str(tmp_path), "--max-no-data", bad]) == 2
+    assert "--max-no-data" in capsys.readouterr().err
+
+
+def test_many_logs_with_too_little_data_exit_2(tmp_path):
+    case = write_case(tmp_path / "case.yaml")
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    _stream_without_tfuse(logs / "a.jsonl")
+    out = tmp_path / "out"
+    assert main(["run", str(case), str(logs), "-o", str(out), "--quiet", "--format", "none"]) == 2
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["logs_without_data"] == 1 and summary["per_log"][0]["no_data_share"] == 1.0
+
+
+def test_bundled_drive_stays_well_within_the_no_data_limit(tmp_path):
+    # warm-up gaps are real gaps: the bundled drives' root goal reads no-data on 2-3 % of ticks
+    out = tmp_path / "o"
+    stream = REPO / "examples" / "data" / "highway-tailgating.jsonl.gz"
+    assert main(["run", str(REFERENCE), str(stream), "-o", str(out), "--quiet",
+                 "--format", "none"]) == 1
+    no_data = json.loads((out / "result.json").read_text())["root_no_data"]
+    assert 0 < no_data["share"] < 0.1 and not no_data["exceeded"]
