@@ -4,6 +4,7 @@ Runs exactly what a user would type:
 
     casewatch check examples/reference-case.yaml
     casewatch run examples/reference-case.yaml examples/data --labels auto --jobs 2 -o out/demo
+    python -m casewatch.nominal out/demo      # each SPI's false alarms on nominal driving
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ import sys
 from pathlib import Path
 
 from casewatch.cli import main as cli
+from casewatch.nominal import main as nominal
 
 REPO = Path(__file__).resolve().parent.parent
 CASE = REPO / "examples" / "reference-case.yaml"
@@ -45,6 +47,8 @@ def main() -> int:
             print(f"  {row['hazard']:>5}: {row['true_positives']} TP, {row['false_positives']} FP, "
                   f"{row['false_negatives']} FN; precision {p}, recall {r}")
     print(f"Fleet summary: {(OUT / 'summary.json').resolve()}")
+    print(f"\n$ python -m casewatch.nominal {OUT}")
+    nominal([str(OUT)])
     return 0
 
 
