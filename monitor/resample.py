@@ -62,9 +62,30 @@ def _slopes(t, v, n, out):  # pragma: no cover - compiled
         d1 = (v[c] - v[b]) / h1
         # Lagrange parabola derivative at t[i]
         x = t[i]
-        out[i] = (
-            d0 + (d1 - d0) / (h0 + h1) * ((x - t[a]) + (x - t[b]))
-        )
+        out[i] = d0 + (d1 - d0) / (h0 + h1) * ((x - t[a]) + (x - t[b]))
+    # Overshoot guard (after Fritsch and Carlson): a flat interval (the vehicle stands) keeps
+    # its ends flat, and where a slope is over three times the interval's secant in the same
+    # direction (a stop or a sharp slow-down between two sparse samples) the cubic would swing
+    # past the next sample, so the slopes are scaled back onto Fritsch-Carlson's circle. Motion
+    # of constant acceleration between samples of similar spacing never triggers either.
+    for i in range(n - 1):
+        d = (v[i + 1] - v[i]) / (t[i + 1] - t[i])
+        if d == 0.0:
+            out[i] = 0.0
+            out[i + 1] = 0.0
+            continue
+        alpha = out[i] / d
+        beta = out[i + 1] / d
+        if alpha >= 0.0 and beta >= 0.0:
+            r = alpha * alpha + beta * beta
+            if r > 9.0:
+                scale = 3.0 / math.sqrt(r)
+                out[i] = scale * alpha * d
+                out[i + 1] = scale * beta * d
+        elif alpha > 3.0:
+            out[i] = 3.0 * d
+        elif beta > 3.0:
+            out[i + 1] = 3.0 * d
 
 
 @kernel

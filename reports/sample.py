@@ -135,7 +135,7 @@ _REFERENCE_NODES: list[tuple[str, str, str, list[str], list[str], list[str], obj
     (
         "C3",
         "C",
-        "Objects of the two channels are paired by greedy nearest matching within 3 m; object count similarity (ocs) is observed and reported but not judged",  # noqa: E501
+        "Objects of the two channels are paired by greedy nearest matching within 3 m, among the objects both channels can see (their declared coverage); object count similarity (ocs) is observed and reported but not judged",  # noqa: E501
         [],
         [],
         [],
