@@ -40,6 +40,10 @@ from spec.trace import traces_for
 
 Mode = Literal["online", "offline"]
 
+#: The longest time window, in samples (27.8 h at 0.1 s): rtamt keeps a window's samples in a
+#: buffer, so `once[0:1e300s]` would overflow it and `historically[0:1000000h]` exhaust memory.
+MAX_BOUND_TICKS = 1_000_000
+
 
 @dataclass(frozen=True)
 class _Source:
@@ -171,6 +175,24 @@ def _check(
             )
         )
     for interval in intervals_of(formula):
+        ticks = bound_ticks(interval.hi, period)
+        if ticks is not None and ticks > MAX_BOUND_TICKS:
+            line, col = _at(case, src, interval.col)
+            if src.formula is not None:  # `for:` duration: point at the binding
+                line, col = src.binding_mark.line, src.binding_mark.col
+            findings.append(
+                formula_finding(
+                    "CW048",
+                    f"time bound {float(interval.hi):g}s in node {src.node.id} spans {ticks} "
+                    f"samples; a window holds at most {MAX_BOUND_TICKS} "
+                    f"({float(MAX_BOUND_TICKS * period) / 3600:g} h at {float(period):g}s)",
+                    path,
+                    line,
+                    col,
+                    hint="rtamt keeps every sample of a window in memory; judge over a shorter "
+                    "window",
+                )
+            )
         for bound in (interval.lo, interval.hi):
             if bound_ticks(bound, period) is None:
                 line, col = _at(case, src, interval.col)

@@ -193,3 +193,12 @@ def test_numbers_are_ascii_digits_without_separators() -> None:
     for text in ("els >= 1_0", "els >= \u0661"):  # a digit separator; ARABIC-INDIC DIGIT ONE
         (finding,) = check_formulas(make_case(stl_node("Sn1", text, 20, 10)))
         assert finding.code == "CW040", text
+
+
+def test_windows_longer_than_a_million_samples_are_refused() -> None:
+    (finding,) = check_formulas(make_case(stl_node("Sn1", "once[0:1e300s] els > 0", 20, 10)))
+    assert (finding.code, finding.line, finding.col) == ("CW048", 20, 14)  # at the interval
+    (finding,) = check_formulas(make_case(spi_node("Sn1", "els", ">=", 0.6, for_seconds=1e7)))
+    assert (finding.code, finding.line, finding.col) == ("CW048", 10, 3)
+    spec, findings = compile_case(make_case(stl_node("Sn1", "once[0:100000s] els > 0")))
+    assert findings == [] and spec is not None  # exactly 10^6 samples at 0.1 s
