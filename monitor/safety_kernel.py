@@ -28,6 +28,12 @@ from monitor.jit import kernel
 #: Grid points per run in the run-level prefilters (both paths use runs of this length).
 CHUNK = 5
 
+#: Shortest grid segment [m] that counts as motion for a heading (spi-reference "Safety score"):
+#: 2 cm per 0.1 s step is 0.2 m/s. Streams round positions (to a centimetre, say), and the
+#: direction of a millimetre jump between two rounded points of a standing car is noise: read
+#: as a heading, it turned a car parked beside the ego across it.
+MOTION_EPS = 0.02
+
 #: Slack (m) added to every prefilter bound of the kernel, so that rounding in a prefilter can
 #: never drop a pair the exact test would find touching (coordinates may be map-sized).
 SLACK = 1e-6
@@ -44,7 +50,7 @@ def _headings(x: np.ndarray, y: np.ndarray, n: int, yaw: float, cos: np.ndarray,
         dy = y[t + 1] - y[t]
         # standing still: no hypot call (~15 ns) needed
         length = 0.0 if dx == 0.0 and dy == 0.0 else math.hypot(dx, dy)
-        if length > 1e-9:
+        if length > MOTION_EPS:
             c = dx / length
             s = dy / length
         cos[t] = c

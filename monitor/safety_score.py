@@ -35,20 +35,20 @@ import shapely
 
 from monitor.frames import ChannelState, Ego, Objects, place
 from monitor.prediction import interpolate_tracks
-from monitor.safety_kernel import CHUNK, score_boxes
+from monitor.safety_kernel import CHUNK, MOTION_EPS, score_boxes
 
 
 def _directions(centres: np.ndarray, fallback: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Heading (cos, sin) at each grid point: the tangent of the segment leaving it (the last
-    point keeps the last segment's); a zero-length segment keeps the previous heading, and
-    before any motion the `fallback` heading (the vehicle's yaw) holds.
+    point keeps the last segment's); a segment shorter than MOTION_EPS keeps the previous
+    heading, and before any motion the `fallback` heading (the vehicle's yaw) holds.
 
     centres (M, T, 2), fallback (M,). Unit vectors, not angles: no arctan2/cos/sin needed.
     """
     seg_x = centres[..., 1:, 0] - centres[..., :-1, 0]
     seg_y = centres[..., 1:, 1] - centres[..., :-1, 1]
     length = np.hypot(seg_x, seg_y)
-    ok = length > 1e-9
+    ok = length > MOTION_EPS
     shape = centres.shape[:-1]
     cos = np.empty(shape)
     sin = np.empty(shape)

@@ -41,6 +41,21 @@ def test_driving_into_a_stopped_object_at_one_second_of_three():
     assert pet == math.inf  # the colliding object is not a PET candidate
 
 
+def test_rounding_jitter_of_a_standing_car_is_not_a_heading():
+    # a 4.6 x 1.8 car standing 3.2 m to the left of a standing 4 x 2 ego (lateral gap 1.3 m),
+    # its predicted points rounded to the centimetre: 4 mm from its reported centre, straight
+    # towards the ego. Read as a heading, that jump turns the car across the ego (its half
+    # length 2.3 m reaching to 0.9 m from the ego's centre line, inside its half width 1.0: a
+    # collision now, ss = 0). Segments under 2 cm are standing still: the car keeps its yaw
+    still = [[0.0, 0.0, 0.0], [5.0, 0.0, 0.0]]
+    car = obj(1, 0.0, 3.204, 0.0, 4.6, 1.8,
+              prediction=[[0.5 * k, 0.0, 3.2] for k in range(1, 9)])  # fmt: skip
+    s = scene([car], plan=still)
+    assert safety_matrix(["a"], {"a": s}, PET_REF)[("a", "a")] == 1.0
+    ss, ttc, _ = safety_score(s.plan, s.ego, s.objects, PET_REF)
+    assert ss == 1.0 and ttc == math.inf
+
+
 def test_passing_five_metres_beside_is_one():
     s = scene([obj(1, 13.5, 5.0, 0, 4, 2)])
     assert safety_score(s.plan, s.ego, s.objects, PET_REF) == (1.0, math.inf, math.inf)
