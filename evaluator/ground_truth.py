@@ -48,6 +48,8 @@ def read_labels(path: str | Path) -> tuple[list[Label], str]:
             raise LabelsError(
                 f"{where}: not valid JSON ({exc.msg} at column {exc.colno})"
             ) from None
+        except RecursionError:
+            raise LabelsError(f"{where}: JSON nested too deeply to be a label") from None
         if not isinstance(item, dict):
             raise LabelsError(f"{where}: expected an object like "
                               '{"hazard": "CSn1", "start": 12.0, "end": 14.5}')

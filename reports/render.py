@@ -47,6 +47,8 @@ def load_result(path: Path | str) -> RunResult:
         raise ResultError(f"{path}: not UTF-8 text (byte {exc.start})") from None
     except json.JSONDecodeError as exc:
         raise ResultError(f"{path}:{exc.lineno}:{exc.colno}: not valid JSON: {exc.msg}") from None
+    except RecursionError:
+        raise ResultError(f"{path}: JSON nested too deeply to be a casewatch result") from None
     if not isinstance(data, dict):
         raise ResultError(f"{path}: expected a JSON object, found {type(data).__name__}")
     found_format = data.get("format")

@@ -63,6 +63,9 @@ def test_read_labels_errors_name_file_and_line(tmp_path):
     path.write_text("{nope\n")
     with pytest.raises(LabelsError, match=r":1: not valid JSON"):
         read_labels(path)
+    path.write_text("[" * 100_000 + "\n")
+    with pytest.raises(LabelsError, match=r":1: JSON nested too deeply"):
+        read_labels(path)
 
 
 def test_read_labels_round_trip(tmp_path):

@@ -36,6 +36,7 @@ def test_round_trip_through_result_json(reference_result: RunResult, tmp_path: P
         ('{"format": "other", "version": 1}', "'format' is 'other'"),
         ('{"format": "casewatch-result", "version": 99}', "result version 99"),
         ('{"format": "casewatch-result", "version": 1}', "casewatch_version: Field required"),
+        ("[" * 100_000, "nested too deeply"),
     ],
 )
 def test_load_result_errors(tmp_path: Path, content: str | None, expected: str) -> None:
