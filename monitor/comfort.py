@@ -23,6 +23,7 @@ spi-reference "hcs and ppcs" is the normative text; the reasons, in short:
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 import numpy as np
 
@@ -143,6 +144,66 @@ def _comfort_kernel(times, xy, centres, half, steepness):  # pragma: no cover - 
     return 1.0 - ((v_lon + v_lat) / 2 + v_jerk) / 2
 
 
+@kernel
+def _uniform_kernel(xy, first, last, proj, half, steepness):  # pragma: no cover - compiled
+    """`_comfort_kernel` for samples on a uniform grid with windows of 2h + 1 samples centred
+    on samples first..last: every window has the same design, so each fit is three dot
+    products with the rows of the least-squares projection `proj` (4, 2h + 1)."""
+    h = (proj.shape[1] - 1) // 2
+    pa_lon = 0.0
+    pa_lat = 0.0
+    pj = 0.0
+    for i in range(first, last + 1):
+        c1x = c1y = c2x = c2y = c3x = c3y = 0.0
+        for j in range(2 * h + 1):
+            x = xy[i - h + j, 0]
+            y = xy[i - h + j, 1]
+            c1x += proj[1, j] * x
+            c1y += proj[1, j] * y
+            c2x += proj[2, j] * x
+            c2y += proj[2, j] * y
+            c3x += proj[3, j] * x
+            c3y += proj[3, j] * y
+        vx = c1x / half
+        vy = c1y / half
+        ax = 2.0 * c2x / (half * half)
+        ay = 2.0 * c2y / (half * half)
+        speed = math.hypot(vx, vy)
+        if speed >= STILL_SPEED:
+            a_lon = (ax * vx + ay * vy) / speed
+            a_lat = (-ax * vy + ay * vx) / speed
+        else:
+            a_lon = math.hypot(ax, ay)
+            a_lat = 0.0
+        pa_lon = max(pa_lon, abs(a_lon))
+        pa_lat = max(pa_lat, abs(a_lat))
+        pj = max(pj, 6.0 * math.hypot(c3x, c3y) / (half * half * half))
+    v_lon = 2.0 / (1.0 + math.exp(-steepness * pa_lon)) - 1.0
+    v_lat = 2.0 / (1.0 + math.exp(-steepness * pa_lat)) - 1.0
+    v_jerk = 2.0 / (1.0 + math.exp(-steepness * pj)) - 1.0
+    return 1.0 - ((v_lon + v_lat) / 2 + v_jerk) / 2
+
+
+@kernel
+def _uniform(times, step):  # pragma: no cover - compiled
+    """True when consecutive sample times are `step` apart (to TIME_EPS)."""
+    for i in range(times.shape[0] - 1):  # noqa: SIM110 - a loop, not a generator, in numba
+        if abs(times[i + 1] - times[i] - step) > TIME_EPS:
+            return False
+    return True
+
+
+@lru_cache(maxsize=16)
+def _projection(h: int) -> np.ndarray:
+    """(4, 2h + 1) least-squares projection onto 1, tau, tau^2, tau^3 at tau = j / h,
+    j = -h .. h (read-only: cached and shared)."""
+    tau = np.arange(-h, h + 1) / h
+    design = np.vander(tau, 4, increasing=True)
+    proj = np.linalg.solve(design.T @ design, design.T)
+    proj.flags.writeable = False
+    return proj
+
+
 def _score(times: np.ndarray, xy: np.ndarray, centres: np.ndarray, half: float,
            steepness: float) -> float | None:
     value = _comfort_kernel(times, xy, centres, float(half), float(steepness))
@@ -178,5 +239,11 @@ def ppcs(plan: np.ndarray, span: float, steepness: float) -> float | None:
     if last - first < span - TIME_EPS:
         return _score(times, xy, np.array([0.5 * (first + last)]), 0.5 * (last - first),
                       steepness)  # fmt: skip
+    step = (last - first) / (len(times) - 1)
+    h = round(half / step)
+    if abs(h * step - half) <= TIME_EPS and _uniform(times, step):
+        # the canonical grid (always, for a resampled plan): one projection for every window
+        return _uniform_kernel(xy, h, len(times) - 1 - h, _projection(h), float(half),
+                               float(steepness))  # fmt: skip
     inside = (times - half >= first - TIME_EPS) & (times + half <= last + TIME_EPS)
     return _score(times, xy, times[inside], half, steepness)

@@ -161,13 +161,24 @@ def _resample_plan(plan, step):  # pragma: no cover - compiled
     return out[0]
 
 
+@kernel
+def _on_grid(dt, first, step):  # pragma: no cover - compiled
+    """True when dt[j] is (first + j) * step for every j, to within GRID_EPS (nothing to
+    resample: the Hermite grid would return the samples themselves, to rounding)."""
+    for j in range(dt.shape[0]):  # noqa: SIM110 - a loop, not a generator, inside numba
+        if abs(dt[j] - (first + j) * step) > GRID_EPS:
+            return False
+    return True
+
+
 def resample_plan(plan: np.ndarray, step: float) -> np.ndarray:
     """A (N, 3) `[dt, x, y]` plan on the grid `k * step` inside its own time range.
 
     An empty plan stays empty; a plan whose time range holds no grid point (a single point at
-    dt = 0.03, say) resamples to no point, and the plan metrics then have no value.
+    dt = 0.03, say) resamples to no point, and the plan metrics then have no value. A plan
+    already on the grid from dt = 0 is returned as it is (the same values to rounding, no work).
     """
-    if len(plan) == 0:
+    if len(plan) == 0 or _on_grid(plan[:, 0], 0, float(step)):
         return plan
     return _resample_plan(plan, float(step))
 
@@ -217,6 +228,23 @@ def _resample_predictions(pos, pred, pred_len, step):  # pragma: no cover - comp
     return out, lens
 
 
+@kernel
+def _predictions_grid_start(pred, pred_len, step):  # pragma: no cover - compiled
+    """1 when every prediction is already on the grid step, 2 step, ... (or absent), 0 when
+    every one is on the grid 0, step, 2 step, ... (its dt = 0 point is the object's position),
+    -1 otherwise: only then is there interpolation to do."""
+    start = -1
+    for k in range(pred.shape[0]):
+        n = pred_len[k]
+        if n == 0:
+            continue
+        first = 0 if abs(pred[k, 0, 0]) <= GRID_EPS else 1
+        if (start >= 0 and first != start) or not _on_grid(pred[k, :n, 0], first, step):
+            return -1
+        start = first
+    return 1 if start == -1 else start
+
+
 def resample_objects(objects: Objects, step: float) -> Objects:
     """The same objects with every prediction on the grid `k * step`, k >= 1 (see module).
 
@@ -225,7 +253,16 @@ def resample_objects(objects: Objects, step: float) -> Objects:
     """
     if len(objects) == 0 or objects.pred.shape[1] == 0:
         return objects
-    pred, lens = _resample_predictions(objects.pos, objects.pred, objects.pred_len, float(step))
+    start = _predictions_grid_start(objects.pred, objects.pred_len, float(step))
+    if start == 1:
+        return objects
+    if start == 0:  # on the grid from dt = 0: the grid points are the samples after the first
+        # contiguous, like every other prediction array: one compiled layout per kernel
+        pred = np.ascontiguousarray(objects.pred[:, 1:])
+        lens = np.maximum(objects.pred_len - 1, 0)
+    else:
+        pred, lens = _resample_predictions(objects.pos, objects.pred, objects.pred_len,
+                                           float(step))  # fmt: skip
     return Objects(
         ids=objects.ids,
         cls=objects.cls,

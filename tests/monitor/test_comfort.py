@@ -214,3 +214,23 @@ def test_ppcs_is_sampling_invariant():
     values = [ppcs(resample_plan(p, DT), SPAN, W) for p in (*by_time.values(), by_distance)]
     assert max(values) - min(values) < 0.01
     assert values[0] < 0.95  # the manoeuvre is there to be measured
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.integers(31, 60),
+    st.tuples(st.floats(-20, 20), st.floats(-20, 20)),
+    st.tuples(st.floats(-3, 3), st.floats(-3, 3)),
+    st.integers(0, 2**32 - 1),
+)
+def test_ppcs_on_the_grid_equals_the_general_fit(n, v0, acc, seed):
+    """ppcs takes one least-squares projection for every window of a uniformly sampled plan;
+    it must give the general per-window fit's value (np.polyfit reference)."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) * DT
+    xy = (np.outer(t, v0) + 0.5 * np.outer(t**2, acc)
+          + rng.normal(0.0, 0.05, (n, 2)))  # fmt: skip
+    plan = np.column_stack([t, xy])
+    inside = (t - SPAN / 2 >= -1e-9) & (t + SPAN / 2 <= t[-1] + 1e-9)
+    want = numpy_reference(t, xy, t[inside], SPAN / 2, W)
+    assert ppcs(plan, SPAN, W) == pytest.approx(want, abs=1e-7)

@@ -169,3 +169,36 @@ def test_a_shorter_horizon_is_not_a_disagreement(v0, acc, yaw_rate):
     stops = acc < 0 and v0 / -acc < 6.2  # a stop between samples: see the test above
     for m in ("ets", "crpps", "ots", "chpps"):
         assert got[m] > (0.95 if stops else 0.97), m
+
+
+def random_objects(seed: int, grid_from: int | None) -> Objects:
+    """Three objects with 6-point predictions: on the 0.1 s grid from dt = grid_from * 0.1, or
+    (None) on an irregular grid."""
+    rng = np.random.default_rng(seed)
+    objs = []
+    for k in range(3):
+        if grid_from is None:
+            dt = np.cumsum(rng.uniform(0.05, 0.4, 6))
+        else:
+            dt = (grid_from + np.arange(6)) * 0.1
+        xy = np.cumsum(rng.normal(1.0, 0.3, (6, 2)), axis=0)
+        objs.append(obj(k, 0.0, 0.0, prediction=np.column_stack([dt, xy]).tolist()))
+    return frame(0.0, {"a": channel(ego(), objects=objs)}).channels["a"].objects
+
+
+@pytest.mark.parametrize("grid_from", [0, 1])
+def test_predictions_already_on_the_grid_take_the_short_way(grid_from):
+    """Predictions on the grid (from dt = 0 or from one step) need no interpolation; the short
+    way gives what the interpolating kernel gives, to rounding."""
+    from monitor.resample import _resample_predictions
+
+    objects = random_objects(grid_from, grid_from)
+    fast = resample_objects(objects, STEP)
+    slow_pred, slow_len = _resample_predictions(objects.pos, objects.pred, objects.pred_len, STEP)
+    assert fast.pred_len.tolist() == slow_len.tolist() == [6 - (grid_from == 0)] * 3
+    np.testing.assert_allclose(fast.pred[:, :, 1:], slow_pred[:, :, 1:], atol=1e-12)
+    np.testing.assert_allclose(fast.pred[:, :, 0], slow_pred[:, :, 0], atol=1e-9)
+    if grid_from == 1:
+        assert fast is objects
+    irregular = random_objects(7, None)
+    assert resample_objects(irregular, STEP).pred[0, 0, 0] == pytest.approx(STEP)

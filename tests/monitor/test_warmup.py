@@ -13,7 +13,7 @@ ROOT = Path(__file__).resolve().parents[2]
 PROBE = """
 import gzip, io, json, sys
 from numba.core.registry import CPUDispatcher
-import monitor.comfort, monitor.history, monitor.parse, monitor.prediction
+import monitor.comfort, monitor.history, monitor.parse, monitor.prediction, monitor.resample
 import monitor.safety_kernel, monitor.safety_score, monitor.similarity
 from monitor.warmup import warm_up
 from monitor.engine import MetricEngine
@@ -21,7 +21,7 @@ from monitor.reader import read_stream
 from monitor.bench import CHANNELS, reference_load_frames
 from safety_case.model import MetricParams
 
-MODULES = [monitor.comfort, monitor.history, monitor.parse, monitor.prediction,
+MODULES = [monitor.comfort, monitor.history, monitor.parse, monitor.prediction, monitor.resample,
            monitor.safety_kernel, monitor.safety_score, monitor.similarity]
 
 def signatures():
