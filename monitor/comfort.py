@@ -210,17 +210,28 @@ def _score(times: np.ndarray, xy: np.ndarray, centres: np.ndarray, half: float,
     return None if math.isnan(value) else value
 
 
+@kernel
+def _hcs_kernel(times, xy, span, steepness):  # pragma: no cover - compiled
+    """`hcs` in one compiled call (NaN: no value): it runs every tick for every channel."""
+    n = times.shape[0]
+    if n < MIN_POINTS or times[n - 1] - times[0] < span - TIME_EPS:
+        return math.nan
+    first = 0
+    while times[first] < times[n - 1] - span - TIME_EPS:
+        first += 1
+    centres = np.empty(1)
+    centres[0] = times[n - 1] - 0.5 * span
+    return _comfort_kernel(times[first:], xy[first:], centres, 0.5 * span, steepness)
+
+
 def hcs(times: np.ndarray, xy: np.ndarray, span: float, steepness: float) -> float | None:
     """History Comfort Score of ego positions (n, 2) at `times` (n,), oldest first.
 
     One cubic fit over the samples of the last `span` seconds, centred on `times[-1] - span/2`.
     None until the samples reach back `span` seconds, or with fewer than four of them.
     """
-    if len(times) < MIN_POINTS or times[-1] - times[0] < span - TIME_EPS:
-        return None
-    half = 0.5 * span
-    first = int(np.searchsorted(times, times[-1] - span - TIME_EPS))
-    return _score(times[first:], xy[first:], np.array([times[-1] - half]), half, steepness)
+    value = _hcs_kernel(times, xy, float(span), float(steepness))
+    return None if math.isnan(value) else value
 
 
 def ppcs(plan: np.ndarray, span: float, steepness: float) -> float | None:

@@ -56,13 +56,16 @@ def common_view(
     a: Objects, ego_a: Ego, cov_a: Coverage,
     b: Objects, ego_b: Ego, cov_b: Coverage,
     margin: float,
-) -> tuple[Objects, np.ndarray, Objects, np.ndarray]:
+) -> tuple[Objects, np.ndarray | None, Objects, np.ndarray | None]:
     """What the pair (A, B) compares: each channel's objects within `margin` of the coverage of
     both (each coverage seen from its own channel's ego estimate), with a core flag per object:
     inside both coverages by at least `margin`. The object metrics count a pair when either
     object is core and an unpaired object only when it is core (spi-reference "Channel
     coverage"): a car whose centre one channel places just inside an edge and the other just
-    outside is neither a disagreement nor dropped from one side only."""
+    outside is neither a disagreement nor dropped from one side only. Two all-round channels
+    of unlimited range: the objects as they are and None for the flags (all core)."""
+    if cov_a.all_round and cov_b.all_round:
+        return a, None, b, None  # every object is core: nothing to filter
     views = ((cov_a, ego_a), (cov_b, ego_b))
     va, core_a = _view(a, views, margin)
     vb, core_b = _view(b, views, margin)

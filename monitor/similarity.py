@@ -235,6 +235,15 @@ def _weights(decay: float, n: int) -> np.ndarray:
     return w
 
 
+#: Shared all-True flags (never written: writable only so the kernel sees one array type).
+_ALL_CORE = np.ones(256, dtype=np.bool_)
+
+
+def _all_core(n: int) -> np.ndarray:
+    """n True flags (a view of a shared array: no allocation per frame)."""
+    return _ALL_CORE[:n] if n <= len(_ALL_CORE) else np.ones(n, dtype=np.bool_)
+
+
 def object_similarities(
     a: Objects,
     b: Objects,
@@ -248,8 +257,8 @@ def object_similarities(
     `core_a` / `core_b` flag the objects well inside both channels' coverage
     (`monitor.coverage.common_view`); None: every object is core.
     """
-    all_a = np.ones(len(a), dtype=np.bool_) if core_a is None else core_a
-    all_b = np.ones(len(b), dtype=np.bool_) if core_b is None else core_b
+    all_a = _all_core(len(a)) if core_a is None else core_a
+    all_b = _all_core(len(b)) if core_b is None else core_b
     if len(a) == 0 and len(b) == 0:
         # spi-reference: 1.0 when both channels see nothing.
         return {"ocs": 1.0, "ols": 1.0, "oos": 1.0, "oas": 1.0, "ots": 1.0}
