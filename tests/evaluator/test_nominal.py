@@ -41,7 +41,7 @@ def test_shares_count_only_evaluated_nominal_ticks():
             interval("satisfied", 0.0, 0.9), interval("violated", 1.0, 1.4),
             interval("satisfied", 1.5, 3.9), interval("violated", 4.0, 4.4),
             interval("satisfied", 4.5, 7.9), interval("no-data", 8.0, 9.9),
-        ])],  # fmt: skip
+        ])],
     )
     (row,) = nominal_shares(result, [Label("CSn1", 4.2, 4.3, 1)], margin=1.0)
     assert (row.node_id, row.signal, row.evaluated, row.violated) == ("Sn1", "els", 58, 5)
