@@ -9,6 +9,7 @@ absent for too long.
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from collections.abc import Callable, Mapping
 from itertools import combinations
@@ -24,10 +25,21 @@ from monitor.prediction import ompv
 from monitor.resample import resample_objects, resample_plan
 from monitor.safety_score import arbitrate, safety_matrix
 from monitor.similarity import crpps_inputs, ego_similarities, ets, object_similarities
+from monitor.situation import (
+    GAP_CAP,
+    TIME_CAP,
+    ego_half_length,
+    headway,
+    neighbour,
+    path_ahead,
+    path_behind,
+    time_to_collision,
+)
 from safety_case.model import MetricParams
 from safety_case.signals import (
     PAIR_METRICS,
     SAFETY_SCORE,
+    SITUATION_METRICS,
     WORST_IS_MAX,
     builtin_signals,
     channel_name,
@@ -35,7 +47,9 @@ from safety_case.signals import (
 )
 
 #: Metric families, as the benchmark reports them.
-FAMILIES = ("resampling", "similarity", "motion_prediction", "comfort", "safety_score")
+FAMILIES = (
+    "resampling", "similarity", "motion_prediction", "comfort", "situation", "safety_score"
+)
 
 
 def _worst(values: list[float | None], use_max: bool) -> float | None:
@@ -147,6 +161,11 @@ class MetricEngine:
         }
         self._ss_names = {(i, j): pair_name(SAFETY_SCORE, i, j) for i in channels for j in channels}
         self._hcs_names = [self._channel_names[c]["hcs"] for c in self.channels]
+        self._situation_names = {
+            c: {m: channel_name(m, c) for m in SITUATION_METRICS} for c in self.channels
+        }
+        #: per channel, (t, reported speed) of the last second: ego_accel's slope
+        self._speeds = {c: _Timed(64, p.max_gap) for c in self.channels}
         self._ppcs_names = [self._channel_names[c]["ppcs"] for c in self.channels]
 
     def arbitration(self) -> str | None:
@@ -171,6 +190,7 @@ class MetricEngine:
         self._timed("similarity", self._similarity, frame.t, states, out)
         self._timed("motion_prediction", self._motion_prediction, frame.t, states, out)
         self._timed("comfort", self._comfort, frame.t, states, out)
+        self._timed("situation", self._situation, frame.t, states, out)
         self._timed("safety_score", self._safety, frame.t, states, out)
         for key, val in frame.signals.items():
             if key not in out:
@@ -296,6 +316,66 @@ class MetricEngine:
             out[names["ppcs"]] = ppcs(s.plan, p.comfort_span, p.comfort_steepness)
         out["hcs"] = _worst([out[n] for n in self._hcs_names], False)
         out["ppcs"] = _worst([out[n] for n in self._ppcs_names], False)
+
+    def _situation(
+        self, t: float, states: dict[str, ChannelState], out: dict[str, float | None]
+    ) -> None:
+        """spi-reference "Situation signals": leader and follower of each channel's ego, and
+        the unsuffixed worst over the channels that can see the region (ahead: every channel;
+        behind: the all-round ones)."""
+        p = self.params
+        reach = GAP_CAP + 50.0
+        behind_seeing = [c for c in self.channels if self.coverage[c].fov_deg >= 360.0]
+        for c in self.channels:
+            s = states.get(c)
+            if s is None:
+                continue
+            ego = s.ego
+            speed = math.hypot(ego.vx, ego.vy)
+            half = ego_half_length(ego)
+            names = self._situation_names[c]
+            lead = neighbour(ego, s.objects, path_ahead(ego, s.plan, reach), p.lane_half_width,
+                             half)  # fmt: skip
+            out[names["ego_speed"]] = speed
+            out[names["ego_accel"]] = self._accel(c, t, speed)
+            out[names["lead_gap"]] = lead.gap
+            # no leader: the caps (nothing to tailgate), not a headway to the look-ahead's end
+            out[names["lead_thw"]] = headway(lead.gap, speed) if lead.present else TIME_CAP
+            out[names["lead_ttc"]] = (
+                time_to_collision(lead.gap, speed - lead.speed) if lead.present else TIME_CAP
+            )
+            if c in behind_seeing:
+                driven = self._ego[c].window()[:-1, 1:3]
+                follower = neighbour(ego, s.objects, path_behind(ego, driven, reach),
+                                     p.lane_half_width, half)  # fmt: skip
+                # the path behind points away from the ego: a follower closing in moves against it
+                towards = max(-follower.speed, 0.0)
+                out[names["follow_gap"]] = follower.gap
+                out[names["follow_speed"]] = towards
+                if follower.present:
+                    out[names["follow_thw"]] = headway(follower.gap, towards)
+                    out[names["follow_ttc"]] = time_to_collision(follower.gap, towards - speed)
+                else:
+                    out[names["follow_thw"]] = out[names["follow_ttc"]] = TIME_CAP
+        for metric in SITUATION_METRICS:
+            seeing = behind_seeing if metric.startswith("follow_") else self.channels
+            values = [out[self._situation_names[c][metric]] for c in seeing]
+            out[metric] = _worst(values, metric in WORST_IS_MAX) if seeing else None
+
+    def _accel(self, channel: str, t: float, speed: float) -> float | None:
+        """Slope of the channel's reported speed over the last second (least squares); no
+        value until half a second of speeds is there."""
+        window = self._speeds[channel]
+        window.push(t, speed)
+        items = window.items
+        while items and items[0][0] < t - 1.0 - 1e-9:
+            items.popleft()
+        if len(items) < 3 or t - items[0][0] < 0.5 - 1e-9:
+            return None
+        ts = np.fromiter((i[0] for i in items), float, len(items))
+        vs = np.fromiter((i[1] for i in items), float, len(items))
+        ts -= ts.mean()
+        return float(ts @ (vs - vs.mean()) / (ts @ ts))
 
     def _safety(
         self, t: float, states: dict[str, ChannelState], out: dict[str, float | None]

@@ -278,11 +278,15 @@ def object_similarities(
 
 
 def ego_similarities(a: ChannelState, b: ChannelState) -> dict[str, float]:
-    """els and eos."""
+    """els and eos, and the distance and heading difference they are made from (ego_dist,
+    ego_yaw_diff: spi-reference "Situation signals")."""
     d = math.hypot(a.ego.x - b.ego.x, a.ego.y - b.ego.y)
+    yaw = angdiff(a.ego.yaw, b.ego.yaw)
     return {
         "els": 1.0 / (1.0 + d),
-        "eos": 1.0 - angdiff(a.ego.yaw, b.ego.yaw) / math.pi,
+        "eos": 1.0 - yaw / math.pi,
+        "ego_dist": d,
+        "ego_yaw_diff": yaw,
     }
 
 

@@ -66,6 +66,9 @@ class MetricParams(BaseModel):
     coverage_margin: float = Field(
         2.0, ge=0, le=100, description="objects this close [m] to a coverage edge are not compared"
     )
+    lane_half_width: float = Field(
+        1.75, gt=0, le=10, description="half width [m] of the corridor of the leader and follower"
+    )
 
 
 class Threshold(BaseModel):

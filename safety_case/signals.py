@@ -32,6 +32,8 @@ PAIR_METRICS: dict[str, str] = {
     "ots": "Object Trajectory Similarity",
     "ets": "Ego Trajectory Similarity",
     "crpps": "Cross-Channel Planned Path Similarity",
+    "ego_dist": "distance between the channels' ego positions [m]",
+    "ego_yaw_diff": "difference between the channels' ego headings [rad]",
 }
 
 #: Per-channel metrics, one value per channel.
@@ -40,6 +42,21 @@ CHANNEL_METRICS: dict[str, str] = {
     "ompv": "Object Motion Prediction Validation",
     "hcs": "History Comfort Score",
     "ppcs": "Planned Path Comfort Score",
+}
+
+#: Situation signals, one value per channel (spi-reference "Situation signals"). Their
+#: unsuffixed form is the worst over the channels whose coverage includes the region (ahead for
+#: lead_*, behind for follow_*), so a forward-only channel never makes follow_* a data gap.
+SITUATION_METRICS: dict[str, str] = {
+    "lead_gap": "bumper-to-bumper gap to the in-path leader [m]",
+    "lead_thw": "time headway to the leader: gap / ego speed [s]",
+    "lead_ttc": "time to collision with the leader [s]",
+    "follow_gap": "bumper-to-bumper gap to the in-lane follower [m]",
+    "follow_thw": "time headway of the follower: gap / follower speed [s]",
+    "follow_ttc": "time to collision of the follower [s]",
+    "follow_speed": "speed of the follower towards the ego [m/s]",
+    "ego_speed": "ego speed [m/s]",
+    "ego_accel": "ego longitudinal acceleration [m/s^2]",
 }
 
 #: Signals with only an unsuffixed form.
@@ -51,7 +68,9 @@ SAFETY_SCORE = "ss"
 SAFETY_SCORE_NAME = "Safety score (time to collision and post-encroachment time)"
 
 #: For these the unsuffixed signal is the maximum over pairs; for every other metric the minimum.
-WORST_IS_MAX: frozenset[str] = frozenset({"els_var"})
+WORST_IS_MAX: frozenset[str] = frozenset(
+    {"els_var", "ego_dist", "ego_yaw_diff", "ego_speed", "follow_speed"}
+)
 
 SEP = "__"
 
@@ -87,6 +106,11 @@ def builtin_signals(channels: list[str] | tuple[str, ...]) -> dict[str, SignalIn
     for metric, desc in GLOBAL_METRICS.items():
         out[metric] = SignalInfo(metric, metric, "global", chans, desc)
     for metric, desc in CHANNEL_METRICS.items():
+        out[metric] = SignalInfo(metric, metric, "channel", chans, f"{desc}, worst channel")
+        for c in chans:
+            name = channel_name(metric, c)
+            out[name] = SignalInfo(name, metric, "channel", (c,), f"{desc}, channel {c}")
+    for metric, desc in SITUATION_METRICS.items():
         out[metric] = SignalInfo(metric, metric, "channel", chans, f"{desc}, worst channel")
         for c in chans:
             name = channel_name(metric, c)

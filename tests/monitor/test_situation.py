@@ -1,0 +1,124 @@
+"""Situation signals, hand-computed (spi-reference "Situation signals")."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from monitor.engine import MetricEngine
+from monitor.frames import Coverage
+from monitor.situation import GAP_CAP, TIME_CAP, headway, neighbour, project, time_to_collision
+from safety_case.model import MetricParams
+from tests.monitor.builders import channel, ego, frame, obj, straight_plan
+
+HALF_WIDTH = 1.75
+
+
+def test_projection_onto_a_polyline():
+    # L-shaped path (0,0) -> (10,0) -> (10,10): (10.5, 6) projects onto the second leg at
+    # s = 10 + 6 = 16, 0.5 m off it, tangent +y; (4, -1) onto the first at s = 4, 1 m off
+    path = np.array([[0.0, 0.0], [10.0, 0.0], [10.0, 10.0]])
+    s, d, tangent = project(path, np.array([[10.5, 6.0], [4.0, -1.0]]))
+    np.testing.assert_allclose(s, [16.0, 4.0])
+    np.testing.assert_allclose(d, [0.5, 1.0])
+    np.testing.assert_allclose(tangent, [[0.0, 1.0], [1.0, 0.0]], atol=1e-12)
+
+
+def run_one(objects, plan=None, speed=20.0, history=()):
+    """One channel 'a' (and an identical 'b'), ego 4 x 2 at the origin heading +x at `speed`;
+    `history` are earlier ego x positions (one frame each, 0.1 s apart) for the driven path."""
+    eng = MetricEngine(MetricParams(), ["a", "b"])
+    out = {}
+    times = [round(-0.1 * (len(history) - k), 1) for k in range(len(history))] + [0.0]
+    for t, x in zip(times, [*history, 0.0], strict=True):
+        ch = channel(ego(x, 0, 0, 4, 2, vx=speed), plan=plan, objects=objects if t == 0 else [])
+        out = eng.step(frame(t, {"a": ch, "b": ch}))
+    return out
+
+
+def test_leader_in_the_corridor_hand_computed():
+    # leader 4 m long centred 30 m ahead, 0.5 m off the path, 15 m/s:
+    # gap = 30 - 2 - 2 = 26 m; THW = 26 / 20 = 1.3 s; TTC = 26 / (20 - 15) = 5.2 s
+    plan = straight_plan(0, 0, 20, 0, 31)
+    out = run_one([obj(1, 30.0, 0.5, 0.0, 4, 2, vx=15.0)], plan=plan)
+    assert out["lead_gap__a"] == pytest.approx(26.0)
+    assert out["lead_thw__a"] == pytest.approx(1.3)
+    assert out["lead_ttc__a"] == pytest.approx(5.2)
+    assert out["lead_thw"] == pytest.approx(1.3) and out["ego_speed"] == pytest.approx(20.0)
+
+
+def test_no_leader_is_the_cap_not_missing_data():
+    # 2.5 m beside the path is outside the 1.75 m corridor; behind the ego is not ahead
+    plan = straight_plan(0, 0, 20, 0, 31)
+    out = run_one([obj(1, 30.0, 2.5, 0.0, 4, 2, vx=15.0), obj(2, -10.0, 0.0)], plan=plan)
+    assert (out["lead_gap"], out["lead_thw"], out["lead_ttc"]) == (GAP_CAP, TIME_CAP, TIME_CAP)
+
+
+def test_leader_beyond_a_bend_of_the_plan():
+    # plan (0,0) -> (10,0) -> (10,10) (an L, 20 m/s is irrelevant to the geometry); a car
+    # heading +y at (10.5, 6): s = 16, its half length 2 along the tangent: gap 16 - 2 - 2 = 12
+    plan = [[0.0, 0.0, 0.0], [0.5, 10.0, 0.0], [1.0, 10.0, 10.0]]
+    out = run_one([obj(1, 10.5, 6.0, math.pi / 2, 4, 2)], plan=plan, speed=10.0)
+    assert out["lead_gap__a"] == pytest.approx(12.0, abs=0.2)  # resampled corner: within 0.2
+
+
+def test_follower_along_the_driven_path():
+    # the ego came along +x (x = -2.0 .. -0.1 over the last 2 s); a 4 m car centred 12 m
+    # behind drives at 25 m/s towards it: gap = 12 - 2 - 2 = 8 m; follow_speed 25;
+    # THW = 8 / 25 = 0.32 s; TTC = 8 / (25 - 20) = 1.6 s
+    history = [-0.1 * k for k in range(20, 0, -1)]
+    plan = straight_plan(0, 0, 20, 0, 31)
+    out = run_one([obj(1, -12.0, 0.3, 0.0, 4, 2, vx=25.0)], plan=plan, history=history)
+    assert out["follow_gap__a"] == pytest.approx(8.0)
+    assert out["follow_speed__a"] == pytest.approx(25.0)
+    assert out["follow_thw__a"] == pytest.approx(0.32)
+    assert out["follow_ttc__a"] == pytest.approx(1.6)
+    # and nothing ahead
+    assert out["lead_thw__a"] == TIME_CAP
+
+
+def test_a_forward_camera_never_makes_the_follower_a_data_gap():
+    history = [-0.1 * k for k in range(20, 0, -1)]
+    eng = MetricEngine(MetricParams(), ["lidar", "cam"], {"cam": Coverage(120.0, 70.0)})
+    follower = obj(1, -12.0, 0.0, 0.0, 4, 2, vx=25.0)
+    out = {}
+    for k, x in enumerate([*history, 0.0]):
+        t = round(-0.1 * (len(history) - k), 1)
+        lidar = channel(ego(x, 0, 0, 4, 2, vx=20.0), objects=[follower] if x == 0.0 else [])
+        cam = channel(ego(x, 0, 0, 4, 2, vx=20.0))
+        out = eng.step(frame(t, {"lidar": lidar, "cam": cam}))
+    assert out["follow_thw__cam"] is None  # the camera cannot see behind
+    assert out["follow_thw"] == pytest.approx(0.32)  # the lidar's, not a gap
+    assert out["lead_thw"] == TIME_CAP  # ahead: both see, nothing there
+    # without the lidar nobody sees behind: no value, never a pass
+    out = eng.step(frame(0.1, {"cam": channel(ego(2.0, 0, 0, 4, 2, vx=20.0))}))
+    assert out["follow_thw"] is None
+
+
+def test_headway_and_ttc_caps():
+    assert headway(10.0, 0.0) == TIME_CAP  # a standing ego has all the time in the world
+    assert headway(10.0, 5.0) == pytest.approx(2.0)
+    assert headway(1000.0, 1.0) == TIME_CAP
+    assert time_to_collision(10.0, -1.0) == TIME_CAP  # opening: no collision course
+    assert time_to_collision(10.0, 4.0) == pytest.approx(2.5)
+
+
+def test_ego_accel_is_the_slope_of_the_reported_speed():
+    # speed 10 + 2 t: a slope of 2 m/s^2 once half a second of speeds is there
+    eng = MetricEngine(MetricParams(), ["a", "b"])
+    outs = []
+    for k in range(12):
+        t = round(0.1 * k, 1)
+        ch = channel(ego(0, 0, 0, vx=10.0 + 2.0 * t))
+        outs.append(eng.step(frame(t, {"a": ch, "b": ch})))
+    assert [o["ego_accel"] is None for o in outs[:6]] == [True] * 5 + [False]
+    assert outs[11]["ego_accel"] == pytest.approx(2.0)
+
+
+def test_neighbour_without_objects():
+    f = frame(0.0, {"a": channel(ego())})
+    s = f.channels["a"]
+    path = np.array([[0.0, 0.0], [50.0, 0.0]])
+    assert neighbour(s.ego, s.objects, path, HALF_WIDTH, 2.0).present is False
