@@ -4,6 +4,8 @@ Runs exactly what a user would type:
 
     casewatch check examples/reference-case.yaml
     casewatch run examples/reference-case.yaml examples/data --labels auto --jobs 2 -o out/demo
+    casewatch run examples/study-case.yaml examples/data --labels auto --jobs 2 \
+        --format none -o out/demo-study       # the study's own hazard rules, for comparison
     python -m casewatch.nominal out/demo      # each SPI's false alarms on nominal driving
 """
 
@@ -19,7 +21,17 @@ from casewatch.nominal import main as nominal
 REPO = Path(__file__).resolve().parent.parent
 CASE = REPO / "examples" / "reference-case.yaml"
 DATA = REPO / "examples" / "data"
+STUDY = REPO / "examples" / "study-case.yaml"
 OUT = Path("out") / "demo"
+OUT_STUDY = Path("out") / "demo-study"
+
+
+def score_text(row: dict) -> str:
+    """`TP/FP/FN, precision, recall` of one hazard row of a summary's ground truth."""
+    p = "n/a" if row["precision"] is None else f"{row['precision']:.0%}"
+    r = "n/a" if row["recall"] is None else f"{row['recall']:.0%}"
+    return (f"{row['true_positives']}/{row['false_positives']}/{row['false_negatives']} "
+            f"TP/FP/FN, P {p}, R {r}")
 
 
 def main() -> int:
@@ -38,14 +50,21 @@ def main() -> int:
     for log in summary["per_log"]:
         report = Path(log["out_dir"]) / "report.html"
         print(f"  {log['verdict']:>11}  {report.resolve()}")
-    truth = summary.get("ground_truth")
-    if truth:
-        print("\nHazard detection against the labels (all logs):")
-        for row in [*truth["per_hazard"], truth["overall"]]:
-            p = "n/a" if row["precision"] is None else f"{row['precision']:.1%}"
-            r = "n/a" if row["recall"] is None else f"{row['recall']:.1%}"
-            print(f"  {row['hazard']:>5}: {row['true_positives']} TP, {row['false_positives']} FP, "
-                  f"{row['false_negatives']} FN; precision {p}, recall {r}")
+    print(f"\n$ casewatch run {STUDY.relative_to(REPO)} {DATA.relative_to(REPO)} "
+          f"--labels auto --jobs 2 --format none -o {OUT_STUDY}")
+    code = cli(["run", str(STUDY), str(DATA), "--labels", "auto", "--jobs", "2",
+                "--format", "none", "-o", str(OUT_STUDY)])  # fmt: skip
+    if code not in (0, 1):
+        return code
+    study = json.loads((OUT_STUDY / "summary.json").read_text())
+    print("\nHazard detection against the labels (all logs), reference rules (situation "
+          "signals) vs the study's rules:")
+    print(f"  {'hazard':>6}  {'reference-case.yaml':<36}  {'study-case.yaml':<36}")
+    ours, theirs = summary.get("ground_truth"), study.get("ground_truth")
+    if ours and theirs:
+        for a, b in zip([*ours["per_hazard"], ours["overall"]],
+                        [*theirs["per_hazard"], theirs["overall"]], strict=True):  # fmt: skip
+            print(f"  {a['hazard']:>6}  {score_text(a):<36}  {score_text(b):<36}")
     print(f"Fleet summary: {(OUT / 'summary.json').resolve()}")
     print(f"\n$ python -m casewatch.nominal {OUT}")
     nominal([str(OUT)])
