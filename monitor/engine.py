@@ -28,6 +28,7 @@ from monitor.similarity import crpps_inputs, ego_similarities, ets, object_simil
 from monitor.situation import (
     GAP_CAP,
     TIME_CAP,
+    acceleration,
     ego_half_length,
     headway,
     neighbour,
@@ -164,8 +165,8 @@ class MetricEngine:
         self._situation_names = {
             c: {m: channel_name(m, c) for m in SITUATION_METRICS} for c in self.channels
         }
-        #: per channel, (t, reported speed) of the last second: ego_accel's slope
-        self._speeds = {c: _Timed(64, p.max_gap) for c in self.channels}
+        #: per channel, rows (t, reported speed, 0) of the last second: ego_accel's slope
+        self._speeds = {c: _PoseWindow(1.0, p.max_gap) for c in self.channels}
         self._ppcs_names = [self._channel_names[c]["ppcs"] for c in self.channels]
 
     def arbitration(self) -> str | None:
@@ -363,19 +364,12 @@ class MetricEngine:
             out[metric] = _worst(values, metric in WORST_IS_MAX) if seeing else None
 
     def _accel(self, channel: str, t: float, speed: float) -> float | None:
-        """Slope of the channel's reported speed over the last second (least squares); no
-        value until half a second of speeds is there."""
+        """spi-reference ego_accel: slope of the channel's reported speed over the last second
+        (the window restarts after `max_gap` without the channel, like every history)."""
         window = self._speeds[channel]
-        window.push(t, speed)
-        items = window.items
-        while items and items[0][0] < t - 1.0 - 1e-9:
-            items.popleft()
-        if len(items) < 3 or t - items[0][0] < 0.5 - 1e-9:
-            return None
-        ts = np.fromiter((i[0] for i in items), float, len(items))
-        vs = np.fromiter((i[1] for i in items), float, len(items))
-        ts -= ts.mean()
-        return float(ts @ (vs - vs.mean()) / (ts @ ts))
+        window.push(t, speed, 0.0)
+        rows = window.window()
+        return acceleration(rows[:, 0], rows[:, 1])
 
     def _safety(
         self, t: float, states: dict[str, ChannelState], out: dict[str, float | None]

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from monitor.frames import Ego, Objects
+from monitor.jit import kernel
 
 #: Headway and TTC [s] when there is no leader / follower, or it is not closing in.
 TIME_CAP = 60.0
@@ -47,40 +48,140 @@ class Neighbour:
 NONE = Neighbour(GAP_CAP, 0.0, False)
 
 
+#: The second point of a path is the first at least this far [m] from the ego: its direction
+#: is the path's initial heading, and nearer plan points add only rounding.
+PATH_SPACING = 2.0
+#: A path point is kept when it strays more than this [m] from the line through the last two
+#: kept points: a straight plan becomes one segment, a 15 m radius turn keeps a point every
+#: metre or so, and the polyline never strays more than a few centimetres from the plan.
+PATH_TOLERANCE = 0.1
+
+
+@kernel
+def _strays(out, m, x, y):  # pragma: no cover - compiled
+    """True when (x, y) lies more than PATH_TOLERANCE from the line through the last two kept
+    points out[m - 2], out[m - 1] (m >= 2)."""
+    px = out[m - 1, 0]
+    py = out[m - 1, 1]
+    lx = px - out[m - 2, 0]
+    ly = py - out[m - 2, 1]
+    return abs(lx * (y - py) - ly * (x - px)) / math.hypot(lx, ly) > PATH_TOLERANCE
+
+
+@kernel
+def _path(x, y, heading, lookahead):  # pragma: no cover - compiled
+    """(P, 2) polyline through the points (x[i], y[i]) (the first is the ego), simplified (see
+    PATH_SPACING, PATH_TOLERANCE; the last point is kept when it moves on by more than 1 cm)
+    and extended straight by `lookahead` metres along the last segment, or along `heading`
+    when the points do not move."""
+    n = x.shape[0]
+    out = np.empty((n + 1, 2))
+    out[0, 0] = x[0]
+    out[0, 1] = y[0]
+    m = 1
+    last = 0  # index of the last kept input point
+    for i in range(1, n):
+        if m == 1:
+            if math.hypot(x[i] - out[0, 0], y[i] - out[0, 1]) >= PATH_SPACING:
+                out[1, 0] = x[i]
+                out[1, 1] = y[i]
+                m = 2
+                last = i
+            continue
+        if _strays(out, m, x[i], y[i]) and last < i - 1:
+            # point i leaves the line: the point before it ends the straight stretch
+            out[m, 0] = x[i - 1]
+            out[m, 1] = y[i - 1]
+            m += 1
+            last = i - 1
+        if _strays(out, m, x[i], y[i]):
+            out[m, 0] = x[i]
+            out[m, 1] = y[i]
+            m += 1
+            last = i
+    if last < n - 1 and math.hypot(x[n - 1] - out[m - 1, 0], y[n - 1] - out[m - 1, 1]) > 0.01:
+        out[m, 0] = x[n - 1]
+        out[m, 1] = y[n - 1]
+        m += 1
+    if m >= 2:
+        dx = out[m - 1, 0] - out[m - 2, 0]
+        dy = out[m - 1, 1] - out[m - 2, 1]
+        length = math.hypot(dx, dy)
+        ux = dx / length
+        uy = dy / length
+    else:
+        ux = math.cos(heading)
+        uy = math.sin(heading)
+    out[m, 0] = out[m - 1, 0] + lookahead * ux
+    out[m, 1] = out[m - 1, 1] + lookahead * uy
+    return out[: m + 1]
+
+
+@kernel
+def _nearest(path, pos, yaw, hl, hw, half_width, ego_half):  # pragma: no cover - compiled
+    """The object with the smallest gap among those within `half_width` of `path` at positive
+    arc length: (index or -1, gap, tangent x, tangent y). See `neighbour`."""
+    best_k = -1
+    best_gap = np.inf
+    best_ux = 0.0
+    best_uy = 0.0
+    for k in range(pos.shape[0]):
+        dist = np.inf
+        s_best = 0.0
+        ux_best = 0.0
+        uy_best = 0.0
+        s0 = 0.0
+        for j in range(path.shape[0] - 1):
+            ax = path[j, 0]
+            ay = path[j, 1]
+            dx = path[j + 1, 0] - ax
+            dy = path[j + 1, 1] - ay
+            length = math.hypot(dx, dy)
+            ux = dx / length
+            uy = dy / length
+            along = (pos[k, 0] - ax) * ux + (pos[k, 1] - ay) * uy
+            along = min(max(along, 0.0), length)
+            d = math.hypot(pos[k, 0] - ax - along * ux, pos[k, 1] - ay - along * uy)
+            if d < dist:
+                dist = d
+                s_best = s0 + along
+                ux_best = ux
+                uy_best = uy
+            s0 += length
+        if dist > half_width or s_best <= 0.0:
+            continue
+        cos = abs(math.cos(yaw[k]) * ux_best + math.sin(yaw[k]) * uy_best)
+        extent = hl[k] * cos + hw[k] * math.sqrt(max(0.0, 1.0 - cos * cos))
+        gap = max(s_best - ego_half - extent, 0.0)
+        if gap < best_gap:
+            best_gap = gap
+            best_k = k
+            best_ux = ux_best
+            best_uy = uy_best
+    return best_k, best_gap, best_ux, best_uy
+
+
 def path_ahead(ego: Ego, plan: np.ndarray, lookahead: float) -> np.ndarray:
-    """(P, 2) polyline from the ego along its plan (points after the first that move away),
-    extended straight along the last direction to `lookahead` metres; the ego's heading when
-    the plan does not move."""
-    start = np.array([ego.x, ego.y])
-    pts = plan[:, 1:3] if len(plan) else np.zeros((0, 2))
-    return _extend(np.vstack([start, pts]), ego.yaw, lookahead)
+    """(P, 2) polyline from the ego along its plan, extended straight along the last direction
+    to `lookahead` metres; along the ego's heading when the plan does not move."""
+    x = np.concatenate([[ego.x], plan[:, 1]]) if len(plan) else np.array([ego.x])
+    y = np.concatenate([[ego.y], plan[:, 2]]) if len(plan) else np.array([ego.y])
+    return _path(x, y, float(ego.yaw), float(lookahead))
 
 
 def path_behind(ego: Ego, history: np.ndarray, lookahead: float) -> np.ndarray:
     """(P, 2) polyline from the ego back along its driven positions `history` (oldest first),
     extended straight backwards to `lookahead` metres; straight back along its heading when
     it has not moved."""
-    start = np.array([ego.x, ego.y])
-    return _extend(np.vstack([start, history[::-1]]), ego.yaw + math.pi, lookahead)
-
-
-def _extend(points: np.ndarray, heading: float, lookahead: float) -> np.ndarray:
-    """Drop points that do not move on from the previous kept one (< 1 cm), then add a point
-    `lookahead` metres beyond the last one, along the last segment (or `heading`)."""
-    seg = np.diff(points, axis=0)
-    keep = np.concatenate([[True], np.hypot(seg[:, 0], seg[:, 1]) > 0.01])
-    pts = points[keep]
-    if len(pts) >= 2:
-        d = pts[-1] - pts[-2]
-        u = d / np.hypot(d[0], d[1])
-    else:
-        u = np.array([math.cos(heading), math.sin(heading)])
-    return np.vstack([pts, pts[-1] + lookahead * u])
+    x = np.concatenate([[ego.x], history[::-1, 0]])
+    y = np.concatenate([[ego.y], history[::-1, 1]])
+    return _path(x, y, float(ego.yaw) + math.pi, float(lookahead))
 
 
 def project(path: np.ndarray, pos: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Project points (K, 2) onto a polyline (P, 2): arc length s (K,) of the nearest point,
-    its distance d (K,), and the unit tangent (K, 2) of that segment."""
+    its distance d (K,), and the unit tangent (K, 2) of that segment (numpy; the reference
+    the compiled `_nearest` is tested against)."""
     a = path[:-1]
     ab = path[1:] - a
     length = np.hypot(ab[:, 0], ab[:, 1])
@@ -99,26 +200,50 @@ def neighbour(
     ego: Ego, objects: Objects, path: np.ndarray, half_width: float, ego_half_length: float
 ) -> Neighbour:
     """The nearest object within `half_width` of `path` (from the ego outwards): the gap from
-    the ego's bumper to the object's near side along the path, and the object's speed along
-    the path (positive: moving the path's way, away from the ego)."""
+    the ego's bumper to the object's near side along the path (its box projected on the
+    path's tangent), and the object's speed along the path (positive: moving the path's way,
+    away from the ego). One compiled call over every object and path segment."""
     if len(objects) == 0:
         return NONE
-    s, d, tangent = project(path, objects.pos)
-    inside = (d <= half_width) & (s > 0.0)
-    if not inside.any():
-        return NONE
-    # the object's extent along the path: its box projected on the tangent
-    heading = np.stack([np.cos(objects.yaw), np.sin(objects.yaw)], axis=1)
-    cos = np.abs(np.einsum("ki,ki->k", heading, tangent))
     half = objects.half
-    hl = np.where(np.isnan(half[:, 0]), objects.radii, half[:, 0])
-    hw = np.where(np.isnan(half[:, 1]), objects.radii, half[:, 1])
-    extent = hl * cos + hw * np.sqrt(np.maximum(0.0, 1.0 - cos * cos))
-    gap = np.maximum(s - ego_half_length - extent, 0.0)
-    gap = np.where(inside, gap, np.inf)
-    k = int(np.argmin(gap))
-    speed = float(objects.vel[k] @ tangent[k])
-    return Neighbour(min(float(gap[k]), GAP_CAP), speed, True)
+    box = not np.isnan(half[:, 0]).any()
+    hl = half[:, 0] if box else np.where(np.isnan(half[:, 0]), objects.radii, half[:, 0])
+    hw = half[:, 1] if box else np.where(np.isnan(half[:, 1]), objects.radii, half[:, 1])
+    k, gap, ux, uy = _nearest(path, objects.pos, objects.yaw, hl, hw, float(half_width),
+                              float(ego_half_length))  # fmt: skip
+    if k < 0:
+        return NONE
+    speed = float(objects.vel[k, 0] * ux + objects.vel[k, 1] * uy)
+    return Neighbour(min(gap, GAP_CAP), speed, True)
+
+
+@kernel
+def _slope(t, v, first):  # pragma: no cover - compiled
+    """Least-squares slope of v over t[first:]."""
+    n = t.shape[0] - first
+    tm = 0.0
+    vm = 0.0
+    for i in range(first, t.shape[0]):
+        tm += t[i]
+        vm += v[i]
+    tm /= n
+    vm /= n
+    num = 0.0
+    den = 0.0
+    for i in range(first, t.shape[0]):
+        num += (t[i] - tm) * (v[i] - vm)
+        den += (t[i] - tm) * (t[i] - tm)
+    return num / den
+
+
+def acceleration(times: np.ndarray, speeds: np.ndarray, span: float = 1.0) -> float | None:
+    """`ego_accel`: the least-squares slope of the reported speeds of the last `span` seconds
+    (times ascending, the last is now); None before half the span is covered by 3 samples."""
+    now = times[-1]
+    first = int(np.searchsorted(times, now - span - 1e-9))
+    if len(times) - first < 3 or now - times[first] < 0.5 * span - 1e-9:
+        return None
+    return float(_slope(times, speeds, first))
 
 
 def headway(gap: float, speed: float) -> float:
