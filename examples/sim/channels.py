@@ -38,7 +38,7 @@ depend on which ticks were asked for before (apart from the track-id bookkeeping
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass
 from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
@@ -102,8 +102,7 @@ class ChannelParams:
     prediction_points: int = 30
     prediction_step: float = 0.1
     loc_jitter_period: tuple[float, float] = (3.0, 10.0)
-    # Added with the real-stack profiles (`ADDED_FIELDS`). Their defaults are the original model,
-    # so LAV and TFUSE (and the streams made with them) are unchanged.
+    # Added with the real-stack profiles; their defaults are the original LAV/TFUSE model.
     profile: str = ""  # profile name, written to the header meta ("" = the original LAV/TFUSE)
     plan_sampling: Literal["time", "distance"] = "time"
     plan_step: float = 0.1  # s between plan points when sampled by time (a multiple of 0.1 s)
@@ -117,31 +116,19 @@ class ChannelParams:
     # allow a plan horizon longer than the predictions (real stacks do; objects then "stay at
     # their last point" in the safety score for the remaining plan seconds)
     plan_beyond_prediction: bool = False
+    # The plan is re-timed against the channel's own predictions (`retime_plan`): its front
+    # bumper stays at least `plan_standstill_gap` metres behind the rear bumper of every
+    # in-path vehicle track (predicted centre within `plan_corridor` metres of the path)
+    plan_standstill_gap: float = 2.0
+    plan_corridor: float = 1.75
 
     def meta(self) -> dict[str, Any]:
-        """Every parameter, for the stream header. A profile whose added fields all hold their
-        defaults (the original LAV/TFUSE model) is written without them, as before they
-        existed, so the streams made with it stay byte-identical."""
-        out = asdict(self)
-        if all(out[k] == _DEFAULTS[k] for k in ADDED_FIELDS):
-            for k in ADDED_FIELDS:
-                del out[k]
-        return out
-
-    @property
-    def original(self) -> bool:
-        """True for the original channel model (every added field at its default)."""
-        return all(getattr(self, k) == _DEFAULTS[k] for k in ADDED_FIELDS)
+        """Every parameter, for the stream header."""
+        return asdict(self)
 
     def coverage(self) -> dict[str, float]:
         """The sensing coverage written to the header's `coverage` key."""
         return {"fov_deg": float(self.fov_deg), "range_m": float(self.range_m)}
-
-
-#: ChannelParams fields added after the first bundled data set (see `ChannelParams.meta`).
-ADDED_FIELDS = ("profile", "plan_sampling", "plan_step", "plan_spacing", "loc_noise", "loc_phi",
-                "plan_beyond_prediction")
-_DEFAULTS = {f.name: f.default for f in fields(ChannelParams) if f.name in ADDED_FIELDS}
 
 
 #: The all-round channel (the study's LAV stack: 360-degree LiDAR perception).
@@ -401,6 +388,129 @@ def resample_by_distance(pts: np.ndarray, spacing: float) -> np.ndarray:
     return pts[j - 1] + w[:, None] * (pts[j] - pts[j - 1])
 
 
+#: A vehicle track is planned around only while its heading is within this angle of the
+#: plan's direction where it lies (decision: vehicles crossing the path or oncoming are not
+#: planned around; a real planner yields to them at junctions by rules the channel model does
+#: not have, and the ego's true future already does what SUMO decided).
+PLAN_ALIGN = math.radians(45.0)
+#: Length (m) of the straight extensions before the plan's start and after its end along which
+#: tracks are projected (a lead beyond the plan's end still lies on its path).
+_PLAN_EXTENSION = 1000.0
+#: Vertex spacing (m) of the path the tracks are projected on.
+_PLAN_VERTEX_SPACING = 0.1
+
+
+def _project(
+    vx: np.ndarray, vy: np.ndarray, sv: np.ndarray, qx: np.ndarray, qy: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Project points (qx, qy) onto the polyline (vx, vy) with arc length sv at its vertices:
+    distance to it, arc length of the foot point, heading of the nearest segment."""
+    ax, ay = vx[:-1], vy[:-1]
+    ux, uy = np.diff(vx), np.diff(vy)
+    l2 = ux * ux + uy * uy
+    rx, ry = qx[..., None] - ax, qy[..., None] - ay
+    t = np.clip((rx * ux + ry * uy) / l2, 0.0, 1.0)
+    d = np.hypot(rx - t * ux, ry - t * uy)
+    j = d.argmin(axis=-1)[..., None]
+    dist = np.take_along_axis(d, j, axis=-1)[..., 0]
+    arc = sv[j[..., 0]] + np.take_along_axis(t, j, axis=-1)[..., 0] * np.sqrt(l2)[j[..., 0]]
+    return dist, arc, np.arctan2(uy, ux)[j[..., 0]]
+
+
+def retime_plan(
+    pts: np.ndarray, ego_length: float, tracks: np.ndarray, gap: float, corridor: float,
+    yaw: tuple[float, float] | None = None,
+) -> np.ndarray:
+    """Limit a plan's progress along its own path so that it never runs into the channel's own
+    constant-velocity prediction of an in-path vehicle.
+
+    `pts` is the (N, 3) [dt, x, y] plan on its time grid, `tracks` the channel's vehicle tracks
+    as (M, 6) [x, y, vx, vy, yaw, length] in the same frame. A track's predicted centre at dt is
+    (x + vx dt, y + vy dt), for every plan dt (beyond the published prediction horizon too: the
+    planner's own constant-velocity model). It is in the path at dt when that centre lies within
+    `corridor` metres of the path (extended straight beyond its ends) and its heading within
+    `PLAN_ALIGN` of the path's there. It is a lead when, at the first dt it is in the path, its
+    centre is ahead of the plan's (a track the plan is already past, a follower, or one the
+    ego's true future overtakes before it enters the path, is not). While a lead is in the path,
+    the plan's arc position p(dt) (its centre, 0 at the first point) is at most
+    s_lead(dt) - length / 2 - gap - ego_length / 2: its front bumper stays `gap` behind the
+    lead's rear bumper. p is the plan's own arc position clipped by those limits, made
+    non-increasing backwards (a limit at dt holds for every earlier dt, so progress is monotone
+    and never has to go back) and at least 0: a plan that starts closer than `gap` stays at its
+    first point until the limit lets it move. The path is unchanged; points whose arc position
+    is not limited are returned exactly as given. `yaw` (the path's heading at its first and
+    last point) orients the straight extensions; without it, the chords over the path's first
+    and last metre do.
+    """
+    if len(pts) < 2 or len(tracks) == 0:
+        return pts
+    seg = np.hypot(np.diff(pts[:, 1]), np.diff(pts[:, 2]))
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    if s[-1] < 1e-6:
+        return pts  # standing still: nothing to re-time
+    # the path to project on: vertices at least _PLAN_VERTEX_SPACING apart (and the last one),
+    # so the direction of a millimetre segment near a stop does not turn the corridor
+    keep = [0]
+    for i in range(1, len(s)):
+        if s[i] - s[keep[-1]] >= _PLAN_VERTEX_SPACING:
+            keep.append(i)
+    if keep[-1] != len(s) - 1:
+        if len(keep) > 1:
+            keep[-1] = len(s) - 1
+        else:
+            keep.append(len(s) - 1)
+    vx, vy, sv = pts[keep, 1], pts[keep, 2], s[keep]
+    if yaw is not None:
+        h0, h1 = yaw
+    else:
+        i0 = min(int(np.searchsorted(sv, 1.0)), len(sv) - 1)
+        i1 = max(int(np.searchsorted(sv, sv[-1] - 1.0, side="right")) - 1, 0)
+        h0 = math.atan2(vy[i0] - vy[0], vx[i0] - vx[0])
+        h1 = math.atan2(vy[-1] - vy[i1], vx[-1] - vx[i1])
+    ext = _PLAN_EXTENSION
+    vx = np.concatenate([[vx[0] - ext * math.cos(h0)], vx, [vx[-1] + ext * math.cos(h1)]])
+    vy = np.concatenate([[vy[0] - ext * math.sin(h0)], vy, [vy[-1] + ext * math.sin(h1)]])
+    sv = np.concatenate([[-ext], sv, [sv[-1] + ext]])
+    dt = pts[:, 0]
+    qx = tracks[:, 0, None] + tracks[:, 2, None] * dt[None, :]
+    qy = tracks[:, 1, None] + tracks[:, 3, None] * dt[None, :]
+    dist, arc, head = _project(vx, vy, sv, qx, qy)
+    turn = (tracks[:, 4, None] - head + np.pi) % (2.0 * np.pi) - np.pi
+    inside = (dist <= corridor) & (np.abs(turn) <= PLAN_ALIGN)
+    first = inside.argmax(axis=1)
+    lead = inside.any(axis=1) & (arc[np.arange(len(tracks)), first] > s[first])
+    if not lead.any():
+        return pts
+    # margin[i, k, j]: how far the ego's front bumper at path point j would stay behind the
+    # rear bumper of lead i predicted at dt_k, less the gap, measured along the lead's heading
+    # (not along the path's arc length, which a plan creeping sideways or folding back by
+    # centimetres near a stop would lengthen); the limit at dt_k is the first path position
+    # where it turns negative
+    li = np.flatnonzero(lead)
+    ux, uy = np.cos(tracks[li, 4]), np.sin(tracks[li, 4])
+    along = (qx[li, :, None] - pts[None, None, :, 1]) * ux[:, None, None] + (
+        qy[li, :, None] - pts[None, None, :, 2]) * uy[:, None, None]
+    margin = along - 0.5 * (tracks[li, 5, None, None] + ego_length) - gap
+    neg = margin < 0.0
+    j = neg.argmax(axis=2)
+    jm = np.maximum(j - 1, 0)
+    m0 = np.take_along_axis(margin, jm[..., None], axis=2)[..., 0]
+    m1 = np.take_along_axis(margin, j[..., None], axis=2)[..., 0]
+    frac = np.where(j > 0, m0 / np.where(m0 > m1, m0 - m1, 1.0), 0.0)
+    cross = np.where(j > 0, s[jm] + frac * (s[j] - s[jm]), 0.0)
+    active = neg.any(axis=2) & inside[li]
+    limit = np.where(active, cross, np.inf).min(axis=0)
+    if np.all(limit >= s):
+        return pts
+    prog = np.minimum.accumulate(np.minimum(s, limit)[::-1])[::-1]
+    prog = np.maximum(prog, 0.0)
+    out = pts.copy()
+    cut = prog < s
+    out[cut, 1] = np.interp(prog[cut], s, pts[:, 1])
+    out[cut, 2] = np.interp(prog[cut], s, pts[:, 2])
+    return out
+
+
 def markov_misses(
     rng: np.random.Generator, shape: tuple[int, int], share: float, mean_len: float,
 ) -> np.ndarray:
@@ -473,6 +583,7 @@ class ChannelModel:
         self.others = np.ones(n_v, dtype=bool)
         self.others[gt.ego_index] = False
         self.pred_dt = p.prediction_step * np.arange(1, p.prediction_points + 1)
+        self.tracks = np.zeros((0, 6))
 
     def _new_id(self) -> str:
         tid = str(self.next_id)
@@ -489,10 +600,12 @@ class ChannelModel:
             "length": gt.length[e], "width": gt.width[e],
         }
 
-    def plan(self, tick: int) -> np.ndarray:
+    def plan(self, tick: int, tracks: np.ndarray | None = None) -> np.ndarray:
         """(N, 3) plan: the physical future path, offset along and across itself by amounts that
-        grow with (dt / H)^2, shifted by the localisation error; built on the 0.1 s grid, then
-        sampled by time (every `plan_step` s) or by distance (every `plan_spacing` m)."""
+        grow with (dt / H)^2, shifted by the localisation error; built on the 0.1 s grid,
+        re-timed against the channel's own predictions of `tracks` (its vehicle tracks at this
+        tick, [x, y, vx, vy, yaw, length]; `retime_plan`), then sampled by time (every
+        `plan_step` s) or by distance (every `plan_spacing` m)."""
         m = self.motion
         pts = true_plan_points(self.gt, tick, self.p.plan_horizon, 0.1, m)
         idx = tick + np.arange(len(pts))
@@ -500,9 +613,18 @@ class ChannelModel:
         frac = (pts[:, 0] / self.p.plan_horizon) ** 2
         scale = min(1.0, max(0.0, float(m.speed[tick])) / STANDSTILL_SPEED)
         lon = scale * self.plan_lon[tick] * frac
+        # never backwards: where the true path stops, a shrinking along-path offset would fold
+        # the plan back on itself; the plan holds its position instead
+        s_true = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(pts[:, 1]),
+                                                           np.diff(pts[:, 2])))])
+        lon = np.maximum.accumulate(s_true + lon) - s_true
         lat = scale * self.plan_lat[tick] * frac
         pts[:, 1] += lon * np.cos(yaw) - lat * np.sin(yaw) + self.loc.offset[tick, 0]
         pts[:, 2] += lon * np.sin(yaw) + lat * np.cos(yaw) + self.loc.offset[tick, 1]
+        if tracks is not None:
+            pts = retime_plan(pts, float(self.gt.length[self.gt.ego_index]), tracks,
+                              self.p.plan_standstill_gap, self.p.plan_corridor,
+                              yaw=(float(yaw[0]), float(yaw[-1])))
         if self.p.plan_sampling == "distance":
             return resample_by_distance(pts, self.p.plan_spacing)
         if self.plan_every > 1:
@@ -545,6 +667,8 @@ class ChannelModel:
             self.last_seen[j] = t
             ids.append(self.track[j])
         cls = [gt.cls[j] for j in idx.tolist()]
+        # the channel's vehicle tracks, for its planner (ghosts are not planned around)
+        self.tracks = np.column_stack([x, y, vx, vy, yaw, length])
 
         # ghosts: a false track at a random spot in the field of view that rides along with the
         # ego (same velocity) for a fraction of a second
@@ -588,5 +712,8 @@ class ChannelModel:
     def frame(self, tick: int) -> dict[str, Any]:
         """The channel's entry of a casewatch frame at `tick` (floats rounded, see *_DECIMALS)."""
         ego = {k: round(float(v), EGO_DECIMALS) for k, v in self.ego(tick).items()}
-        return {"ego": ego, "plan": np.round(self.plan(tick), EGO_DECIMALS).tolist(),
-                "objects": self.objects(tick)}
+        # objects first: the plan is re-timed against this tick's own tracks (the plan draws
+        # no random numbers, so the order does not change the noise)
+        objects = self.objects(tick)
+        plan = np.round(self.plan(tick, self.tracks), EGO_DECIMALS).tolist()
+        return {"ego": ego, "plan": plan, "objects": objects}

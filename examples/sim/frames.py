@@ -36,15 +36,12 @@ def _num(v: float) -> float | None:
 
 def header(sc: Scenario) -> dict[str, Any]:
     """The stream's header line: format, channels, period, the channels' sensing `coverage`
-    (field of view centred on the ego heading, range; written only when a channel uses a
-    profile newer than the original LAV/TFUSE, so the first bundled streams stay byte-identical)
-    and the generator parameters."""
+    (per channel: field of view centred on the ego heading and range, from its profile) and the
+    generator parameters."""
     head: dict[str, Any] = {
         "format": FORMAT, "version": VERSION, "channels": [c.name for c in sc.channels],
-        "period": STEP,
+        "period": STEP, "coverage": {c.name: c.coverage() for c in sc.channels},
     }
-    if not all(c.original for c in sc.channels):
-        head["coverage"] = {c.name: c.coverage() for c in sc.channels}
     head["meta"] = {
         "scenario": sc.name, "seed": sc.seed, "description": sc.description,
         "generator": "examples.sim (Eclipse SUMO via libsumo)", "network": sc.network,

@@ -4,14 +4,17 @@ Three sources, written as JSON Lines `{"hazard": id, "start": s, "end": s, ...}`
 fields saying where each label comes from:
 
 - `source: "geometry"`: ego tailgating (`CSn2`) and ego tailgated (`CSn3`) from true geometry.
-  "Following in the same lane" means: same SUMO lane id, the other vehicle's lane position ahead
-  of (behind) the ego's, nearest such vehicle. The bumper-to-bumper gap is measured in the world
+  "Following in the same lane" means: on the ego's edge, same SUMO lane id, the other vehicle's
+  lane position ahead of (behind) the ego's, the bumper-to-bumper gap measured in the world
   frame from the box centres (projection of the centre offset on the follower's heading minus
-  half of both lengths). Time gap = gap / follower speed. A tick is tailgating when the time gap
-  is below `TIME_GAP_THRESHOLD` (1.0 s) and the follower drives faster than `MIN_SPEED`
-  (5 m/s; queues at red lights are not tailgating). Consecutive ticks form an interval
-  [first tick, last tick]; intervals closer than `MERGE_GAP` (1.0 s) merge; merged intervals
-  shorter than `MIN_DURATION` (1.0 s) are dropped.
+  half of both lengths); beyond the ego's edge (the junction's internal lane, the next or the
+  previous street), on the ego's lane continuation: a lane the ego drives (drove) through at
+  that lane position without changing lanes within an edge, within `CONTINUATION_RANGE` of its
+  path, the gap measured along the ego's driven path. The nearest such vehicle. Time gap = gap /
+  follower speed. A tick is tailgating when the time gap is below `TIME_GAP_THRESHOLD` (1.0 s)
+  and the follower drives faster than `MIN_SPEED` (5 m/s; queues at red lights are not
+  tailgating). Consecutive ticks form an interval [first tick, last tick]; intervals closer than
+  `MERGE_GAP` (1.0 s) merge; merged intervals shorter than `MIN_DURATION` (1.0 s) are dropped.
 - `source: "injected"`: inconsistent localisation (`CSn1`), the localisation faults the
   generator injected, one interval per fault.
 - `source: "ssm"` (a separate file): the conflicts of SUMO's SSM device on the ego, restricted to
@@ -25,6 +28,7 @@ from __future__ import annotations
 
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
+from itertools import pairwise
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -62,8 +66,108 @@ class Following:
     follower_speed: np.ndarray
 
 
+#: How far (m of the ego's driven path) a leader or follower is looked for on the ego's lane
+#: continuation beyond its current edge (across junctions); SUMO's getLeader looks 100 m too.
+CONTINUATION_RANGE = 100.0
+
+
+def _edge(lane_id: str) -> str:
+    """The edge of a SUMO lane id (`A2A3_0` -> `A2A3`, internal `:B1_0_0` -> `:B1_0`)."""
+    return lane_id.rsplit("_", 1)[0]
+
+
+def _continuation(gt: GroundTruth) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Leaders and followers of the ego on its lane continuation across edges and junctions.
+
+    A vehicle on another edge than the ego's (the next street, the junction's internal lane,
+    the previous street) is on the ego's lane continuation when the ego drives (later) or drove
+    (earlier) through its position on its lane: a stretch of the ego's own lane sequence with
+    the ego on that lane at that lane position, reached without a lane change within an edge
+    and within `CONTINUATION_RANGE` metres of the ego's path. Its gap is the distance along the
+    ego's driven path (the ego's front-bumper odometer): leader rear bumper minus ego front
+    bumper, or ego rear bumper minus follower front bumper. Returns (lead, lead_gap, follower,
+    follower_gap), index -1 and NaN where there is none.
+    """
+    e = gt.ego_index
+    n_t = len(gt.times)
+    lead = np.full(n_t, -1)
+    foll = np.full(n_t, -1)
+    lead_gap = np.full(n_t, np.nan)
+    foll_gap = np.full(n_t, np.nan)
+    ego_lane = gt.lane[:, e]
+    if n_t < 2 or (ego_lane < 0).any():
+        return lead, lead_gap, foll, foll_gap
+    edges = [_edge(name) for name in gt.lane_ids]
+    half = 0.5 * gt.length[e]
+    fx = gt.x[:, e] + half * np.cos(gt.yaw[:, e])
+    fy = gt.y[:, e] + half * np.sin(gt.yaw[:, e])
+    odo = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(fx), np.diff(fy)))])
+    # the ego's lane sequence as runs [first, last] tick on one lane
+    cut = np.flatnonzero(np.diff(ego_lane) != 0) + 1
+    starts = np.concatenate([[0], cut])
+    ends = np.concatenate([cut, [n_t]]) - 1
+    run_lane = ego_lane[starts]
+    run_of = np.repeat(np.arange(len(starts)), ends - starts + 1)
+    # a lane change within an edge breaks the continuation between two runs
+    broken = np.array([edges[a] == edges[b] for a, b in pairwise(run_lane.tolist())],
+                      dtype=bool)
+    others = np.ones(len(gt.ids), dtype=bool)
+    others[e] = False
+    for k in range(n_t):
+        r0 = run_of[k]
+        here = edges[ego_lane[k]]
+        near = np.flatnonzero(others & (gt.lane[k] >= 0)
+                              & (np.hypot(gt.x[k] - gt.x[k, e], gt.y[k] - gt.y[k, e])
+                                 <= CONTINUATION_RANGE + 20.0))
+        for j in near.tolist():
+            lane_j = gt.lane[k, j]
+            if edges[lane_j] == here:
+                continue
+            pos = gt.lane_pos[k, j]
+            for step, runs in ((1, range(r0 + 1, len(starts))), (-1, range(r0 - 1, -1, -1))):
+                for r in runs:
+                    if broken[min(r, r0) : max(r, r0)].any():
+                        break
+                    gone = odo[starts[r]] - odo[k] if step > 0 else odo[k] - odo[ends[r]]
+                    if gone > CONTINUATION_RANGE:
+                        break
+                    if run_lane[r] != lane_j:
+                        continue
+                    a, b = starts[r], ends[r]
+                    lp = gt.lane_pos[a : b + 1, e]
+                    # the ego's samples on a short (junction) lane may start after its first
+                    # metre or end before its last: reach out by the step into (out of) it
+                    before = odo[a] - odo[a - 1] if a > 0 else 0.0
+                    after = odo[b + 1] - odo[b] if b + 1 < n_t else 0.0
+                    if (np.any(np.diff(lp) < 0)
+                            or not lp[0] - before - 1e-6 <= pos <= lp[-1] + after + 1e-6):
+                        break
+                    if pos < lp[0]:
+                        at = odo[a] - (lp[0] - pos)
+                    elif pos > lp[-1]:
+                        at = odo[b] + (pos - lp[-1])
+                    else:
+                        at = float(np.interp(pos, lp, odo[a : b + 1]))
+                    if step > 0:
+                        g = at - gt.length[j] - odo[k]
+                        if g <= CONTINUATION_RANGE and (lead[k] < 0 or g < lead_gap[k]):
+                            lead[k], lead_gap[k] = j, g
+                    else:
+                        g = odo[k] - gt.length[e] - at
+                        if g <= CONTINUATION_RANGE and (foll[k] < 0 or g < foll_gap[k]):
+                            foll[k], foll_gap[k] = j, g
+                    break
+    return lead, lead_gap, foll, foll_gap
+
+
 def following(gt: GroundTruth) -> Following:
-    """Nearest same-lane leader and follower of the ego at every tick, gaps from geometry."""
+    """Nearest leader and follower of the ego in its lane at every tick, gaps from geometry.
+
+    On the ego's edge: the same SUMO lane id, lane position ahead of (behind) the ego's, the
+    bumper gap from the box centres. Beyond it (the next or previous street, a junction's
+    internal lane): the ego's lane continuation, with the gap along the ego's driven path
+    (`_continuation`). The nearer of the two is the leader (follower).
+    """
     e = gt.ego_index
     n_t = len(gt.times)
     rows = np.arange(n_t)
@@ -91,6 +195,12 @@ def following(gt: GroundTruth) -> Following:
     ego_idx = np.full(n_t, e)
     lead_gap = gap(lead, ego_idx)
     foll_gap = gap(ego_idx, foll)
+    c_lead, c_lead_gap, c_foll, c_foll_gap = _continuation(gt)
+    with np.errstate(invalid="ignore"):
+        use = (c_lead >= 0) & ((lead < 0) | (c_lead_gap < lead_gap))
+        lead, lead_gap = np.where(use, c_lead, lead), np.where(use, c_lead_gap, lead_gap)
+        use = (c_foll >= 0) & ((foll < 0) | (c_foll_gap < foll_gap))
+        foll, foll_gap = np.where(use, c_foll, foll), np.where(use, c_foll_gap, foll_gap)
     ego_speed = gt.speed[:, e]
     foll_speed = np.where(foll >= 0, gt.speed[rows, np.maximum(foll, 0)], np.nan)
     with np.errstate(divide="ignore", invalid="ignore"):

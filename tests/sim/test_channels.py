@@ -146,3 +146,31 @@ def test_sumo_front_bumper_and_heading_convert_to_centre_and_yaw() -> None:
     np.testing.assert_allclose(cx, [10.0, 8.0, 10.0], atol=1e-9)
     np.testing.assert_allclose(cy, [18.0, 20.0, 22.0], atol=1e-9)
     np.testing.assert_allclose(yaw, [np.pi / 2, 0.0, -np.pi / 2], atol=1e-9)
+
+
+def test_retime_plan_holds_behind_the_own_prediction_of_the_lead() -> None:
+    """Queue start: the ego (4.6 m) stands 1 m behind a stopped car (4.5 m) and its true future
+    drives off. Against the channel's own prediction (the car stays) the plan stays at its
+    first point; once the lead is predicted to move, the plan follows 2 m behind it, never
+    backwards; a lead already far enough ahead leaves the plan unchanged."""
+    from examples.sim.channels import retime_plan
+
+    dt = np.round(np.arange(31) * 0.1, 1)
+    true = np.column_stack([dt, 1.0 * dt**2, np.zeros_like(dt)])  # 2 m/s^2 from rest
+    lead_x = 0.5 * 4.6 + 1.0 + 0.5 * 4.5
+    stopped = np.array([[lead_x, 0.0, 0.0, 0.0, 0.0, 4.5]])
+    held = retime_plan(true, 4.6, stopped, 2.0, 1.75)
+    np.testing.assert_allclose(held[:, 1:], 0.0)
+    np.testing.assert_array_equal(held[:, 0], dt)
+    moving = np.array([[lead_x, 0.0, 2.0, 0.0, 0.0, 4.5]])  # predicted at 2 m/s
+    out = retime_plan(true, 4.6, moving, 2.0, 1.75)
+    front_gap = (lead_x + 2.0 * dt - 2.25) - (out[:, 1] + 2.3)
+    assert np.all(np.diff(out[:, 1]) >= 0.0)
+    assert np.all(out[:, 1] <= true[:, 1] + 1e-12)
+    assert np.all((front_gap >= 2.0 - 1e-9) | (out[:, 1] == 0.0))
+    assert out[-1, 1] == pytest.approx(lead_x + 6.0 - 2.25 - 2.0 - 2.3)
+    far = np.array([[40.0, 0.0, 0.0, 0.0, 0.0, 4.5]])
+    np.testing.assert_array_equal(retime_plan(true, 4.6, far, 2.0, 1.75), true)
+    # a car in the next lane (3.2 m across) or crossing the path is not planned around
+    beside = np.array([[lead_x, 3.2, 0.0, 0.0, 0.0, 4.5], [lead_x, -5.0, 0.0, 2.0, 1.57, 4.5]])
+    np.testing.assert_array_equal(retime_plan(true, 4.6, beside, 2.0, 1.75), true)

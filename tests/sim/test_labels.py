@@ -122,3 +122,21 @@ def test_unreadable_ssm_file_names_the_file(tmp_path: Path) -> None:
     path.write_text("<SSMLog><conflict>")
     with pytest.raises(ValueError, match=r"broken\.xml: cannot read SUMO SSM output"):
         read_ssm(path)
+
+
+def test_following_continues_across_an_edge_boundary() -> None:
+    """The lead passes onto the next edge (lane `e2_0`) two seconds before the ego does: it is
+    still the ego's lead (the ego later drives through its position on that lane), with the gap
+    measured along the ego's path; the same for the follower left behind on `e1_0`."""
+    gt = _truth(20.0, -15.0)
+    front = gt.x + 2.25
+    on_e2 = front >= 50.0
+    gt.lane = np.where(on_e2, 1, 0)
+    gt.lane_pos = np.where(on_e2, front - 50.0, front)
+    gt.lane_ids = ["e1_0", "e2_0"]
+    fol = following(gt)
+    assert (gt.lane[:, 1] != gt.lane[:, 0]).any() and (gt.lane[:, 2] != gt.lane[:, 0]).any()
+    # the ego's future ends at 6 s: the lead is found while the ego reaches its position
+    reach = gt.x[:, 1] + 2.25 <= gt.x[-1, 0] + 2.25
+    np.testing.assert_allclose(fol.lead_gap[reach], 15.5, atol=1e-9)
+    np.testing.assert_allclose(fol.follower_gap, 10.5, atol=1e-9)

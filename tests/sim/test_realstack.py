@@ -15,7 +15,6 @@ import numpy as np
 import pytest
 
 from examples.sim.channels import (
-    ADDED_FIELDS,
     CAMERA_STACK,
     LAV,
     LIDAR_STACK,
@@ -188,7 +187,7 @@ def test_forward_camera_ghosts_stay_inside_its_field_of_view() -> None:
     assert n > 100
 
 
-def test_header_coverage_matches_the_profiles_and_only_new_drives_carry_it() -> None:
+def test_header_coverage_matches_the_profiles_for_every_drive() -> None:
     cov = {"lav": {"fov_deg": 360.0, "range_m": 80.0},
            "tfuse": {"fov_deg": 120.0, "range_m": 70.0}}
     for sc in (HIGHWAY_REALSTACK, URBAN_REALSTACK):
@@ -202,8 +201,10 @@ def test_header_coverage_matches_the_profiles_and_only_new_drives_carry_it() -> 
         assert set(params["lav"]) == {f.name for f in fields(ChannelParams)}
         assert params["lav"]["plan_sampling"] == "distance"
         assert params["tfuse"]["plan_step"] == 0.5
-    # the original profiles: no coverage key and none of the added fields (byte-identical files)
+    # the original profiles carry it too (360 deg / 60 m, 200 deg / 50 m), and every parameter
     old = header(URBAN_GRID)["header"]
-    assert "coverage" not in old
+    assert old["coverage"] == {"lav": {"fov_deg": 360.0, "range_m": 60.0},
+                               "tfuse": {"fov_deg": 200.0, "range_m": 50.0}}
     for p in (LAV, TFUSE):
-        assert not set(ADDED_FIELDS) & set(p.meta())
+        assert set(p.meta()) == {f.name for f in fields(ChannelParams)}
+        assert p.meta()["plan_standstill_gap"] == 2.0
