@@ -48,6 +48,11 @@ class Neighbour:
 NONE = Neighbour(GAP_CAP, 0.0, False)
 
 
+#: Resolution [m] of every geometric decision below: points on a boundary (the corridor's
+#: edge, beside the ego, a vertex equidistant from two segments) fall the same way whatever
+#: the world frame's rounding (the pairing's tie rule, spi-reference "Building blocks").
+EPS = 1e-9
+
 #: The second point of a path is the first at least this far [m] from the ego: its direction
 #: is the path's initial heading, and nearer plan points add only rounding.
 PATH_SPACING = 2.0
@@ -65,7 +70,7 @@ def _strays(out, m, x, y):  # pragma: no cover - compiled
     py = out[m - 1, 1]
     lx = px - out[m - 2, 0]
     ly = py - out[m - 2, 1]
-    return abs(lx * (y - py) - ly * (x - px)) / math.hypot(lx, ly) > PATH_TOLERANCE
+    return abs(lx * (y - py) - ly * (x - px)) / math.hypot(lx, ly) > PATH_TOLERANCE + EPS
 
 
 @kernel
@@ -82,7 +87,7 @@ def _path(x, y, heading, lookahead):  # pragma: no cover - compiled
     last = 0  # index of the last kept input point
     for i in range(1, n):
         if m == 1:
-            if math.hypot(x[i] - out[0, 0], y[i] - out[0, 1]) >= PATH_SPACING:
+            if math.hypot(x[i] - out[0, 0], y[i] - out[0, 1]) >= PATH_SPACING - EPS:
                 out[1, 0] = x[i]
                 out[1, 1] = y[i]
                 m = 2
@@ -142,18 +147,18 @@ def _nearest(path, pos, yaw, hl, hw, half_width, ego_half):  # pragma: no cover 
             along = (pos[k, 0] - ax) * ux + (pos[k, 1] - ay) * uy
             along = min(max(along, 0.0), length)
             d = math.hypot(pos[k, 0] - ax - along * ux, pos[k, 1] - ay - along * uy)
-            if d < dist:
+            if d < dist - EPS:  # an equidistant vertex keeps the earlier segment
                 dist = d
                 s_best = s0 + along
                 ux_best = ux
                 uy_best = uy
             s0 += length
-        if dist > half_width or s_best <= 0.0:
+        if dist > half_width + EPS or s_best <= EPS:
             continue
         cos = abs(math.cos(yaw[k]) * ux_best + math.sin(yaw[k]) * uy_best)
         extent = hl[k] * cos + hw[k] * math.sqrt(max(0.0, 1.0 - cos * cos))
         gap = max(s_best - ego_half - extent, 0.0)
-        if gap < best_gap:
+        if gap < best_gap - EPS:
             best_gap = gap
             best_k = k
             best_ux = ux_best
