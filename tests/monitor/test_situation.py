@@ -6,10 +6,20 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from monitor.engine import MetricEngine
 from monitor.frames import Coverage
-from monitor.situation import GAP_CAP, TIME_CAP, headway, neighbour, project, time_to_collision
+from monitor.situation import (
+    GAP_CAP,
+    TIME_CAP,
+    _nearest,
+    headway,
+    neighbour,
+    project,
+    time_to_collision,
+)
 from safety_case.model import MetricParams
 from tests.monitor.builders import channel, ego, frame, obj, straight_plan
 
@@ -122,3 +132,34 @@ def test_neighbour_without_objects():
     s = f.channels["a"]
     path = np.array([[0.0, 0.0], [50.0, 0.0]])
     assert neighbour(s.ego, s.objects, path, HALF_WIDTH, 2.0).present is False
+
+
+@settings(max_examples=80, deadline=None)
+@given(
+    st.lists(st.tuples(st.floats(-50, 50), st.floats(-50, 50)), min_size=2, max_size=6,
+             unique=True),
+    st.lists(st.tuples(st.floats(-60, 60), st.floats(-60, 60), st.floats(-3.2, 3.2)),
+             min_size=1, max_size=8),
+)  # fmt: skip
+def test_compiled_nearest_equals_the_numpy_projection(points, objects):
+    """The kernel against `project` (numpy) and the gap formula written out."""
+    path = np.array(points)
+    seg = np.hypot(*np.diff(path, axis=0).T)
+    if (seg < 1e-3).any():
+        return
+    pos = np.array([(x, y) for x, y, _ in objects])
+    yaw = np.array([a for _, _, a in objects])
+    hl, hw = np.full(len(pos), 2.2), np.full(len(pos), 0.9)
+    k, gap, _, _ = _nearest(path, pos, yaw, hl, hw, HALF_WIDTH, 2.3)
+    s, d, tangent = project(path, pos)
+    cos = np.abs(np.cos(yaw) * tangent[:, 0] + np.sin(yaw) * tangent[:, 1])
+    want = np.maximum(s - 2.3 - (hl * cos + hw * np.sqrt(np.maximum(0, 1 - cos**2))), 0.0)
+    inside = (d <= HALF_WIDTH) & (s > 0)
+    # away from the boundaries the kernel decides (boundary cases are the EPS rule's)
+    near_edge = (np.abs(d - HALF_WIDTH) < 1e-6) | (np.abs(s) < 1e-6)
+    if near_edge.any():
+        return
+    if not inside.any():
+        assert k == -1
+        return
+    assert gap == pytest.approx(np.min(want[inside]), abs=1e-6)
