@@ -25,6 +25,7 @@ spi-reference "Resampling" is the normative description.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -263,15 +264,4 @@ def resample_objects(objects: Objects, step: float) -> Objects:
     else:
         pred, lens = _resample_predictions(objects.pos, objects.pred, objects.pred_len,
                                            float(step))  # fmt: skip
-    return Objects(
-        ids=objects.ids,
-        cls=objects.cls,
-        pos=objects.pos,
-        yaw=objects.yaw,
-        vel=objects.vel,
-        footprints=objects.footprints,
-        pred=pred,
-        pred_len=lens,
-        convex=objects.convex,
-        half=objects.half,
-    )
+    return replace(objects, pred=pred, pred_len=lens)

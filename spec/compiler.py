@@ -136,6 +136,14 @@ def _hazard_source(node: Node, hazard: HazardBinding) -> _Source:
     )
 
 
+def _bound_at(case: Case, src: _Source, col: int) -> tuple[int, int]:
+    """Where a time bound's finding points: the bound in the formula text, or the binding for
+    a `for:` duration (which has no text of its own)."""
+    if src.formula is not None:
+        return src.binding_mark.line, src.binding_mark.col
+    return _at(case, src, col)
+
+
 def _at(case: Case, src: _Source, col: int, line: int = 1) -> tuple[int, int]:
     if src.formula is not None and col <= 0:
         return src.mark.line, src.mark.col
@@ -177,9 +185,7 @@ def _check(
     for interval in intervals_of(formula):
         ticks = bound_ticks(interval.hi, period)
         if ticks is not None and ticks > MAX_BOUND_TICKS:
-            line, col = _at(case, src, interval.col)
-            if src.formula is not None:  # `for:` duration: point at the binding
-                line, col = src.binding_mark.line, src.binding_mark.col
+            line, col = _bound_at(case, src, interval.col)
             findings.append(
                 formula_finding(
                     "CW048",
@@ -195,9 +201,7 @@ def _check(
             )
         for bound in (interval.lo, interval.hi):
             if bound_ticks(bound, period) is None:
-                line, col = _at(case, src, interval.col)
-                if src.formula is not None:  # `for:` duration: point at the binding
-                    line, col = src.binding_mark.line, src.binding_mark.col
+                line, col = _bound_at(case, src, interval.col)
                 findings.append(
                     formula_finding(
                         "CW043",
