@@ -82,10 +82,11 @@ class _Timed:
 
 
 class _PoseWindow:
-    """The ego positions (t, x, y) of a channel's last `span` seconds, oldest first, in one
-    growable array (rows `start:end`), restarting like `_Timed` when a sample comes more than
-    `max_gap` after the previous one. The comfort kernel reads column views of it: no
-    per-frame array building, whatever the frame rate."""
+    """A channel's samples (t, a, b) of the last `span` seconds, oldest first, in one growable
+    array (rows `start:end`), restarting like `_Timed` when a sample comes more than `max_gap`
+    after the previous one: ego positions (t, x, y) for hcs and the driven path, reported
+    speeds (t, v, 0) for ego_accel. The kernels read column views of it: no per-frame array
+    building, whatever the frame rate."""
 
     __slots__ = ("buf", "end", "max_gap", "span", "start")
 
@@ -109,8 +110,8 @@ class _PoseWindow:
         buf[self.end] = (t, x, y)
         self.end += 1
         # keep the newest sample at or before t - span: it tells that the span is covered
-        cutoff = t - self.span - 1e-9
-        while self.end - self.start > 1 and buf[self.start + 1, 0] <= cutoff + 2e-9:
+        limit = t - self.span + 1e-9
+        while self.end - self.start > 1 and buf[self.start + 1, 0] <= limit:
             self.start += 1
 
     def window(self) -> np.ndarray:
