@@ -31,9 +31,7 @@ from monitor.situation import (
     acceleration,
     ego_half_length,
     headway,
-    neighbour,
-    path_ahead,
-    path_behind,
+    neighbours,
     time_to_collision,
 )
 from safety_case.model import MetricParams
@@ -334,10 +332,10 @@ class MetricEngine:
                 continue
             ego = s.ego
             speed = math.hypot(ego.vx, ego.vy)
-            half = ego_half_length(ego)
             names = self._situation_names[c]
-            lead = neighbour(ego, s.objects, path_ahead(ego, s.plan, reach), p.lane_half_width,
-                             half)  # fmt: skip
+            driven = self._ego[c].window()[:-1, 1:3] if c in behind_seeing else None
+            lead, follower = neighbours(ego, s.plan, driven, s.objects, p.lane_half_width,
+                                        ego_half_length(ego), reach)  # fmt: skip
             out[names["ego_speed"]] = speed
             out[names["ego_accel"]] = self._accel(c, t, speed)
             out[names["lead_gap"]] = lead.gap
@@ -346,10 +344,7 @@ class MetricEngine:
             out[names["lead_ttc"]] = (
                 time_to_collision(lead.gap, speed - lead.speed) if lead.present else TIME_CAP
             )
-            if c in behind_seeing:
-                driven = self._ego[c].window()[:-1, 1:3]
-                follower = neighbour(ego, s.objects, path_behind(ego, driven, reach),
-                                     p.lane_half_width, half)  # fmt: skip
+            if follower is not None:
                 # the path behind points away from the ego: a follower closing in moves against it
                 towards = max(-follower.speed, 0.0)
                 out[names["follow_gap"]] = follower.gap

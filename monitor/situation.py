@@ -74,12 +74,20 @@ def _strays(out, m, x, y):  # pragma: no cover - compiled
 
 
 @kernel
-def _path(x, y, heading, lookahead):  # pragma: no cover - compiled
-    """(P, 2) polyline through the points (x[i], y[i]) (the first is the ego), simplified (see
-    PATH_SPACING, PATH_TOLERANCE; the last point is kept when it moves on by more than 1 cm)
-    and extended straight by `lookahead` metres along the last segment, or along `heading`
-    when the points do not move."""
-    n = x.shape[0]
+def _path(x0, y0, xs, ys, reverse, heading, lookahead):  # pragma: no cover - compiled
+    """(P, 2) polyline from (x0, y0) through the points (xs[i], ys[i]) (in reverse order when
+    `reverse`), simplified (see PATH_SPACING, PATH_TOLERANCE; the last point is kept when it
+    moves on by more than 1 cm) and extended straight by `lookahead` metres along the last
+    segment, or along `heading` when the points do not move."""
+    n = xs.shape[0] + 1
+    x = np.empty(n)
+    y = np.empty(n)
+    x[0] = x0
+    y[0] = y0
+    for i in range(n - 1):
+        j = n - 2 - i if reverse else i
+        x[i + 1] = xs[j]
+        y[i + 1] = ys[j]
     out = np.empty((n + 1, 2))
     out[0, 0] = x[0]
     out[0, 1] = y[0]
@@ -169,18 +177,72 @@ def _nearest(path, pos, yaw, hl, hw, half_width, ego_half):  # pragma: no cover 
 def path_ahead(ego: Ego, plan: np.ndarray, lookahead: float) -> np.ndarray:
     """(P, 2) polyline from the ego along its plan, extended straight along the last direction
     to `lookahead` metres; along the ego's heading when the plan does not move."""
-    x = np.concatenate([[ego.x], plan[:, 1]]) if len(plan) else np.array([ego.x])
-    y = np.concatenate([[ego.y], plan[:, 2]]) if len(plan) else np.array([ego.y])
-    return _path(x, y, float(ego.yaw), float(lookahead))
+    return _path(ego.x, ego.y, plan[:, 1], plan[:, 2], False, float(ego.yaw), float(lookahead))
 
 
 def path_behind(ego: Ego, history: np.ndarray, lookahead: float) -> np.ndarray:
     """(P, 2) polyline from the ego back along its driven positions `history` (oldest first),
     extended straight backwards to `lookahead` metres; straight back along its heading when
     it has not moved."""
-    x = np.concatenate([[ego.x], history[::-1, 0]])
-    y = np.concatenate([[ego.y], history[::-1, 1]])
-    return _path(x, y, float(ego.yaw) + math.pi, float(lookahead))
+    return _path(ego.x, ego.y, history[:, 0], history[:, 1], True, float(ego.yaw) + math.pi,
+                 float(lookahead))  # fmt: skip
+
+
+@kernel
+def _neighbours(x0, y0, heading, plan_x, plan_y, driven_x, driven_y, behind, pos, yaw, hl, hw,
+                vel, half_width, ego_half, lookahead):  # pragma: no cover - compiled
+    """Leader along the plan and (when `behind`) follower along the driven path in one call:
+    (lead gap, lead speed along the path, 1.0 if there is a leader, and the same three for the
+    follower). See `neighbour`."""
+    out = np.zeros(6)
+    out[0] = out[3] = GAP_CAP
+    path = _path(x0, y0, plan_x, plan_y, False, heading, lookahead)
+    k, gap, ux, uy = _nearest(path, pos, yaw, hl, hw, half_width, ego_half)
+    if k >= 0:
+        out[0] = min(gap, GAP_CAP)
+        out[1] = vel[k, 0] * ux + vel[k, 1] * uy
+        out[2] = 1.0
+    if behind:
+        path = _path(x0, y0, driven_x, driven_y, True, heading + math.pi, lookahead)
+        k, gap, ux, uy = _nearest(path, pos, yaw, hl, hw, half_width, ego_half)
+        if k >= 0:
+            out[3] = min(gap, GAP_CAP)
+            out[4] = vel[k, 0] * ux + vel[k, 1] * uy
+            out[5] = 1.0
+    return out
+
+
+def _half_extents(objects: Objects) -> tuple[np.ndarray, np.ndarray]:
+    """(K,) half length and half width per object; a polygon footprint counts as the circle
+    around it (its bounding radius both ways)."""
+    half = objects.half
+    if not np.isnan(half[:, 0]).any():
+        return half[:, 0], half[:, 1]
+    box = ~np.isnan(half[:, 0])
+    radii = objects.radii
+    return np.where(box, half[:, 0], radii), np.where(box, half[:, 1], radii)
+
+
+def neighbours(
+    ego: Ego, plan: np.ndarray, driven: np.ndarray | None, objects: Objects, half_width: float,
+    ego_half: float, lookahead: float,
+) -> tuple[Neighbour, Neighbour | None]:
+    """The leader along `plan` and, when `driven` (the ego's earlier positions, oldest first)
+    is given, the follower along that path: one compiled call for both."""
+    if len(objects) == 0:
+        return NONE, (None if driven is None else NONE)
+    hl, hw = _half_extents(objects)
+    d = driven if driven is not None else _NO_POINTS
+    v = _neighbours(ego.x, ego.y, float(ego.yaw), plan[:, 1], plan[:, 2], d[:, 0], d[:, 1],
+                    driven is not None, objects.pos, objects.yaw, hl, hw, objects.vel,
+                    float(half_width), float(ego_half), float(lookahead))  # fmt: skip
+    lead = Neighbour(float(v[0]), float(v[1]), bool(v[2]))
+    if driven is None:
+        return lead, None
+    return lead, Neighbour(float(v[3]), float(v[4]), bool(v[5]))
+
+
+_NO_POINTS = np.zeros((0, 2))
 
 
 def project(path: np.ndarray, pos: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -210,10 +272,7 @@ def neighbour(
     away from the ego). One compiled call over every object and path segment."""
     if len(objects) == 0:
         return NONE
-    half = objects.half
-    box = not np.isnan(half[:, 0]).any()
-    hl = half[:, 0] if box else np.where(np.isnan(half[:, 0]), objects.radii, half[:, 0])
-    hw = half[:, 1] if box else np.where(np.isnan(half[:, 1]), objects.radii, half[:, 1])
+    hl, hw = _half_extents(objects)
     k, gap, ux, uy = _nearest(path, objects.pos, objects.yaw, hl, hw, float(half_width),
                               float(ego_half_length))  # fmt: skip
     if k < 0:
@@ -223,19 +282,25 @@ def neighbour(
 
 
 @kernel
-def _slope(t, v, first):  # pragma: no cover - compiled
-    """Least-squares slope of v over t[first:]."""
-    n = t.shape[0] - first
+def _slope(t, v, span):  # pragma: no cover - compiled
+    """Least-squares slope of v over the samples of the last `span` seconds (t ascending);
+    NaN before half the span is covered by three samples."""
+    n = t.shape[0]
+    first = 0
+    while first < n and t[first] < t[n - 1] - span - 1e-9:
+        first += 1
+    if n - first < 3 or t[n - 1] - t[first] < 0.5 * span - 1e-9:
+        return math.nan
     tm = 0.0
     vm = 0.0
-    for i in range(first, t.shape[0]):
+    for i in range(first, n):
         tm += t[i]
         vm += v[i]
-    tm /= n
-    vm /= n
+    tm /= n - first
+    vm /= n - first
     num = 0.0
     den = 0.0
-    for i in range(first, t.shape[0]):
+    for i in range(first, n):
         num += (t[i] - tm) * (v[i] - vm)
         den += (t[i] - tm) * (t[i] - tm)
     return num / den
@@ -244,11 +309,8 @@ def _slope(t, v, first):  # pragma: no cover - compiled
 def acceleration(times: np.ndarray, speeds: np.ndarray, span: float = 1.0) -> float | None:
     """`ego_accel`: the least-squares slope of the reported speeds of the last `span` seconds
     (times ascending, the last is now); None before half the span is covered by 3 samples."""
-    now = times[-1]
-    first = int(np.searchsorted(times, now - span - 1e-9))
-    if len(times) - first < 3 or now - times[first] < 0.5 * span - 1e-9:
-        return None
-    return float(_slope(times, speeds, first))
+    value = _slope(times, speeds, float(span))
+    return None if math.isnan(value) else float(value)
 
 
 def headway(gap: float, speed: float) -> float:
