@@ -163,8 +163,14 @@ def _nearest(path, pos, yaw, hl, hw, half_width, ego_half):  # pragma: no cover 
             s0 += length
         if dist > half_width + EPS or s_best <= EPS:
             continue
-        cos = abs(math.cos(yaw[k]) * ux_best + math.sin(yaw[k]) * uy_best)
-        extent = hl[k] * cos + hw[k] * math.sqrt(max(0.0, 1.0 - cos * cos))
+        # |cos| and |sin| of the heading against the tangent, the sine from the cross product:
+        # sqrt(1 - cos^2) turns a rounding error of 1e-16 in cos into 1e-8 (a rigid motion of
+        # the world moved the gap by 7.5e-9 m)
+        hx = math.cos(yaw[k])
+        hy = math.sin(yaw[k])
+        cos = abs(hx * ux_best + hy * uy_best)
+        sin = abs(hx * uy_best - hy * ux_best)
+        extent = hl[k] * cos + hw[k] * sin
         gap = max(s_best - ego_half - extent, 0.0)
         if gap < best_gap - EPS:
             best_gap = gap
