@@ -34,6 +34,14 @@ CHUNK = 5
 #: as a heading, it turned a car parked beside the ego across it.
 MOTION_EPS = 0.02
 
+#: Conflict angle [rad] below which an encounter is of the rear-end type (SSAM's classification
+#: of conflicts by the angle between the two headings at the conflict point: rear-end under
+#: 30 degrees, lane change up to 85, crossing above). spi-reference "Safety score", conflict
+#: types: PET counts only for encounters at this angle or more (following is judged by TTC and
+#: by the headway signals), and a rear-end contact from behind the ego is the follower's.
+REAR_END_ANGLE = math.radians(30.0)
+REAR_END_COS = math.cos(REAR_END_ANGLE)
+
 #: Slack (m) added to every prefilter bound of the kernel, so that rounding in a prefilter can
 #: never drop a pair the exact test would find touching (coordinates may be map-sized).
 SLACK = 1e-6
@@ -72,6 +80,20 @@ def _box_hit(dx: float, dy: float, ca: float, sa: float, la: float, wa: float, c
     if abs(dx * cb + dy * sb) > lb + la * cd + wa * sd:
         return False
     return not abs(dy * cb - dx * sb) > wb + la * sd + wa * cd
+
+
+@kernel
+def _rear_end(ca: float, sa: float, cb: float, sb: float) -> bool:
+    """The headings (ca, sa) and (cb, sb) differ by less than REAR_END_ANGLE."""
+    return ca * cb + sa * sb > REAR_END_COS
+
+
+@kernel
+def _from_behind(dx: float, dy: float, ca: float, sa: float, cb: float, sb: float) -> bool:
+    """A rear-end contact whose object (centre at dx, dy from the ego's) is behind the ego
+    (ego heading ca, sa; object heading cb, sb): the follower runs into the ego. Read at an
+    object's first equal-time contact: such an object counts for neither TTC nor PET."""
+    return _rear_end(ca, sa, cb, sb) and dx * ca + dy * sa < 0.0
 
 
 @kernel
@@ -347,6 +369,8 @@ def _score_scene(scene: np.ndarray, pet_ref: float) -> np.ndarray:
                     if _box_hit(dx, dy, ec[i, t], es[i, t], egos[i, 1], egos[i, 2],
                                 oc[k, h], os_[k, h], hl, hw):  # fmt: skip
                         meets[i, k] = True
+                        if _from_behind(dx, dy, ec[i, t], es[i, t], oc[k, h], os_[k, h]):
+                            break  # the follower's contact, not the plan's (conflict types)
                         if times[t] < ttc[i, j]:
                             ttc[i, j] = times[t]
                         break
@@ -409,6 +433,8 @@ def _score_scene(scene: np.ndarray, pet_ref: float) -> np.ndarray:
                                     if dx * dx + dy * dy > reach * reach:
                                         continue
                                     h = min(m, n - 2)
+                                    if _rear_end(ec[i, t], es[i, t], oc[k, h], os_[k, h]):
+                                        continue  # following: TTC's and the headways' job
                                     if _box_hit(dx, dy, ec[i, t], es[i, t], la, wa,
                                                 oc[k, h], os_[k, h], hl, hw):  # fmt: skip
                                         best = dt

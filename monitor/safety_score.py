@@ -35,7 +35,7 @@ import shapely
 
 from monitor.frames import ChannelState, Ego, Objects, place
 from monitor.prediction import interpolate_tracks
-from monitor.safety_kernel import CHUNK, MOTION_EPS, score_boxes
+from monitor.safety_kernel import CHUNK, MOTION_EPS, REAR_END_COS, score_boxes
 
 
 def _directions(centres: np.ndarray, fallback: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -404,6 +404,19 @@ def _exact(
     return hit
 
 
+def _rear_end(mv: _Movers, fi: np.ndarray, fh: np.ndarray) -> np.ndarray:
+    """Conflict types (spi-reference "Safety score"): the ego (pose fi) and the object
+    (heading fh) head less than REAR_END_ANGLE apart."""
+    return mv.cosf.take(fi) * mv.cosf.take(fh) + mv.sinf.take(fi) * mv.sinf.take(fh) > REAR_END_COS
+
+
+def _from_behind(mv: _Movers, fi: np.ndarray, fk: np.ndarray, fh: np.ndarray) -> np.ndarray:
+    """A rear-end contact with the object's centre behind the ego's: the follower's."""
+    ahead = ((mv.xf.take(fk) - mv.xf.take(fi)) * mv.cosf.take(fi)
+             + (mv.yf.take(fk) - mv.yf.take(fi)) * mv.sinf.take(fi))  # fmt: skip
+    return _rear_end(mv, fi, fh) & (ahead < 0.0)
+
+
 def score_grid_numpy(
     plans: Sequence[np.ndarray],
     egos: Sequence[Ego],
@@ -459,10 +472,17 @@ def score_grid_numpy(
         k = pk.take(cp)
         fk = k * n_pts + cn
         fh = fk if uniform else k * n_pts + np.minimum(cn, plen.take(cp) - 2)
-        hit = _exact(mv, i, k, i * n_pts + cn, fk, fh)
-        if hit.any():
-            np.minimum.at(ttc, (i[hit], owner.take(k[hit])), times.take(cn[hit]))
-            colliding[cp[hit]] = True
+        fi = i * n_pts + cn
+        hit = np.flatnonzero(_exact(mv, i, k, fi, fk, fh))
+        if len(hit):
+            # candidates come in (pair, time) order: a pair's first hit is its first contact,
+            # and a pair whose first contact is from behind counts for neither TTC nor PET
+            pair, first = np.unique(cp.take(hit), return_index=True)
+            colliding[pair] = True
+            first = hit.take(first)
+            first = first[~_from_behind(mv, fi.take(first), fk.take(first), fh.take(first))]
+            at = (i.take(first), owner.take(k.take(first)))
+            np.minimum.at(ttc, at, times.take(cn.take(first)))
     limit = pet_ref * np.minimum(1.0, ttc / horizon[:, None])
     # PET: only pairs that never meet at equal times, within their time limit.
     lim = np.where(colliding, -np.inf, limit[pi, owner.take(pk)])
@@ -574,7 +594,8 @@ def _pet(
     m = m.take(sel)
     fk = k * n_pts + m
     fh = fk if uniform else k * n_pts + np.minimum(m, plen.take(cpc.take(sel)) - 2)
-    hit = _exact(mv, i, k, i * n_pts + n, fk, fh)
+    fi = i * n_pts + n
+    hit = _exact(mv, i, k, fi, fk, fh) & ~_rear_end(mv, fi, fh)
     if hit.any():
         np.minimum.at(pet, (i[hit], owner.take(k[hit])), dt.take(sel)[hit])
 

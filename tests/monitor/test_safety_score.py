@@ -74,6 +74,35 @@ def test_crossing_object_gives_post_encroachment_time():
     assert ss == pytest.approx(0.25)
 
 
+def test_following_is_no_post_encroachment():
+    # A 4x2 lead 14 m ahead (gap 10 m) at the ego's 10 m/s: the ego reaches every spot the
+    # lead held 1.0 s later, a PET of 1.0 s (ss 0.5) if read as a crossing. Rear-end
+    # encounters (headings under 30 degrees apart) are not PET's (conflict types): ss = 1.
+    lead = obj(1, 14.0, 0, 0, 4, 2, prediction=straight_plan(14.0, 0, 10, 0, 31)[1:])
+    assert safety_score(scene([lead]).plan, scene([lead]).ego, scene([lead]).objects,
+                        PET_REF) == (1.0, math.inf, math.inf)  # fmt: skip
+    # the same lead standing still: the ego drives into it, TTC as before (gap 10 m at 10 m/s)
+    stopped = scene([obj(1, 14.0, 0, 0, 4, 2)])
+    ss, ttc, _ = safety_score(stopped.plan, stopped.ego, stopped.objects, PET_REF)
+    assert ttc == pytest.approx(1.0) and ss == pytest.approx(1 / 3)
+
+
+def test_a_follower_running_into_the_ego_is_the_followers_contact():
+    # The ego stands (its plan does not move); a 4x2 car 10 m behind (centre) drives at 10 m/s:
+    # its front reaches the ego's rear at 0.6 s. A contact from behind, same heading: not the
+    # plan's (ss 1), where it read ttc 0.6 / 3 = 0.2 before.
+    standing = [[0.1 * n, 0.0, 0.0] for n in range(31)]
+    car = obj(1, -10.0, 0, 0, 4, 2, prediction=straight_plan(-10.0, 0, 10, 0, 31)[1:])
+    s = scene([car], plan=standing)
+    assert safety_score(s.plan, s.ego, s.objects, PET_REF) == (1.0, math.inf, math.inf)
+    # the same car coming from the side (heading +y, 10 m to the right) does count: at
+    # 0.7 s its front (y = -10 + 7 + 2) reaches the ego's right side (y = -1)
+    side = obj(1, 0.0, -10.0, math.pi / 2, 4, 2, prediction=straight_plan(0, -10.0, 0, 10, 31)[1:])
+    s = scene([side], plan=standing)
+    ss, ttc, _ = safety_score(s.plan, s.ego, s.objects, PET_REF)
+    assert ttc == pytest.approx(0.7) and ss == pytest.approx(0.7 / 3)
+
+
 def test_first_step_collision_is_zero_and_short_plans():
     s = scene([obj(1, 3.0, 0, 0, 4, 2)])  # already overlapping at dt = 0
     assert safety_score(s.plan, s.ego, s.objects, PET_REF)[0] == 0.0
@@ -183,17 +212,24 @@ def brute_force(plan, ego_state, objects, pet_ref):
             )
             for m in range(len(times))
         ]
+        def rear_end(n, m, k=k):  # conflict types: headings under 30 degrees apart
+            return ec[0, n] * cos[k, m] + es[0, n] * sin[k, m] > math.cos(math.radians(30))
+
         hits = [
             (n, m)
             for n in range(len(times))
             for m in range(len(times))
             if shapely.intersects(ego_polys[n], polys[m])
         ]
-        same = [times[n] for n, m in hits if n == m]
+        same = [n for n, m in hits if n == m]
         if same:
-            ttc = min(ttc, min(same))
-        elif hits:
-            pet = min(pet, min(abs(times[n] - times[m]) for n, m in hits))
+            first = min(same)
+            ahead = np.dot(oc[k, first] - centres[0, first], [ec[0, first], es[0, first]])
+            if not (rear_end(first, first) and ahead < 0):  # else the follower's contact
+                ttc = min(ttc, times[first])
+        else:
+            crossing = [abs(times[n] - times[m]) for n, m in hits if not rear_end(n, m)]
+            pet = min([pet, *crossing])
     return min(1.0, ttc / horizon, pet / pet_ref), ttc
 
 
