@@ -13,6 +13,7 @@ channels and stored plans. The crpps inputs of the frame ride in the same GEOS c
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -127,6 +128,57 @@ def _bisect(a, n, x, right):  # pragma: no cover - compiled
 
 
 @kernel
+def _arc_length(rows, first, n):  # pragma: no cover - compiled
+    """Length [m] of the polyline through rows[first:first + n] ([dt, x, y] rows)."""
+    total = 0.0
+    for q in range(first + 1, first + n):
+        total += math.hypot(rows[q, 1] - rows[q - 1, 1], rows[q, 2] - rows[q - 1, 2])
+    return total
+
+
+@kernel
+def _along(rows, first, n, length, n_out, off_x, off_y, coords, pos):  # pragma: no cover
+    """n_out points evenly spaced by arc length over the first `length` metres of the
+    polyline through rows[first:first + n], moved by (off_x, off_y), into coords[pos:]."""
+    q = first  # the segment rows[q] -> rows[q + 1] holds the next point
+    walked = 0.0  # arc length at rows[q]
+    seg = math.hypot(rows[q + 1, 1] - rows[q, 1], rows[q + 1, 2] - rows[q, 2]) if n > 1 else 0.0
+    for j in range(n_out):
+        target = length * j / (n_out - 1) if n_out > 1 else 0.0
+        while q < first + n - 2 and walked + seg < target:
+            walked += seg
+            q += 1
+            seg = math.hypot(rows[q + 1, 1] - rows[q, 1], rows[q + 1, 2] - rows[q, 2])
+        frac = 0.0 if n == 1 or seg <= 0.0 else min(max((target - walked) / seg, 0.0), 1.0)
+        nxt = q + 1 if n > 1 else q
+        coords[pos + j, 0] = rows[q, 1] + (rows[nxt, 1] - rows[q, 1]) * frac + off_x
+        coords[pos + j, 1] = rows[q, 2] + (rows[nxt, 2] - rows[q, 2]) * frac + off_y
+
+
+@kernel
+def _common_path(p, q):  # pragma: no cover - compiled
+    """`common_path` on (n, 3) rows (x, y in columns 1 and 2)."""
+    n_out = max(p.shape[0], q.shape[0])
+    length = min(_arc_length(p, 0, p.shape[0]), _arc_length(q, 0, q.shape[0]))
+    out = np.empty((2 * n_out, 2))
+    _along(p, 0, p.shape[0], length, n_out, 0.0, 0.0, out, 0)
+    _along(q, 0, q.shape[0], length, n_out, 0.0, 0.0, out, n_out)
+    return out
+
+
+def common_path(p: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two point sequences (n, 2) and (m, 2) as paths (spi-reference chpps, crpps): each
+    resampled to max(n, m) points evenly spaced by arc length over the length both cover, so
+    that their Fréchet distance measures where the paths go, not how fast they are driven."""
+    rows = np.zeros((len(p) + len(q), 3))
+    rows[: len(p), 1:] = p
+    rows[len(p):, 1:] = q
+    out = _common_path(rows[: len(p)], rows[len(p):])
+    n_out = max(len(p), len(q))
+    return out[:n_out], out[n_out:]
+
+
+@kernel
 def _cut(plans, lens, times, count, head, t, decay, pair_xy, pair_lens):  # pragma: no cover
     """Every Fréchet pair of the frame, written into one coordinate array.
 
@@ -138,6 +190,11 @@ def _cut(plans, lens, times, count, head, t, decay, pair_xy, pair_lens):  # prag
     sequence follow, their distance computed here (largest distance from the point to a point
     of the other sequence, as `similarity.frechet` does).
 
+    A chpps pair compares **paths** (spi-reference chpps): both cut sequences, the stored one
+    moved onto the current one's first point, are resampled to the same number of points
+    (the larger of their two counts) evenly spaced by arc length over the length both cover.
+    A plan whose speed profile changed along an unchanged path then reads fd = 0.
+
     Returns (coords (n, 2), geometry index per point, pair table (see OWNER..GEOM), number of
     points for GEOS, number of pairs for GEOS).
     """
@@ -148,6 +205,8 @@ def _cut(plans, lens, times, count, head, t, decay, pair_xy, pair_lens):  # prag
     src = np.empty((cap, 6), dtype=np.int64)
     owner = np.empty(cap, dtype=np.int64)
     weight = np.empty(cap)
+    raw = np.empty((cap, 2), dtype=np.int64)  # chpps pairs: the cut lengths before resampling
+    common = np.empty(cap)  # chpps pairs: the path length both cover [m]
     k = 0
     off = 0
     for i in range(n_given):
@@ -191,12 +250,17 @@ def _cut(plans, lens, times, count, head, t, decay, pair_xy, pair_lens):  # prag
             sb = _bisect(sdt, ns, hi + age, True)
             if a >= b or sa >= sb:
                 continue  # Decision: a common range with no sample of one plan is no overlap
+            n_out = max(b - a, sb - sa)
             src[k, 0] = h
             src[k, 1] = a
-            src[k, 2] = b - a
+            src[k, 2] = n_out
             src[k, 3] = s
             src[k, 4] = sa
-            src[k, 5] = sb - sa
+            src[k, 5] = n_out
+            raw[k, 0] = b - a
+            raw[k, 1] = sb - sa
+            common[k] = min(_arc_length(plans[c, h], a, b - a),
+                            _arc_length(plans[c, s], sa, sb - sa))  # fmt: skip
             owner[k] = c
             # Decision: j is the rank among stored plans (1 = most recent), skipped included.
             weight[k] = decay ** float(rank)
@@ -234,15 +298,16 @@ def _cut(plans, lens, times, count, head, t, decay, pair_xy, pair_lens):  # prag
                 o = owner[i]
                 off_x = plans[o, src[i, 0], src[i, 1], 1] - plans[o, slot, first, 1]
                 off_y = plans[o, src[i, 0], src[i, 1], 2] - plans[o, slot, first, 2]
-            for j in range(src[i, 3 * side + 2]):
-                if slot < 0:
-                    coords[pos, 0] = pair_xy[first + j, 0]
-                    coords[pos, 1] = pair_xy[first + j, 1]
-                else:
-                    coords[pos, 0] = plans[owner[i], slot, first + j, 1] + off_x
-                    coords[pos, 1] = plans[owner[i], slot, first + j, 2] + off_y
-                index[pos] = g + side
-                pos += 1
+            n_side = src[i, 3 * side + 2]
+            if slot < 0:
+                for j in range(n_side):
+                    coords[pos + j, 0] = pair_xy[first + j, 0]
+                    coords[pos + j, 1] = pair_xy[first + j, 1]
+            else:
+                _along(plans[owner[i], slot], first, raw[i, side], common[i], n_side, off_x,
+                       off_y, coords, pos)  # fmt: skip
+            index[pos : pos + n_side] = g + side
+            pos += n_side
         table[i, OWNER] = owner[i]
         table[i, WEIGHT] = weight[i]
         table[i, GEOM] = g

@@ -18,6 +18,7 @@ import numpy as np
 import shapely
 
 from monitor.frames import ChannelState, Objects
+from monitor.history import common_path
 from monitor.jit import kernel
 
 #: Pairing distance resolution [m]: closer distances are ties.
@@ -374,12 +375,14 @@ def crpps_inputs(plan_a: np.ndarray, plan_b: np.ndarray) -> tuple[np.ndarray, np
     pa, pb = _crpps_kernel(plan_a, plan_b)
     if len(pa) == 0 or len(pb) == 0:
         return None  # the plans cover no common time: nothing to compare, no value
-    return pa, pb
+    return common_path(pa, pb)
 
 
 def crpps_distance(plan_a: np.ndarray, plan_b: np.ndarray) -> float | None:
     """fd(plan_A, plan_B') with plan B translated so its first point is plan A's first point,
-    both plans cut to their common horizon.
+    both plans cut to their common horizon and compared as paths (`common_path`: resampled by
+    arc length over the length both cover; a channel planning the same path a little faster
+    is not a different shape, which `ets` measures).
 
     Decision: the study's channels plan over different horizons (e.g. 5 s and 3 s). Compared
     whole, the extra seconds of the longer plan alone set the Frechet distance (tens of metres

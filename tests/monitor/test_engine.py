@@ -275,13 +275,17 @@ def test_three_channels_worst_pair_and_crpps_mean():
     b = channel(ego(3, 4), plan=[[0, 5, 5], [0.1, 6, 5], [0.2, 7, 5]])
     c = channel(ego(0, 1), plan=[[0, 0, 0], [0.1, 1, 1], [0.2, 2, 2]])
     out = MetricEngine(MetricParams(), ["a", "b", "c"]).step(frame(0.0, {"a": a, "b": b, "c": c}))
-    # Frechet after translating onto the first plan's start: a-b 0, a-c 2, b-c 2
-    # (end points (2,0)-(2,2) must be matched) -> crpps 1, 1/3, 1/3; worst 1/3
+    # Frechet after translating onto the first plan's start, as paths over the length both
+    # cover (2 m; the diagonal is 2.83 m): a-b 0; a-c: (1,0),(2,0) against the diagonal's
+    # points 1 and 2 m along, (.707,.707),(1.414,1.414): the end points' distance
+    # d = sqrt((2 - sqrt 2)^2 + 2) = 1.530734 -> crpps 1, 1/(1+d), 1/(1+d); worst 1/(1+d)
+    d = ((2 - 2**0.5) ** 2 + 2) ** 0.5
     assert out["crpps__a__b"] == pytest.approx(1.0)
-    assert out["crpps__a__c"] == pytest.approx(1 / 3)
-    assert out["crpps"] == pytest.approx(1 / 3)
-    # crpps_mean = inv(mean(0, 2, 2)) = 1 / (1 + 4/3) = 3/7
-    assert out["crpps_mean"] == pytest.approx(3 / 7)
+    assert out["crpps__a__c"] == pytest.approx(1 / (1 + d))
+    assert out["crpps__b__c"] == pytest.approx(1 / (1 + d))
+    assert out["crpps"] == pytest.approx(0.395142, abs=1e-6)
+    # crpps_mean = inv(mean(0, d, d))
+    assert out["crpps_mean"] == pytest.approx(1 / (1 + 2 * d / 3))
     # els: a-b 5 m -> 1/6, a-c 1 m -> 1/2, b-c sqrt(18) m -> 0.190744; worst = 1/6
     assert out["els__b__c"] == pytest.approx(1 / (1 + 18**0.5))
     assert out["els"] == pytest.approx(1 / 6)

@@ -36,19 +36,39 @@ def test_els_var_warm_up_and_constant():
 
 
 CURRENT = np.array([[0, 0, 0], [0.1, 1, 0], [0.2, 2, 0]], dtype=float)
+#: The distance between the points 1 m along +x and 1 m along (2, 1) / sqrt(5): two paths from
+#: one start, resampled by arc length, the tilted one 26.57 degrees off (0.459506 m).
+FD_TILT = float(np.hypot(1 - 2 / np.sqrt(5), 1 / np.sqrt(5)))
 # age 0.1: dt shifted to -0.1, 0, 0.1, 0.2 -> common range [0, 0.2]; kept points
-# (0,0),(1,.5),(2,1) (already on the current plan's first point (0,0)) vs (0,0),(1,0),(2,0):
-# Frechet 1 (the end points must couple) -> f1 = 1/2
+# (0,0),(1,.5),(2,1) (already on the current plan's first point (0,0)) vs (0,0),(1,0),(2,0).
+# Paths: lengths 2.236 and 2, common 2, three points each at 0, 1, 2 m along: the tilted one
+# (0,0),(.894,.447),(1.789,.894). Frechet = the end points' distance, 2 * FD_TILT = 0.919012
+# -> f1 = 1 / 1.919012
 OLDER1 = np.array([[0, -1, 0], [0.1, 0, 0], [0.2, 1, 0.5], [0.3, 2, 1.0]], dtype=float)
 # age 0.2: dt -0.2 .. 0.2 -> kept (0,0),(1,0),(2,0): Frechet 0 -> f2 = 1
 OLDER2 = np.array([[0, -2, 0], [0.1, -1, 0], [0.2, 0, 0], [0.3, 1, 0], [0.4, 2, 0]], dtype=float)
 
 
 def test_chpps_hand_computed():
-    # (1 * 1/2 + 0.95 * 1) / (1 + 0.95) = 1.45 / 1.95 = 0.743590
+    # (1 * 0.521102 + 0.95 * 1) / (1 + 0.95) = 1.471102 / 1.95 = 0.754411
     got = chpps(CURRENT, [(0.1, OLDER1), (0.2, OLDER2)], K)
-    assert got == pytest.approx((0.5 + 0.95) / 1.95)
-    assert got == pytest.approx(0.743590, abs=1e-6)
+    assert got == pytest.approx((1 / (1 + 2 * FD_TILT) + 0.95) / 1.95)
+    assert got == pytest.approx(0.754411, abs=1e-6)
+
+
+def test_chpps_compares_paths_not_speed_profiles():
+    # The same straight path driven at 10 m/s, then planned to stop within 1 m (a red light):
+    # a time-wise comparison puts the plans 19 m apart at 2 s; their paths are one: chpps 1.
+    cruise = np.array([[0.1 * n, 1.0 * n, 0.0] for n in range(21)])
+    stopping = np.array([[0.1 * n, min(1.0 * n, 1.0) * (1 - 0.5 ** n), 0.0] for n in range(21)])
+    assert chpps(stopping, [(0.1, cruise)], K) == pytest.approx(1.0)
+    assert chpps(cruise, [(0.1, stopping)], K) == pytest.approx(1.0)
+    # the path itself swerving: a stored plan along +x, the current one 1 m to the left from
+    # 10 m on (a lane change that was not planned before): fd 1 m -> 0.5
+    swerve = cruise.copy()
+    swerve[10:, 2] = 1.0
+    stored = np.vstack([[-0.1, -1.0, 0.0], cruise])
+    assert chpps(swerve, [(0.1, stored)], K) == pytest.approx(1 / (1 + 1.0), abs=0.02)
 
 
 def test_chpps_moves_the_stored_plan_onto_the_current_start():
@@ -77,23 +97,24 @@ def test_chpps_weights_use_rank_including_skipped():
     # rank 1 overlaps with f = 1 (identical path), rank 2 skipped -> 1.0
     assert chpps(CURRENT, [(0.1, same), (0.2, far)], K) == pytest.approx(1.0)
     # rank 1 skipped, rank 2 = OLDER2 (f = 1) keeps weight 0.95: 0.95 * 1 / 0.95 = 1.0; with
-    # OLDER1 at rank 3 (age 0.1 -> same cut as above, f = 1/2, weight 0.95^2 = 0.9025):
-    # (0.95 * 1 + 0.9025 * 1/2) / (0.95 + 0.9025) = 1.40125 / 1.8525 = 0.756410
+    # OLDER1 at rank 3 (age 0.1 -> same cut as above, f = 0.521102, weight 0.95^2 = 0.9025):
+    # (0.95 * 1 + 0.9025 * 0.521102) / (0.95 + 0.9025) = 1.420295 / 1.8525 = 0.766691
     got = chpps(CURRENT, [(0.2, far), (0.2, OLDER2), (0.1, OLDER1)], K)
-    assert got == pytest.approx((0.95 + 0.9025 / 2) / 1.8525)
-    assert got == pytest.approx(0.756410, abs=1e-6)
+    assert got == pytest.approx((0.95 + 0.9025 / (1 + 2 * FD_TILT)) / 1.8525)
+    assert got == pytest.approx(0.766691, abs=1e-6)
 
 
-def test_one_point_common_range_uses_the_largest_distance():
+def test_short_common_paths():
     # current dt 0, 0.4; stored (age 0.1) dt 0.1 .. 0.4 -> shifted 0 .. 0.3: common range
     # [0, 0.3] holds one current point (0,0) and four stored points, which move onto it:
-    # (0,0),(1,.5),(2,1),(3,1.5); largest distance sqrt(9 + 2.25) = 3.354102
+    # (0,0),(1,.5),(2,1),(3,1.5). The current cut has no length, so the path both cover is
+    # the start point alone: fd 0, chpps 1 (the time-wise reading gave 1 / (1 + 3.354))
     current = np.array([[0.0, 0.0, 0.0], [0.4, 4.0, 0.0]])
     stored = np.array([[0.1, 10, 10], [0.2, 11, 10.5], [0.3, 12, 11], [0.4, 13, 11.5]])
-    assert chpps(current, [(0.1, stored)], K) == pytest.approx(1 / (1 + np.sqrt(11.25)))
+    assert chpps(current, [(0.1, stored)], K) == pytest.approx(1.0)
     # two-point cuts: current keeps (0,0),(1,0), OLDER1 at age 0.2 keeps (1,.5),(2,1) moved to
-    # (0,0),(1,.5): Frechet 0.5
-    assert chpps(CURRENT[:2], [(0.2, OLDER1)], K) == pytest.approx(1 / 1.5)
+    # (0,0),(1,.5); common length 1: (1,0) against (.894,.447), fd FD_TILT
+    assert chpps(CURRENT[:2], [(0.2, OLDER1)], K) == pytest.approx(1 / (1 + FD_TILT))
 
 
 def test_history_restarts_after_max_gap_and_keeps_plan_history_plans():
@@ -102,11 +123,11 @@ def test_history_restarts_after_max_gap_and_keeps_plan_history_plans():
     hist.push(0, 0.1, OLDER1[:3])
     hist.push(0, 0.2, CURRENT)
     # channel 0 at t 0.2: rank 1 = OLDER1[:3] at age 0.1 -> dt -0.1, 0, 0.1: kept (0,0),(1,.5)
-    # vs (0,0),(1,0): fd 0.5, f = 2/3; rank 2 = the t 0 plan at age 0.2: dt 0 .. 0.2, points
-    # (-2,0),(-1,0),(0,0) moved onto (0,0): (0,0),(1,0),(2,0), the current path: fd 0, f = 1.
-    # (2/3 + 0.95) / 1.95 = 0.829060; channel 1 has no plan from t 0.2: None
+    # vs (0,0),(1,0): common length 1, fd FD_TILT; rank 2 = the t 0 plan at age 0.2: dt 0 ..
+    # 0.2, points (-2,0),(-1,0),(0,0) moved onto (0,0): (0,0),(1,0),(2,0), the current path:
+    # fd 0, f = 1. (0.685163 + 0.95) / 1.95 = 0.838545; channel 1 has no plan from t 0.2: None
     values, fds = chpps_frame(hist, 0.2, K)
-    assert values[0] == pytest.approx((2 / 3 + 0.95) / 1.95)
+    assert values[0] == pytest.approx((1 / (1 + FD_TILT) + 0.95) / 1.95)
     assert values[1] is None and fds == []
     # The ring keeps plan_history = 2 stored plans: at t 0.3 the t 0 plan (age 0.3: dt -0.1 ..
     # 0.1, would overlap, and its x -2, -1, 0 would not line up) is gone; CURRENT at age 0.1 ->
@@ -173,10 +194,27 @@ def mask_pairs(current, stored, k):
         sm = (plan[:, 0] >= lo + age) & (plan[:, 0] <= hi + age)
         if lo <= hi and cm.any() and sm.any():
             # the stored cut moves onto the current cut's first point (spi-reference chpps)
+            p = current[cm, 1:3]
             q = plan[sm, 1:3]
-            pairs.append((current[cm, 1:3], q + (current[cm][0, 1:3] - q[0])))
+            q = q + (p[0] - q[0])
+            # both paths resampled by arc length over the length both cover (shapely's)
+            n = max(len(p), len(q))
+            length = min(path_length(p), path_length(q))
+            pairs.append((along(p, length, n), along(q, length, n)))
             weights.append(k**rank)
     return pairs, weights
+
+
+def path_length(points):
+    return 0.0 if len(points) < 2 else float(shapely.LineString(points).length)
+
+
+def along(points, length, n):
+    """n points evenly spaced by arc length over the first `length` metres of the path."""
+    if len(points) < 2 or length == 0:
+        return np.repeat(points[:1], n, axis=0)
+    line = shapely.LineString(points)
+    return shapely.get_coordinates(line.interpolate(np.linspace(0.0, length, n)))
 
 
 def reference_chpps(current, stored, k):
@@ -228,9 +266,11 @@ def test_cut_pairs_equal_a_mask_formulation(case, given_pairs):
     want_pairs, want_w = mask_pairs(current, stored, K)
     want_pairs = given_pairs + want_pairs
     got = split_pairs(coords, index, table)
-    assert [(p.tolist(), q.tolist()) for p, q in got] == [
-        (p.tolist(), q.tolist()) for p, q in want_pairs
-    ]
+    assert len(got) == len(want_pairs)
+    for (p, q), (wp, wq) in zip(got, want_pairs, strict=True):
+        assert p.shape == wp.shape and q.shape == wq.shape
+        np.testing.assert_allclose(p, wp, atol=1e-9)
+        np.testing.assert_allclose(q, wq, atol=1e-9)
     assert table[:, WEIGHT].tolist() == pytest.approx([1.0] * len(given_pairs) + want_w)
     # GEOS gets exactly the pairs whose sequences both have two points or more, pair by pair.
     multi = [len(p) > 1 and len(q) > 1 for p, q in got]

@@ -20,6 +20,7 @@ from monitor.similarity import (
     pair_objects,
 )
 from tests.monitor.builders import channel, ego, frame, obj
+from tests.monitor.test_history import along, path_length
 
 GATE = 3.0
 K = 0.95
@@ -102,12 +103,23 @@ def test_plan_similarities_hand_computed():
 def test_crpps_compares_the_common_horizon_only():
     # A: 3 s plan straight along x at 10 m/s; B: 2 s plan, same start, drifting 1 m left
     # per second. Common horizon 2 s: A (0,0),(10,0),(20,0); B (0,0),(10,1),(20,2).
-    # Discrete Frechet = max over the coupling = 2 (the end points); A's (30,0) is ignored
-    # (whole plans would give at least |(30,0) - (20,2)| = 10.2).
+    # As paths over the length both cover (20 m; B's is 20.1 m), B's points 10 and 20 m along
+    # its direction (10, 1) / sqrt(101); discrete Frechet = the end points' distance
+    # |(20,0) - 20 (10,1) / sqrt(101)| = 1.992548; A's (30,0) is ignored (whole plans would
+    # give at least |(30,0) - (20,2)| = 10.2).
     a = np.array([[0, 0, 0], [1, 10, 0], [2, 20, 0], [3, 30, 0]], dtype=float)
     b = np.array([[0, 5, 5], [1, 15, 6], [2, 25, 7]], dtype=float)
-    assert crpps_distance(a, b) == pytest.approx(2.0)
-    assert crpps_distance(b, a) == pytest.approx(2.0)
+    d = float(np.hypot(20 - 200 / np.sqrt(101), 20 / np.sqrt(101)))
+    assert crpps_distance(a, b) == pytest.approx(d)
+    assert crpps_distance(b, a) == pytest.approx(d)
+    assert d == pytest.approx(1.992548, abs=1e-6)
+
+
+def test_crpps_reads_the_path_not_the_speed():
+    # the same straight path, B planned 20 % faster: 10 m apart at 5 s, time-wise; one path
+    a = np.column_stack([np.arange(51) * 0.1, np.arange(51) * 1.0, np.zeros(51)])
+    b = a * np.array([1.0, 1.2, 1.0])
+    assert crpps_distance(a, b) == pytest.approx(0.0, abs=1e-9)
 
 
 def test_both_see_nothing_is_one_and_one_side_only_is_zero():
@@ -293,9 +305,12 @@ def test_plan_kernels_equal_reference(pa, pb, decay):
         assert got is None and crpps_inputs(pa, pb) is None
         return
     assert got == pytest.approx(weighted_pointwise(ka[None], kb[None], None, decay)[0], abs=1e-12)
+    # crpps: B moved onto A's start, both as paths over the length both cover (shapely's)
     xa, xb = crpps_inputs(pa, pb)
-    np.testing.assert_allclose(xa, ka, atol=1e-12)
-    np.testing.assert_allclose(xb, kb - kb[0] + ka[0], atol=1e-12)
+    qb = kb - kb[0] + ka[0]
+    length = min(path_length(ka), path_length(qb))
+    np.testing.assert_allclose(xa, along(ka, length, len(ka)), atol=1e-9)
+    np.testing.assert_allclose(xb, along(qb, length, len(ka)), atol=1e-9)
 
 
 def test_plans_without_common_time_have_no_plan_similarity():
