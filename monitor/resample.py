@@ -64,6 +64,14 @@ def _slopes(t, v, n, out):  # pragma: no cover - compiled
         # Lagrange parabola derivative at t[i]
         x = t[i]
         out[i] = d0 + (d1 - d0) / (h0 + h1) * ((x - t[a]) + (x - t[b]))
+    # An end slope of the sign opposite to its interval's secant (the one-sided parabola of
+    # samples spaced very unevenly, e.g. a plan by distance of a car starting off: 1 m in 4.4 s,
+    # then 1 m in 0.5 s) sends the cubic backwards first; it is set to 0 (the end rule of
+    # shape-preserving piecewise-cubic interpolation). Inner slopes cannot: they are weighted
+    # means of the two neighbouring secants.
+    for i, j in ((0, 1), (n - 1, n - 2)):
+        if out[i] * (v[j] - v[i]) * (t[j] - t[i]) < 0.0:
+            out[i] = 0.0
     # Overshoot guard (after Fritsch and Carlson): a flat interval (the vehicle stands) keeps
     # its ends flat, and where a slope is over three times the interval's secant in the same
     # direction (a stop or a sharp slow-down between two sparse samples) the cubic would swing

@@ -202,3 +202,16 @@ def test_predictions_already_on_the_grid_take_the_short_way(grid_from):
         assert fast is objects
     irregular = random_objects(7, None)
     assert resample_objects(irregular, STEP).pred[0, 0, 0] == pytest.approx(STEP)
+
+
+def test_uneven_samples_of_a_car_starting_off_never_go_backwards():
+    # a plan by distance of a car starting off: 1 m in 4.4 s, then 1 m in 0.54 s. The
+    # one-sided parabola at the start has a negative slope (-0.18 m/s); with it the cubic went
+    # 0.22 m backwards first. The end slope is set to 0: the grid never goes behind the start.
+    plan = np.array([[0.0, 0.0, 0.0], [4.4, 1.0, 0.0], [4.94, 2.0, 0.0]])
+    x = resample_plan(plan, 0.1)[:, 1]
+    assert np.all(np.diff(x) >= -1e-12)
+    assert x[0] == 0.0 and x[-1] <= 2.0
+    # the same samples reversed in space (driving towards -x) mirror exactly
+    mirrored = resample_plan(plan * np.array([1.0, -1.0, 1.0]), 0.1)[:, 1]
+    np.testing.assert_allclose(mirrored, -x, atol=1e-12)
