@@ -398,6 +398,27 @@ PLAN_ALIGN = math.radians(45.0)
 _PLAN_EXTENSION = 1000.0
 #: Vertex spacing (m) of the path the tracks are projected on.
 _PLAN_VERTEX_SPACING = 0.1
+#: Largest acceleration [m/s^2] of a re-timed plan's progress. When a lead's limit lets go
+#: (the lead leaves the corridor, e.g. it turns off while its constant-velocity prediction goes
+#: straight on), the clipped progress would jump back to the true future's: a plan standing
+#: for two seconds, then covering 8 m in 0.3 s, which no planner publishes. Progress regains
+#: speed at this rate instead (a planner's comfortable acceleration).
+PLAN_ACCEL = 2.0
+
+
+def accel_limited(progress: np.ndarray, dt: np.ndarray, speed: float) -> np.ndarray:
+    """`progress` (arc positions at times `dt`, non-decreasing) lowered where it would gain
+    speed faster than PLAN_ACCEL, starting from `speed` [m/s] before the first step. Only
+    lowers (an upper limit stays respected) and stays non-decreasing."""
+    out = progress.copy()
+    v = speed
+    for k in range(1, len(out)):
+        h = dt[k] - dt[k - 1]
+        if h <= 0.0:
+            continue
+        out[k] = min(out[k], out[k - 1] + (v + PLAN_ACCEL * h) * h)
+        v = (out[k] - out[k - 1]) / h
+    return out
 
 
 def _project(
@@ -437,10 +458,11 @@ def retime_plan(
     lead's rear bumper. p is the plan's own arc position clipped by those limits, made
     non-increasing backwards (a limit at dt holds for every earlier dt, so progress is monotone
     and never has to go back) and at least 0: a plan that starts closer than `gap` stays at its
-    first point until the limit lets it move. The path is unchanged; points whose arc position
-    is not limited are returned exactly as given. `yaw` (the path's heading at its first and
-    last point) orients the straight extensions; without it, the chords over the path's first
-    and last metre do.
+    first point until the limit lets it move, and then speeds up at most at PLAN_ACCEL
+    (`accel_limited`), never jumping to the true future's progress. The path is unchanged;
+    points whose arc position is not limited are returned exactly as given. `yaw` (the path's
+    heading at its first and last point) orients the straight extensions; without it, the
+    chords over the path's first and last metre do.
     """
     if len(pts) < 2 or len(tracks) == 0:
         return pts
@@ -504,6 +526,8 @@ def retime_plan(
         return pts
     prog = np.minimum.accumulate(np.minimum(s, limit)[::-1])[::-1]
     prog = np.maximum(prog, 0.0)
+    first_step = dt[1] - dt[0]
+    prog = accel_limited(prog, dt, s[1] / first_step if first_step > 0 else 0.0)
     out = pts.copy()
     cut = prog < s
     out[cut, 1] = np.interp(prog[cut], s, pts[:, 1])

@@ -171,6 +171,17 @@ def test_retime_plan_holds_behind_the_own_prediction_of_the_lead() -> None:
     assert out[-1, 1] == pytest.approx(lead_x + 6.0 - 2.25 - 2.0 - 2.3)
     far = np.array([[40.0, 0.0, 0.0, 0.0, 0.0, 4.5]])
     np.testing.assert_array_equal(retime_plan(true, 4.6, far, 2.0, 1.75), true)
+    # a standing lead that turns off (heading 0.5 rad to the right, 5 m/s: out of the 1.75 m
+    # corridor after 0.73 s) while the true future drives on at 10 m/s: the plan holds, then
+    # speeds up at PLAN_ACCEL (each 0.1 s step at most 2 * 0.1^2 m longer than the one before)
+    # instead of jumping onto the true progress, which it never passes
+    cruise = np.column_stack([dt, 10.0 * dt, np.zeros_like(dt)])
+    turning = np.array([[lead_x, 0.0, 5 * np.cos(0.5), -5 * np.sin(0.5), -0.5, 4.5]])
+    out = retime_plan(cruise, 4.6, turning, 2.0, 1.75)
+    steps = np.diff(out[:, 1])
+    assert steps[0] == 0.0 and np.all(steps >= 0.0)
+    assert np.all(np.diff(steps) <= 2.0 * 0.01 + 1e-9)
+    assert np.all(out[:, 1] <= cruise[:, 1] + 1e-12) and out[-1, 1] < 0.5 * cruise[-1, 1]
     # a car in the next lane (3.2 m across) or crossing the path is not planned around
     beside = np.array([[lead_x, 3.2, 0.0, 0.0, 0.0, 4.5], [lead_x, -5.0, 0.0, 2.0, 1.57, 4.5]])
     np.testing.assert_array_equal(retime_plan(true, 4.6, beside, 2.0, 1.75), true)
