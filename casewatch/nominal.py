@@ -10,6 +10,11 @@ change holds on data it was not tuned on:
     casewatch run examples/reference-case.yaml /tmp/heldout --labels auto -o /tmp/heldout-run
     python -m casewatch.nominal /tmp/heldout-run
 
+Ticks near a conflict that the simulator's own SSM device measured (the labels file's
+sibling `NAME.ssm-labels.jsonl`, when there is one) are not nominal either: there the
+simulator itself measured a short TTC or PET (a lead braking hard, a car crossing close), and an
+SPI that turns red there is doing its job. `--no-ssm` counts them as nominal.
+
 Exit 0 when every SPI is within `--limit` (default 1 %) on every run, 1 otherwise, 2 for a
 folder that holds no usable run.
 """
@@ -33,6 +38,14 @@ def run_folders(out_dir: Path) -> list[Path]:
         logs = json.loads(summary.read_text(encoding="utf-8")).get("per_log", [])
         return [Path(log["out_dir"]) for log in logs if log.get("ok", True)]
     return [out_dir]
+
+
+def ssm_labels_path(labels: Path) -> Path | None:
+    """`NAME.ssm-labels.jsonl` beside `NAME.labels.jsonl`, when it exists."""
+    if not labels.name.endswith(".labels.jsonl"):
+        return None
+    ssm = labels.with_name(labels.name[: -len(".labels.jsonl")] + ".ssm-labels.jsonl")
+    return ssm if ssm.is_file() else None
 
 
 def table(rows: dict[str, list[NominalShare]], limit: float) -> tuple[str, bool]:
@@ -66,6 +79,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="seconds around each label that are not nominal (default %(default)s)")
     ap.add_argument("--limit", type=float, default=0.01,
                     help="largest acceptable violated share (default %(default)s)")
+    ap.add_argument("--no-ssm", dest="ssm", action="store_false",
+                    help="count ticks near the simulator's SSM conflicts as nominal")
     args = ap.parse_args(argv)
     rows: dict[str, list[NominalShare]] = {}
     for folder in run_folders(args.out_dir):
@@ -80,6 +95,9 @@ def main(argv: list[str] | None = None) -> int:
             return 2
         try:
             labels, _ = read_labels(result.ground_truth.labels_path)
+            ssm = ssm_labels_path(Path(result.ground_truth.labels_path))
+            if args.ssm and ssm is not None:
+                labels += read_labels(ssm)[0]
         except LabelsError as exc:
             print(f"casewatch.nominal: {exc}", file=sys.stderr)
             return 2
@@ -88,8 +106,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"casewatch.nominal: {args.out_dir}: no run folders found", file=sys.stderr)
         return 2
     text, ok = table(rows, args.limit)
+    which = "label and SSM conflict" if args.ssm else "label"
     print(f"SPI violated share of nominal ticks (farther than {args.margin:g} s from every "
-          f"label); limit {args.limit:.0%}")
+          f"{which}); limit {args.limit:.0%}")
     print(text)
     return 0 if ok else 1
 
