@@ -79,3 +79,15 @@ def test_cli_needs_labels_and_prints_the_table(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "Sn1 els" in out and "16.67% !" in out and "12" in out
     assert nominal_main([str(tmp_path / "missing")]) == 2
+    # an SSM conflict beside the labels (drive.ssm-labels.jsonl) at 2.0-2.0 s: 3 s around it
+    # covers every tick 0.0-1.4, so no tick is nominal ("n/a", exit 0); --no-ssm counts them
+    ssm = tmp_path / "drive.ssm-labels.jsonl"
+    ssm.write_text(json.dumps({"hazard": "ssm-conflict", "start": 2.0, "end": 2.0}) + "\n")
+    assert nominal_main([str(run)]) == 0
+    out = capsys.readouterr().out
+    assert "SSM conflict" in out and "n/a" in out
+    assert nominal_main([str(run), "--no-ssm"]) == 1
+    assert "16.67% !" in capsys.readouterr().out
+    ssm.write_text("not json\n")  # a broken SSM file is an input error, never a silent skip
+    assert nominal_main([str(run)]) == 2
+    assert "drive.ssm-labels.jsonl:1" in capsys.readouterr().err
