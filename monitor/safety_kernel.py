@@ -41,6 +41,9 @@ MOTION_EPS = 0.02
 #: by the headway signals), and a rear-end contact from behind the ego is the follower's.
 REAR_END_ANGLE = math.radians(30.0)
 REAR_END_COS = math.cos(REAR_END_ANGLE)
+#: Resolution [m] of "the object's centre is behind the ego's": centres closer to level than
+#: this count as level (not behind), whatever the world frame's rounding.
+BEHIND_EPS = 1e-9
 
 #: Slack (m) added to every prefilter bound of the kernel, so that rounding in a prefilter can
 #: never drop a pair the exact test would find touching (coordinates may be map-sized).
@@ -93,7 +96,7 @@ def _from_behind(dx: float, dy: float, ca: float, sa: float, cb: float, sb: floa
     """A rear-end contact whose object (centre at dx, dy from the ego's) is behind the ego
     (ego heading ca, sa; object heading cb, sb): the follower runs into the ego. Read at an
     object's first equal-time contact: such an object counts for neither TTC nor PET."""
-    return _rear_end(ca, sa, cb, sb) and dx * ca + dy * sa < 0.0
+    return _rear_end(ca, sa, cb, sb) and dx * ca + dy * sa < -BEHIND_EPS
 
 
 @kernel

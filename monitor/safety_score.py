@@ -35,7 +35,7 @@ import shapely
 
 from monitor.frames import ChannelState, Ego, Objects, place
 from monitor.prediction import interpolate_tracks
-from monitor.safety_kernel import CHUNK, MOTION_EPS, REAR_END_COS, score_boxes
+from monitor.safety_kernel import BEHIND_EPS, CHUNK, MOTION_EPS, REAR_END_COS, score_boxes
 
 
 def _directions(centres: np.ndarray, fallback: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -414,7 +414,7 @@ def _from_behind(mv: _Movers, fi: np.ndarray, fk: np.ndarray, fh: np.ndarray) ->
     """A rear-end contact with the object's centre behind the ego's: the follower's."""
     ahead = ((mv.xf.take(fk) - mv.xf.take(fi)) * mv.cosf.take(fi)
              + (mv.yf.take(fk) - mv.yf.take(fi)) * mv.sinf.take(fi))  # fmt: skip
-    return _rear_end(mv, fi, fh) & (ahead < 0.0)
+    return _rear_end(mv, fi, fh) & (ahead < -BEHIND_EPS)
 
 
 def score_grid_numpy(

@@ -53,6 +53,16 @@ NONE = Neighbour(GAP_CAP, 0.0, False)
 #: the world frame's rounding (the pairing's tie rule, spi-reference "Building blocks").
 EPS = 1e-9
 
+#: An object in the corridor is a leader (follower) only if its velocity across the path
+#: keeps it in the corridor for this long [s]: a car changing lanes through the ego's path
+#: (two cars swapping lanes, one cutting across) is passing, not leading; it crosses the
+#: 3.5 m corridor in about a second. The hazard rules' minimum duration is a second too.
+LANE_HOLD = 1.0
+
+#: Largest angle between the ego's and a follower's headings for the follower's own lane
+#: test (`_in_own_lane`): beyond it, the two are not driving the same way.
+FOLLOW_ALIGN = math.radians(30.0)
+
 #: The second point of a path is the first at least this far [m] from the ego: its direction
 #: is the path's initial heading, and nearer plan points add only rounding.
 PATH_SPACING = 2.0
@@ -131,9 +141,11 @@ def _path(x0, y0, xs, ys, reverse, heading, lookahead):  # pragma: no cover - co
 
 
 @kernel
-def _nearest(path, pos, yaw, hl, hw, half_width, ego_half):  # pragma: no cover - compiled
+def _nearest(path, pos, yaw, hl, hw, vel, half_width, ego_half, hold):  # pragma: no cover
     """The object with the smallest gap among those within `half_width` of `path` at positive
-    arc length: (index or -1, gap, tangent x, tangent y). See `neighbour`."""
+    arc length whose velocity across the path keeps it there for `hold` seconds (its signed
+    offset from the nearest segment's line plus `hold` times its velocity across it stays
+    within `half_width`): (index or -1, gap, tangent x, tangent y). See `neighbour`."""
     best_k = -1
     best_gap = np.inf
     best_ux = 0.0
@@ -144,6 +156,7 @@ def _nearest(path, pos, yaw, hl, hw, half_width, ego_half):  # pragma: no cover 
         ux_best = 0.0
         uy_best = 0.0
         s0 = 0.0
+        lat_best = 0.0
         for j in range(path.shape[0] - 1):
             ax = path[j, 0]
             ay = path[j, 1]
@@ -160,9 +173,13 @@ def _nearest(path, pos, yaw, hl, hw, half_width, ego_half):  # pragma: no cover 
                 s_best = s0 + along
                 ux_best = ux
                 uy_best = uy
+                lat_best = ux * (pos[k, 1] - ay) - uy * (pos[k, 0] - ax)
             s0 += length
         if dist > half_width + EPS or s_best <= EPS:
             continue
+        drift = ux_best * vel[k, 1] - uy_best * vel[k, 0]
+        if abs(lat_best + hold * drift) > half_width + EPS:
+            continue  # crossing the corridor: passing through, not in the lane (LANE_HOLD)
         # |cos| and |sin| of the heading against the tangent, the sine from the cross product:
         # sqrt(1 - cos^2) turns a rounding error of 1e-16 in cos into 1e-8 (a rigid motion of
         # the world moved the gap by 7.5e-9 m)
@@ -195,22 +212,63 @@ def path_behind(ego: Ego, history: np.ndarray, lookahead: float) -> np.ndarray:
 
 
 @kernel
+def _in_own_lane(x0, y0, heading, ego_half, ego_hw, pos, yaw, hl, half_width,
+                 lookahead):  # pragma: no cover - compiled  # fmt: skip
+    """The nearest object behind the ego whose own lane holds the ego: the ego's centre lies
+    ahead of it, within `half_width` of the line along its heading, and the two head less
+    than FOLLOW_ALIGN apart. (index or -1, gap, and the unit vector from the ego towards it,
+    the direction of the path behind.) The gap is the ego's centre ahead of the object along
+    its heading, less its half length and the ego's box projected on that heading."""
+    best_k = -1
+    best_gap = np.inf
+    best_ux = 0.0
+    best_uy = 0.0
+    ex = math.cos(heading)
+    ey = math.sin(heading)
+    align = math.cos(FOLLOW_ALIGN)
+    for k in range(pos.shape[0]):
+        hx = math.cos(yaw[k])
+        hy = math.sin(yaw[k])
+        cos = hx * ex + hy * ey
+        if cos < align:
+            continue
+        dx = x0 - pos[k, 0]
+        dy = y0 - pos[k, 1]
+        ahead = dx * hx + dy * hy
+        if ahead <= EPS or ahead > lookahead or abs(hx * dy - hy * dx) > half_width + EPS:
+            continue
+        sin = abs(hx * ey - hy * ex)
+        gap = max(ahead - hl[k] - (ego_half * cos + ego_hw * sin), 0.0)
+        if gap < best_gap - EPS:
+            best_gap = gap
+            best_k = k
+            best_ux = -hx
+            best_uy = -hy
+    return best_k, best_gap, best_ux, best_uy
+
+
+@kernel
 def _neighbours(x0, y0, heading, plan_x, plan_y, driven_x, driven_y, behind, pos, yaw, hl, hw,
-                vel, half_width, ego_half, lookahead):  # pragma: no cover - compiled
-    """Leader along the plan and (when `behind`) follower along the driven path in one call:
-    (lead gap, lead speed along the path, 1.0 if there is a leader, and the same three for the
-    follower). See `neighbour`."""
+                vel, half_width, ego_half, ego_hw, lookahead):  # pragma: no cover - compiled
+    """Leader along the plan and (when `behind`) follower in one call: (lead gap, lead speed
+    along the path, 1.0 if there is a leader, and the same three for the follower). The
+    follower is the nearer of the one along the driven path and the one whose own lane holds
+    the ego (`_in_own_lane`). See `neighbour`."""
     out = np.zeros(6)
     out[0] = out[3] = GAP_CAP
     path = _path(x0, y0, plan_x, plan_y, False, heading, lookahead)
-    k, gap, ux, uy = _nearest(path, pos, yaw, hl, hw, half_width, ego_half)
+    k, gap, ux, uy = _nearest(path, pos, yaw, hl, hw, vel, half_width, ego_half, LANE_HOLD)
     if k >= 0:
         out[0] = min(gap, GAP_CAP)
         out[1] = vel[k, 0] * ux + vel[k, 1] * uy
         out[2] = 1.0
     if behind:
         path = _path(x0, y0, driven_x, driven_y, True, heading + math.pi, lookahead)
-        k, gap, ux, uy = _nearest(path, pos, yaw, hl, hw, half_width, ego_half)
+        k, gap, ux, uy = _nearest(path, pos, yaw, hl, hw, vel, half_width, ego_half, LANE_HOLD)
+        k2, gap2, ux2, uy2 = _in_own_lane(x0, y0, heading, ego_half, ego_hw, pos, yaw, hl,
+                                          half_width, lookahead)  # fmt: skip
+        if k2 >= 0 and (k < 0 or gap2 < gap - EPS):
+            k, gap, ux, uy = k2, gap2, ux2, uy2
         if k >= 0:
             out[3] = min(gap, GAP_CAP)
             out[4] = vel[k, 0] * ux + vel[k, 1] * uy
@@ -234,14 +292,16 @@ def neighbours(
     ego_half: float, lookahead: float,
 ) -> tuple[Neighbour, Neighbour | None]:
     """The leader along `plan` and, when `driven` (the ego's earlier positions, oldest first)
-    is given, the follower along that path: one compiled call for both."""
+    is given, the follower (along that path, or in whose own lane the ego drives): one
+    compiled call for both."""
     if len(objects) == 0:
         return NONE, (None if driven is None else NONE)
     hl, hw = _half_extents(objects)
     d = driven if driven is not None else _NO_POINTS
+    ego_hw = float(np.max(np.abs(ego.footprint[:, 1])))
     v = _neighbours(ego.x, ego.y, float(ego.yaw), plan[:, 1], plan[:, 2], d[:, 0], d[:, 1],
                     driven is not None, objects.pos, objects.yaw, hl, hw, objects.vel,
-                    float(half_width), float(ego_half), float(lookahead))  # fmt: skip
+                    float(half_width), float(ego_half), ego_hw, float(lookahead))  # fmt: skip
     lead = Neighbour(float(v[0]), float(v[1]), bool(v[2]))
     if driven is None:
         return lead, None
@@ -279,8 +339,8 @@ def neighbour(
     if len(objects) == 0:
         return NONE
     hl, hw = _half_extents(objects)
-    k, gap, ux, uy = _nearest(path, objects.pos, objects.yaw, hl, hw, float(half_width),
-                              float(ego_half_length))  # fmt: skip
+    k, gap, ux, uy = _nearest(path, objects.pos, objects.yaw, hl, hw, objects.vel,
+                              float(half_width), float(ego_half_length), LANE_HOLD)  # fmt: skip
     if k < 0:
         return NONE
     speed = float(objects.vel[k, 0] * ux + objects.vel[k, 1] * uy)

@@ -225,7 +225,7 @@ def brute_force(plan, ego_state, objects, pet_ref):
         if same:
             first = min(same)
             ahead = np.dot(oc[k, first] - centres[0, first], [ec[0, first], es[0, first]])
-            if not (rear_end(first, first) and ahead < 0):  # else the follower's contact
+            if not (rear_end(first, first) and ahead < -1e-9):  # else the follower's contact
                 ttc = min(ttc, times[first])
         else:
             crossing = [abs(times[n] - times[m]) for n, m in hits if not rear_end(n, m)]

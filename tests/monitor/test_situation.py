@@ -150,7 +150,7 @@ def test_compiled_nearest_equals_the_numpy_projection(points, objects):
     pos = np.array([(x, y) for x, y, _ in objects])
     yaw = np.array([a for _, _, a in objects])
     hl, hw = np.full(len(pos), 2.2), np.full(len(pos), 0.9)
-    k, gap, _, _ = _nearest(path, pos, yaw, hl, hw, HALF_WIDTH, 2.3)
+    k, gap, _, _ = _nearest(path, pos, yaw, hl, hw, np.zeros((len(pos), 2)), HALF_WIDTH, 2.3, 1.0)
     s, d, tangent = project(path, pos)
     cos = np.abs(np.cos(yaw) * tangent[:, 0] + np.sin(yaw) * tangent[:, 1])
     want = np.maximum(s - 2.3 - (hl * cos + hw * np.sqrt(np.maximum(0, 1 - cos**2))), 0.0)
@@ -163,3 +163,50 @@ def test_compiled_nearest_equals_the_numpy_projection(points, objects):
         assert k == -1
         return
     assert gap == pytest.approx(np.min(want[inside]), abs=1e-6)
+
+
+def test_a_car_crossing_the_corridor_is_not_a_leader():
+    # 20 m ahead, 1.5 m to the right of the path, 20 m/s along it. Drifting left at 2.5 m/s it
+    # is 1.0 m to the left a second later: still in the 1.75 m corridor, a leader (gap 16 m).
+    # At 4 m/s it is 2.5 m to the left a second later: it crosses the lane (LANE_HOLD), no
+    # leader; drifting right out of the lane at 1 m/s (2.5 m right in a second) neither.
+    plan = straight_plan(0, 0, 20, 0, 31)
+    for vy, leader in ((2.5, True), (4.0, False), (-1.0, False)):
+        out = run_one([obj(1, 20.0, -1.5, 0.0, 4, 2, vx=20.0, vy=vy)], plan=plan)
+        assert (out["lead_gap__a"] == pytest.approx(16.0)) is leader, vy
+        assert (out["lead_thw__a"] == TIME_CAP) is not leader, vy
+
+
+def run_path(objects, path_xy, speed=20.0):
+    """Channel 'a' (and 'b') driving through the points `path_xy` (oldest first, one frame
+    each, 0.1 s apart), heading +x at the last one (the origin), `objects` seen there."""
+    eng = MetricEngine(MetricParams(), ["a", "b"])
+    out = {}
+    n = len(path_xy)
+    for k, (x, y) in enumerate(path_xy):
+        t = round(-0.1 * (n - 1 - k), 1)
+        ch = channel(ego(x, y, 0, 4, 2, vx=speed), objects=objects if k == n - 1 else [])
+        out = eng.step(frame(t, {"a": ch, "b": ch}))
+    return out
+
+
+def test_follower_in_its_own_lane_during_a_lane_change():
+    # The ego changed lanes: it came from 3.2 m to the left over the last 2 s (its driven
+    # path leans back into the old lane: 0.96 m left at x = -12). A 4 m car 12 m behind,
+    # 1.2 m to the right, heading +x at 25 m/s is 2.15 m from that path (outside the
+    # corridor), but the ego drives in the car's own lane (1.2 m off its heading line): the
+    # follower, gap 12 - 2 - 2 = 8 m, THW 8 / 25 = 0.32 s, as a lane-based reading has it.
+    path = [(-0.1 * 20 * (20 - k), 3.2 * (20 - k) / 20) for k in range(21)]
+    out = run_path([obj(1, -12.0, -1.2, 0.0, 4, 2, vx=25.0)], path)
+    assert out["follow_gap__a"] == pytest.approx(8.0)
+    assert out["follow_thw__a"] == pytest.approx(0.32)
+
+
+def test_a_car_in_the_next_lane_after_a_turn_is_no_follower():
+    # The ego came diagonally (out of a turn) from (-10, -3.3) to the origin; a car heading +x
+    # at 15 m/s at (-12, -3.3), in the lane beside the ego's, lies 0.63 m from that driven path
+    # extended, but crosses it at 4.7 m/s (LANE_HOLD), and the ego is 3.3 m off its own
+    # lane's line: no follower (before, follow_thw read 0.48 s)
+    path = [(-10.0 + 0.5 * k, -3.3 + 0.165 * k) for k in range(21)]
+    out = run_path([obj(1, -12.0, -3.3, 0.0, 4, 2, vx=15.0)], path, speed=5.0)
+    assert out["follow_thw__a"] == TIME_CAP and out["follow_gap__a"] == GAP_CAP
