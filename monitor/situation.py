@@ -59,6 +59,16 @@ EPS = 1e-9
 #: 3.5 m corridor in about a second. The hazard rules' minimum duration is a second too.
 LANE_HOLD = 1.0
 
+#: The leader must also share the ego's lane now (`_shares_lane`), not only lie in the
+#: planned path: during the ego's lane change the plan already runs in the new lane, and a car
+#: there (often pulling away from the merging ego) read as tailgated about a second before the
+#: ego's centre crossed the lane line, which is where lane-based ground truth switches. The
+#: chord test holds on bends (an arc's chord halves its turn) but not across a turn followed by
+#: a straight, so it applies only while the two headings differ by less than this angle (a
+#: lane change turns the ego 3-12 degrees).
+LEAD_LANE = math.radians(15.0)
+LEAD_LANE_COS = math.cos(LEAD_LANE)
+
 #: Largest angle between the ego's and a follower's headings for the follower's own lane
 #: test (`_in_own_lane`): beyond it, the two are not driving the same way.
 FOLLOW_ALIGN = math.radians(30.0)
@@ -141,11 +151,30 @@ def _path(x0, y0, xs, ys, reverse, heading, lookahead):  # pragma: no cover - co
 
 
 @kernel
-def _nearest(path, pos, yaw, hl, hw, vel, half_width, ego_half, hold):  # pragma: no cover
+def _shares_lane(x0, y0, heading, px, py, yaw, half_width):  # pragma: no cover - compiled
+    """The ego at (x0, y0) heading `heading` and a vehicle ahead at (px, py) heading `yaw`
+    drive in one lane: the chord between them is within `half_width` of the direction halfway
+    between the two headings. On a bend of any radius that direction is the chord's own (an
+    arc's chord halves its turn), so the offset is the lateral one; in a lane change the ego's
+    path bends one way and back, and the chord leans across the lane (LEAD_LANE). True
+    whenever the headings differ by LEAD_LANE or more."""
+    if math.cos(heading - yaw) < LEAD_LANE_COS:
+        return True  # a turn between them: the chord says nothing about lanes (see LEAD_LANE)
+    mx = math.cos(heading) + math.cos(yaw)
+    my = math.sin(heading) + math.sin(yaw)
+    norm = math.hypot(mx, my)
+    return abs(mx * (py - y0) - my * (px - x0)) / norm <= half_width + EPS
+
+
+@kernel
+def _nearest(path, pos, yaw, hl, hw, vel, half_width, ego_half, hold, lane_x, lane_y,
+             lane_heading, lane):  # pragma: no cover - compiled  # fmt: skip
     """The object with the smallest gap among those within `half_width` of `path` at positive
     arc length whose velocity across the path keeps it there for `hold` seconds (its signed
     offset from the nearest segment's line plus `hold` times its velocity across it stays
-    within `half_width`): (index or -1, gap, tangent x, tangent y). See `neighbour`."""
+    within `half_width`) and, when `lane`, that drives in one lane with the ego at
+    (lane_x, lane_y) heading `lane_heading` (`_shares_lane`): (index or -1, gap, tangent x,
+    tangent y). See `neighbour`."""
     best_k = -1
     best_gap = np.inf
     best_ux = 0.0
@@ -180,6 +209,9 @@ def _nearest(path, pos, yaw, hl, hw, vel, half_width, ego_half, hold):  # pragma
         drift = ux_best * vel[k, 1] - uy_best * vel[k, 0]
         if abs(lat_best + hold * drift) > half_width + EPS:
             continue  # crossing the corridor: passing through, not in the lane (LANE_HOLD)
+        if lane and not _shares_lane(lane_x, lane_y, lane_heading, pos[k, 0], pos[k, 1],
+                                     yaw[k], half_width):  # fmt: skip
+            continue  # in the planned path, but not yet in the ego's lane (LEAD_LANE)
         # |cos| and |sin| of the heading against the tangent, the sine from the cross product:
         # sqrt(1 - cos^2) turns a rounding error of 1e-16 in cos into 1e-8 (a rigid motion of
         # the world moved the gap by 7.5e-9 m)
@@ -257,14 +289,16 @@ def _neighbours(x0, y0, heading, plan_x, plan_y, driven_x, driven_y, behind, pos
     out = np.zeros(6)
     out[0] = out[3] = GAP_CAP
     path = _path(x0, y0, plan_x, plan_y, False, heading, lookahead)
-    k, gap, ux, uy = _nearest(path, pos, yaw, hl, hw, vel, half_width, ego_half, LANE_HOLD)
+    k, gap, ux, uy = _nearest(path, pos, yaw, hl, hw, vel, half_width, ego_half, LANE_HOLD,
+                              x0, y0, heading, True)  # fmt: skip
     if k >= 0:
         out[0] = min(gap, GAP_CAP)
         out[1] = vel[k, 0] * ux + vel[k, 1] * uy
         out[2] = 1.0
     if behind:
         path = _path(x0, y0, driven_x, driven_y, True, heading + math.pi, lookahead)
-        k, gap, ux, uy = _nearest(path, pos, yaw, hl, hw, vel, half_width, ego_half, LANE_HOLD)
+        k, gap, ux, uy = _nearest(path, pos, yaw, hl, hw, vel, half_width, ego_half, LANE_HOLD,
+                                  x0, y0, heading, False)  # fmt: skip
         k2, gap2, ux2, uy2 = _in_own_lane(x0, y0, heading, ego_half, ego_hw, pos, yaw, hl,
                                           half_width, lookahead)  # fmt: skip
         if k2 >= 0 and (k < 0 or gap2 < gap - EPS):
@@ -340,7 +374,8 @@ def neighbour(
         return NONE
     hl, hw = _half_extents(objects)
     k, gap, ux, uy = _nearest(path, objects.pos, objects.yaw, hl, hw, objects.vel,
-                              float(half_width), float(ego_half_length), LANE_HOLD)  # fmt: skip
+                              float(half_width), float(ego_half_length), LANE_HOLD, ego.x, ego.y,
+                              float(ego.yaw), False)  # fmt: skip
     if k < 0:
         return NONE
     speed = float(objects.vel[k, 0] * ux + objects.vel[k, 1] * uy)

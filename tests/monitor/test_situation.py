@@ -134,6 +134,19 @@ def test_neighbour_without_objects():
     assert neighbour(s.ego, s.objects, path, HALF_WIDTH, 2.0).present is False
 
 
+def segment_distances(path, pos):
+    """(K, 2): each point's distance to its nearest and second-nearest path segment."""
+    a, b = path[:-1], path[1:]
+    ab = b - a
+    t = np.clip(np.einsum("ksi,si->ks", pos[:, None] - a, ab) / np.einsum("si,si->s", ab, ab),
+                0.0, 1.0)  # fmt: skip
+    foot = a + t[..., None] * ab
+    dist = np.sort(np.hypot(*(pos[:, None] - foot).transpose(2, 0, 1)), axis=1)
+    if dist.shape[1] == 1:  # one segment: nothing to tie with
+        return np.column_stack([dist[:, 0], np.full(len(pos), np.inf)])
+    return dist[:, :2]
+
+
 @settings(max_examples=80, deadline=None)
 @given(
     st.lists(st.tuples(st.floats(-50, 50), st.floats(-50, 50)), min_size=2, max_size=6,
@@ -150,14 +163,17 @@ def test_compiled_nearest_equals_the_numpy_projection(points, objects):
     pos = np.array([(x, y) for x, y, _ in objects])
     yaw = np.array([a for _, _, a in objects])
     hl, hw = np.full(len(pos), 2.2), np.full(len(pos), 0.9)
-    k, gap, _, _ = _nearest(path, pos, yaw, hl, hw, np.zeros((len(pos), 2)), HALF_WIDTH, 2.3, 1.0)
+    k, gap, _, _ = _nearest(path, pos, yaw, hl, hw, np.zeros((len(pos), 2)), HALF_WIDTH, 2.3, 1.0,
+                            0.0, 0.0, 0.0, False)
     s, d, tangent = project(path, pos)
     cos = np.abs(np.cos(yaw) * tangent[:, 0] + np.sin(yaw) * tangent[:, 1])
     want = np.maximum(s - 2.3 - (hl * cos + hw * np.sqrt(np.maximum(0, 1 - cos**2))), 0.0)
     inside = (d <= HALF_WIDTH) & (s > 0)
-    # away from the boundaries the kernel decides (boundary cases are the EPS rule's)
+    # away from the boundaries the kernel decides (boundary cases are the EPS rule's): the
+    # corridor's edge, beside the ego, and points as near to two segments (a vertex, a
+    # bisector), whose tangent the EPS rule picks and argmin may not
     near_edge = (np.abs(d - HALF_WIDTH) < 1e-6) | (np.abs(s) < 1e-6)
-    if near_edge.any():
+    if near_edge.any() or (segment_distances(path, pos)[:, 1] - d < 1e-6).any():
         return
     if not inside.any():
         assert k == -1
@@ -210,3 +226,25 @@ def test_a_car_in_the_next_lane_after_a_turn_is_no_follower():
     path = [(-10.0 + 0.5 * k, -3.3 + 0.165 * k) for k in range(21)]
     out = run_path([obj(1, -12.0, -3.3, 0.0, 4, 2, vx=15.0)], path, speed=5.0)
     assert out["follow_thw__a"] == TIME_CAP and out["follow_gap__a"] == GAP_CAP
+
+
+def test_a_car_in_the_planned_path_is_no_leader_before_the_ego_is_in_its_lane():
+    # A lane change to the left (a held-out highway drive at 32.7 s): the ego at the origin
+    # heading 0.047 rad, its plan bending into the new lane; a car 14 m ahead, 2.31 m to the
+    # left, heading 0 at 30 m/s, is 1.66 m from the plan (in the corridor) but 2.31 m across
+    # its own lane's line: the chord between them, 1.98 m off the mean heading, says the ego
+    # is not in its lane yet (LEAD_LANE). Once the ego has moved 0.9 m across (the car now
+    # 1.41 m to its left, chord 1.08 m off) the car is its leader: gap 14 - 2 - 2 = 10 m.
+    from monitor.situation import neighbours
+
+    plan = [[0.0, 0.0, 0.0], [0.6, 15.0, 0.7], [1.2, 30.0, 1.9], [1.8, 45.0, 2.3],
+            [4.0, 100.0, 2.3]]  # fmt: skip
+    for ego_y, leader in ((0.0, False), (0.9, True)):
+        p = [[t, x, y + ego_y] for t, x, y in plan]
+        car = obj(1, 14.0, 2.31, 0.0, 4, 2, vx=30.0)
+        s = frame(0.0, {"a": channel(ego(0, ego_y, 0.047, 4, 2, vx=22.5), plan=p,
+                                     objects=[car])}).channels["a"]  # fmt: skip
+        lead, _ = neighbours(s.ego, s.plan, None, s.objects, HALF_WIDTH, 2.0, 250.0)
+        assert lead.present is leader, ego_y
+        if leader:
+            assert lead.gap == pytest.approx(14.0 - 2.0 - 2.0, abs=0.05)
