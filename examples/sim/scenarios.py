@@ -290,9 +290,40 @@ HIGHWAY_MERGE_REALSTACK = Scenario(
     channels=REALSTACK,
 )
 
+HIGHWAY_CLOSE_REALSTACK = Scenario(
+    name="highway-close-realstack",
+    description=(
+        "Three-lane highway, real-stack channel profiles (lav: LIDAR_STACK, tfuse: "
+        "CAMERA_STACK). The ego follows a lead car close but legally (desired time headway "
+        "1.1 s, minGap 2 m: 1.1 to 1.3 s of time gap), a car in the left lane cuts in between "
+        "them at 60 s and the ego falls back behind it; the new lead brakes gently at 100 s "
+        "(to 18 m/s over 4 s) and speeds up again. One localisation fault in the lav channel "
+        "at 114 s."
+    ),
+    network="highway",
+    seed=83,
+    duration=125.0,
+    ego=VehicleSpec("ego", "ego", HW, 400.0, 1, 24.0, lc_mode=512, max_speed=30.0),
+    vehicles=(
+        VehicleSpec("lead", "lead", HW, 470.0, 1, 24.0, lc_mode=512, max_speed=25.0),
+        VehicleSpec("cutter", "lead", HW, 430.0, 2, 24.0, lc_mode=512, max_speed=25.5),
+    ),
+    actions=(
+        Action(1.0, "ego", "tau", 0.8), Action(1.0, "ego", "min_gap", 2.0),
+        Action(1.0, "ego", "max_speed", 33.0),
+        Action(60.0, "cutter", "lane", 1, 80.0),
+        Action(100.0, "cutter", "slow_down", 18.0, 4.0),
+        Action(106.0, "cutter", "slow_down", 25.0, 8.0),
+    ),
+    background=Background(initial=100, flow_per_hour=1200.0),
+    faults=(LocalizationFault("lav", 114.0, 115.6, 3.5),),
+    channels=REALSTACK,
+)
+
 #: The bundled set written by `python -m examples.sim.build_data`.
 BUNDLED: tuple[Scenario, ...] = (
     HIGHWAY_TAILGATING, HIGHWAY_TAILGATED, URBAN_GRID, HIGHWAY_REALSTACK, URBAN_REALSTACK,
+    HIGHWAY_CLOSE_REALSTACK,
 )
 
 SCENARIOS: dict[str, Scenario] = {

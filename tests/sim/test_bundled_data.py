@@ -28,12 +28,12 @@ def _labels(name: str) -> list[dict]:
 
 
 ORIGINAL = ["highway-tailgating", "highway-tailgated", "urban-grid"]
-REALSTACK = ["highway-realstack", "urban-realstack"]
+REALSTACK = ["highway-realstack", "urban-realstack", "highway-close-realstack"]
 COVERAGE = {"lav": {"fov_deg": 360.0, "range_m": 80.0},
             "tfuse": {"fov_deg": 120.0, "range_m": 70.0}}
 
 
-def test_index_lists_five_scenarios_with_files() -> None:
+def test_index_lists_six_scenarios_with_files() -> None:
     assert NAMES == ORIGINAL + REALSTACK
     for e in INDEX:
         for key in ("stream", "labels", "ssm_labels"):
