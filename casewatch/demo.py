@@ -7,10 +7,15 @@ Runs exactly what a user would type:
     casewatch run examples/study-case.yaml examples/data --labels auto --jobs 2 \
         --format none -o out/demo-study       # the study's own hazard rules, for comparison
     python -m casewatch.nominal out/demo      # each SPI's false alarms on nominal driving
+    python -m examples.sim.heldout            # the same on fresh generator seeds (needs SUMO)
+
+The last step runs only when the simulator extra is installed (`pip install -e .[sim]`, which
+`.ci/run` installs); without it the demo says how to get those figures.
 """
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import sys
 from pathlib import Path
@@ -68,7 +73,20 @@ def main() -> int:
     print(f"Fleet summary: {(OUT / 'summary.json').resolve()}")
     print(f"\n$ python -m casewatch.nominal {OUT}")
     nominal([str(OUT)])
-    return 0
+    return heldout()
+
+
+def heldout() -> int:
+    """Hazard and nominal figures on fresh generator seeds (`examples.sim.heldout`), when the
+    simulator is installed; otherwise the command that gives them."""
+    print("\n$ python -m examples.sim.heldout")
+    if importlib.util.find_spec("libsumo") is None or importlib.util.find_spec("sumolib") is None:
+        print("  held-out seeds need the simulator: pip install -e '.[sim]' (or make data), "
+              "then python -m examples.sim.heldout")
+        return 0
+    from examples.sim.heldout import main as run_heldout  # the optional extra, loaded late
+
+    return run_heldout([])
 
 
 if __name__ == "__main__":
