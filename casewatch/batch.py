@@ -18,6 +18,7 @@ from pathlib import Path
 from casewatch.crash import write_crash_log
 from evaluator.ground_truth import LabelsError
 from evaluator.session import DEFAULT_MAX_NO_DATA, InputError, RunOptions, evaluate_stream
+from evaluator.signal_store import FILE_NAME as SIGNALS_FILE
 from evaluator.summary import LogSummary, summarise, summarise_result
 from monitor.warmup import warm_up
 from safety_case.findings import CaseError
@@ -85,6 +86,7 @@ class Job:
     strict: bool
     formats: tuple[str, ...]
     max_no_data: float = DEFAULT_MAX_NO_DATA
+    save_signals: bool = False
 
 
 def run_job(job: Job) -> LogSummary:
@@ -101,6 +103,7 @@ def run_job(job: Job) -> LogSummary:
             labels=Path(job.labels) if job.labels else None,
             events_path=out / "events.jsonl",
             max_no_data=job.max_no_data,
+            signals_path=out / SIGNALS_FILE if job.save_signals else None,
         )
         result = evaluate_stream(case, spec, job.stream, options)
         api.write_result(result, out)
@@ -129,8 +132,10 @@ def run_many(
     formats: Sequence[str],
     on_done: Callable[[LogSummary], None] | None = None,
     max_no_data: float = DEFAULT_MAX_NO_DATA,
+    save_signals: bool = False,
 ) -> dict[str, object]:
-    """Judge every stream (in `jobs` processes) and write `out_dir/summary.json`."""
+    """Judge every stream (in `jobs` processes) and write `out_dir/summary.json`; with
+    `save_signals`, each log's folder keeps its `signals.npz` too."""
     used: set[str] = set()
     work: list[Job] = []
     for stream in streams:
@@ -141,7 +146,7 @@ def run_many(
         used.add(name)
         work.append(Job(case_path, str(stream), str(out_dir / name),
                         labels_for(str(stream), labels),
-                        strict, tuple(formats), max_no_data))
+                        strict, tuple(formats), max_no_data, save_signals))
     results: list[LogSummary] = []
     if jobs <= 1:
         for job in work:

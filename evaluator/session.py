@@ -32,6 +32,7 @@ from evaluator.result import (
     StreamInfo,
     Timings,
 )
+from evaluator.signal_store import SignalRecorder
 from monitor.engine import MetricEngine
 from monitor.frames import Coverage, Header
 from monitor.reader import StreamError, read_stream
@@ -60,6 +61,8 @@ class RunOptions:
     series_points: int = 1000
     # the largest share of ticks the root goal may be `no-data` before the run is unusable input
     max_no_data: float = DEFAULT_MAX_NO_DATA
+    # where to save every per-tick signal value (`signals.npz`, evaluator.signal_store); None: not
+    signals_path: Path | None = None
 
 
 @dataclass
@@ -100,6 +103,11 @@ def evaluate_stream(
 
     evaluator = Evaluator(case, spec, on_event=emit, series_points=options.series_points)
     engine = MetricEngine(case.monitor.metrics, list(case.monitor.channels))
+    recorder = None
+    if options.signals_path is not None:
+        inputs = {name for f in spec.formulas for name in f.signals}
+        names = [*engine.signal_names, *sorted(inputs - set(engine.signal_names))]
+        recorder = SignalRecorder(names, case.monitor.period, case.monitor.metrics.max_gap)
     text = io.TextIOWrapper(binary, encoding="utf-8", errors="strict")
     reader = read_stream(text, strict=options.strict, channels=list(case.monitor.channels),
                          period=case.monitor.period)
@@ -119,6 +127,8 @@ def evaluate_stream(
                     _check_period(reader, case, name)
                     engine.coverage = channel_coverage(case, reader.header)
                 values = engine.step(frame)
+                if recorder is not None:
+                    recorder.add(frame.t, values)
                 t2 = time.perf_counter()
                 evaluator.step(frame.t, values)
                 t3 = time.perf_counter()
@@ -145,6 +155,8 @@ def evaluate_stream(
     finally:
         if log is not None:
             log.close()
+        if recorder is not None:
+            recorder.save(options.signals_path)
     total = time.perf_counter() - clock.started
     stream = StreamInfo(
         path=str(source),

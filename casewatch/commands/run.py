@@ -21,6 +21,7 @@ from casewatch.crash import INTERNAL_ERROR
 from evaluator.ground_truth import LabelsError
 from evaluator.result import DataGap, Episode, RunResult
 from evaluator.session import DEFAULT_MAX_NO_DATA, InputError, RunOptions, evaluate_stream
+from evaluator.signal_store import FILE_NAME as SIGNALS_FILE
 from evaluator.summary import LogSummary
 from monitor.warmup import warm_up
 from reports.render import FORMATS, parse_formats
@@ -46,6 +47,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--format", default=",".join(FORMATS),
                    help="reports to write: any of html,md,junit, or 'none' (default: all)")
     p.add_argument("--quiet", action="store_true", help="no progress or event lines")
+    p.add_argument("--save-signals", action="store_true",
+                   help="keep every per-tick signal value in OUT/signals.npz (for casewatch "
+                        "tune and calibrate)")
     p.add_argument("--max-no-data", type=_share, default=DEFAULT_MAX_NO_DATA, metavar="SHARE",
                    help="largest share (0-1) of ticks the root goal may read no-data; above it "
                         "the stream is unusable input, exit code 2, not a pass "
@@ -124,6 +128,7 @@ def _run_single(args, case, spec, formats: tuple[str, ...]) -> int:
         on_event=on_event,
         progress=None if live else progress,
         max_no_data=args.max_no_data,
+        signals_path=args.out / SIGNALS_FILE if args.save_signals else None,
     )
     warm_up()  # compiled kernels ready before the first frame (matters for a live stream)
     try:
@@ -200,7 +205,8 @@ def _run_many(args, case, formats: tuple[str, ...]) -> int:
             print(f"  {log.stream}: FAILED: {log.error}", file=sys.stderr)
 
     summary = batch.run_many(args.case, case.digest, streams, args.out, args.jobs,
-                             args.labels, args.strict, formats, on_done, args.max_no_data)
+                             args.labels, args.strict, formats, on_done, args.max_no_data,
+                             args.save_signals)  # fmt: skip
     if not args.quiet:
         print(f"{summary['logs']} logs, {summary['hours']:.3f} h judged, "
               f"{summary['logs_failed']} failed, {summary['logs_without_data']} with too little "
