@@ -90,6 +90,29 @@ def _score(tp: int, fp: int, fn: int, hazard: str) -> HazardScore:
     )
 
 
+def match_counts(
+    detected: list[tuple[float, float]], truth: list[tuple[float, float]]
+) -> tuple[int, int, int]:
+    """(TP, FP, FN) of detected intervals against labelled ones: an event and a label match
+    when they overlap (closed intervals), each at most once, as many pairs as possible (a
+    maximum bipartite matching). `casewatch tune` scores its candidates with this too."""
+    if not detected or not truth:
+        return 0, len(detected), len(truth)
+    graph = nx.Graph()
+    events_side = [("event", i) for i in range(len(detected))]
+    graph.add_nodes_from(events_side)
+    graph.add_nodes_from(("label", j) for j in range(len(truth)))
+    for i, (start, end) in enumerate(detected):
+        for j, (label_start, label_end) in enumerate(truth):
+            if start <= label_end and label_start <= end:
+                graph.add_edge(("event", i), ("label", j))
+    if graph.number_of_edges() == 0:
+        return 0, len(detected), len(truth)
+    matching = nx.bipartite.hopcroft_karp_matching(graph, top_nodes=events_side)
+    tp = sum(1 for node in matching if node[0] == "event")
+    return tp, len(detected) - tp, len(truth) - tp
+
+
 def score_events(
     events: list[Episode],
     labels: list[Label],
@@ -109,19 +132,9 @@ def score_events(
     per_hazard: list[HazardScore] = []
     totals = [0, 0, 0]
     for hazard in hazard_texts:
-        detected = [e for e in events if e.node_id == hazard and e.kind == "hazard"]
-        truth = by_hazard[hazard]
-        graph = nx.Graph()
-        events_side = [("event", i) for i in range(len(detected))]
-        graph.add_nodes_from(events_side)
-        graph.add_nodes_from(("label", j) for j in range(len(truth)))
-        for i, event in enumerate(detected):
-            for j, label in enumerate(truth):
-                if event.start <= label.end and label.start <= event.end:
-                    graph.add_edge(("event", i), ("label", j))
-        matching = nx.bipartite.hopcroft_karp_matching(graph, top_nodes=events_side)
-        tp = sum(1 for node in matching if node[0] == "event")
-        fp, fn = len(detected) - tp, len(truth) - tp
+        detected = [(e.start, e.end) for e in events if e.node_id == hazard and e.kind == "hazard"]
+        truth = [(label.start, label.end) for label in by_hazard[hazard]]
+        tp, fp, fn = match_counts(detected, truth)
         per_hazard.append(_score(tp, fp, fn, hazard))
         totals = [totals[0] + tp, totals[1] + fp, totals[2] + fn]
     return GroundTruth(

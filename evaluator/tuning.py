@@ -1,0 +1,395 @@
+"""Thresholds from data: sweep a formula's threshold (and duration) over saved signals, form
+episodes exactly as the evaluator does, score them against labels (`casewatch tune`), or count
+them on nominal logs (`casewatch calibrate`).
+
+Every formula has one **knob**: the constant of its first comparison between a signal and a
+number (`els >= 0.6`, `lead_thw < 1.0 and ...`), plus its duration: an SPI's `for:` window or a
+hazard rule's `min_duration`. Candidates are quantiles of the signal's observed values (rounded
+to 4 significant digits, so the tuned case says exactly what was measured) and a few durations,
+the original values always among them. Scores use `evaluator.ground_truth.match_counts`, the
+matcher of `casewatch run --labels`; the episodes are those `evaluator.episodes` would form
+(tested against real runs). Everything returned is a plain value (dicts, lists, floats).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from fractions import Fraction
+
+import numpy as np
+
+from evaluator.ground_truth import Label, match_counts, resolve_hazard
+from evaluator.signal_store import SavedSignals
+from evaluator.vector_eval import Unsupported, robustness
+from safety_case.model import Case
+from spec.ast import Compare, Formula, Interval, Node, Num, Signal, Window, children, walk
+from spec.model import CompiledSpec
+from spec.parser import FormulaError, parse_formula
+
+#: Quantile levels always tried besides the evenly spaced ones (the tails of the values).
+TAIL_LEVELS = (1e-5, 1e-4, 1e-3, 3e-3, 1 - 3e-3, 1 - 1e-3, 1 - 1e-4, 1 - 1e-5)
+#: Durations [s] tried besides the original one.
+SPI_WINDOWS = (0.0, 0.5, 1.0, 2.0)
+HAZARD_DURATIONS = (0.0, 0.5, 1.0, 1.5, 2.0)
+OBJECTIVES = ("f1", "min-precision")
+
+
+class TuningError(ValueError):
+    """Input tuning cannot use (names the rule, log or file)."""
+
+
+@dataclass(frozen=True)
+class Knob:
+    """What tuning sweeps in one formula (see the module docstring)."""
+
+    formula_id: str
+    node_id: str
+    node_text: str
+    kind: str  # "spi" or "hazard"
+    source: str  # the formula text as the case writes it (hazard `when`, SPI threshold or stl)
+    condition: Formula  # SPI: holds while fine; hazard: holds while the hazard is present
+    path: tuple[int, ...]  # child indices from `condition` to the swept comparison
+    signal: str
+    op: str
+    signal_left: bool
+    value: float
+    duration_kind: str | None  # "for" (SPI window), "min_duration" (hazard) or None
+    duration: float
+    merge_gap: float
+    min_duration: float
+    raw_stl: bool = False
+
+    @property
+    def parameter(self) -> str:
+        return f"{self.signal} {self.op}" if self.signal_left else f"{self.op} {self.signal}"
+
+
+def _swept(formula: Formula) -> tuple[tuple[int, ...], Compare] | None:
+    """The first comparison of a signal with a number, and its path."""
+
+    def visit(node: Node, path: tuple[int, ...]):
+        if isinstance(node, Compare) and (
+            (isinstance(node.left, Signal) and isinstance(node.right, Num))
+            or (isinstance(node.left, Num) and isinstance(node.right, Signal))
+        ):
+            return path, node
+        for k, child in enumerate(children(node)):
+            found = visit(child, (*path, k))
+            if found is not None:
+                return found
+        return None
+
+    return visit(formula, ())
+
+
+def knobs(case: Case, spec: CompiledSpec) -> tuple[list[Knob], list[dict[str, str]]]:
+    """The knob of every formula of `spec`, and the formulas tuning cannot sweep (with why)."""
+    out: list[Knob] = []
+    skipped: list[dict[str, str]] = []
+    for f in spec.formulas:
+        node = case.nodes[f.node_id]
+        duration_kind: str | None = None
+        duration = 0.0
+        raw = False
+        if f.kind == "spi" and node.spi is not None and node.spi.stl is None:
+            assert node.spi.signal is not None and node.spi.threshold is not None
+            th = node.spi.threshold
+            condition: Formula = Compare(th.op, Signal(node.spi.signal), Num(th.value))
+            duration_kind, duration = "for", float(node.spi.for_seconds or 0.0)
+        else:
+            text = node.spi.stl if f.kind == "spi" and node.spi else f.source
+            raw = f.kind == "spi"
+            try:
+                condition = parse_formula(text or "")
+            except FormulaError as exc:
+                skipped.append({"formula": f.id, "reason": f"does not parse: {exc}"})
+                continue
+            if f.kind == "hazard":
+                duration_kind, duration = "min_duration", f.min_duration
+        found = _swept(condition)
+        if found is None:
+            skipped.append({"formula": f.id, "reason": "no comparison of a signal with a "
+                            "number to sweep"})  # fmt: skip
+            continue
+        bad = [n for n in walk(condition) if not _supported(n)]
+        if bad:
+            skipped.append({"formula": f.id, "reason": "uses future operators or `since` "
+                            "(tuning evaluates past-time formulas)"})  # fmt: skip
+            continue
+        path, cmp = found
+        left = isinstance(cmp.left, Signal)
+        sig = cmp.left if left else cmp.right
+        num = cmp.right if left else cmp.left
+        assert isinstance(sig, Signal) and isinstance(num, Num)
+        out.append(Knob(
+            formula_id=f.id, node_id=f.node_id, node_text=f.node_text, kind=f.kind,
+            source=f.source, condition=condition, path=path, signal=sig.name, op=cmp.op,
+            signal_left=left, value=float(num.value), duration_kind=duration_kind,
+            duration=duration, merge_gap=f.merge_gap, min_duration=f.min_duration, raw_stl=raw,
+        ))  # fmt: skip
+    return out, skipped
+
+
+def _supported(node: Node) -> bool:
+    from spec.ast import Next, Span
+
+    if isinstance(node, Next | Span):
+        return False
+    return not (isinstance(node, Window) and node.op not in ("once", "historically"))
+
+
+def _replace(node: Node, path: tuple[int, ...], value: float) -> Node:
+    """`node` with the number of the comparison at `path` set to `value`."""
+    if not path:
+        assert isinstance(node, Compare)
+        if isinstance(node.right, Num):
+            return dataclasses.replace(node, right=Num(value))
+        return dataclasses.replace(node, left=Num(value))
+    kids = list(children(node))
+    kids[path[0]] = _replace(kids[path[0]], path[1:], value)
+    if len(kids) == 1:
+        return dataclasses.replace(node, operand=kids[0])  # type: ignore[call-arg]
+    return dataclasses.replace(node, left=kids[0], right=kids[1])  # type: ignore[call-arg]
+
+
+def formula_for(knob: Knob, threshold: float, duration: float) -> Formula:
+    """The condition with the candidate threshold (and, for an SPI, its `for:` window)."""
+    condition = _replace(knob.condition, knob.path, threshold)
+    if knob.duration_kind == "for" and duration > 0:
+        return Window("once", Interval(Fraction(0), Fraction(repr(duration))), condition)
+    return condition  # type: ignore[return-value]
+
+
+def episodes_from(
+    t: np.ndarray, violated: np.ndarray, period: float, merge_gap: float, min_duration: float
+) -> list[tuple[float, float]]:
+    """Episodes of the violated ticks, as `evaluator.episodes.EpisodeTracker` forms them: a
+    new episode where the clean time since the last violated tick's end reaches merge_gap,
+    episodes shorter than min_duration dropped (a tick lasts one period); data gaps neither
+    extend nor close an episode."""
+    tv = t[violated]
+    if len(tv) == 0:
+        return []
+    separation = tv[1:] - tv[:-1] - period
+    split = np.flatnonzero((separation > 1e-9) & (separation >= merge_gap - 1e-9))
+    starts = tv[np.concatenate([[0], split + 1])]
+    ends = tv[np.concatenate([split, [len(tv) - 1]])]
+    keep = ends - starts + period >= min_duration - 1e-9
+    return list(zip(starts[keep].tolist(), ends[keep].tolist(), strict=True))
+
+
+def violations(knob: Knob, log: SavedSignals, threshold: float, duration: float) -> np.ndarray:
+    """(n,) True at the ticks the formula reads as violated (an SPI failing, a hazard present)
+    with the candidate values; data gaps are never violated."""
+    formula = formula_for(knob, threshold, duration)
+    names = {s.name for s in walk(formula) if isinstance(s, Signal)}
+    columns = {name: log.column(name) for name in names}
+    try:
+        rho = robustness(formula, columns, log.t, log.period, log.max_gap)
+    except Unsupported as exc:
+        raise TuningError(f"{knob.formula_id}: {exc}") from None
+    with np.errstate(invalid="ignore"):
+        return rho < 0 if knob.kind == "spi" else rho > 0
+
+
+def episodes_for(knob: Knob, log: SavedSignals, threshold: float, duration: float):
+    """The candidate's episodes on one log."""
+    min_duration = duration if knob.duration_kind == "min_duration" else knob.min_duration
+    return episodes_from(log.t, violations(knob, log, threshold, duration), log.period,
+                         knob.merge_gap, min_duration)  # fmt: skip
+
+
+def round_sig(value: float, digits: int = 4) -> float:
+    """`value` to `digits` significant digits (what the tuned case will say)."""
+    if value == 0 or not math.isfinite(value):
+        return float(value)
+    return float(f"{value:.{digits}g}")
+
+
+def threshold_candidates(knob: Knob, logs: Sequence[SavedSignals], count: int) -> list[float]:
+    """Quantiles of the signal's observed finite values (rounded), plus the original value."""
+    values = np.concatenate([log.column(knob.signal) for log in logs])
+    values = values[np.isfinite(values)]
+    if len(values) == 0:
+        raise TuningError(f"{knob.formula_id}: signal {knob.signal!r} has no value in any log; "
+                          "nothing to sweep")  # fmt: skip
+    distinct = np.unique(values)
+    if len(distinct) <= count:
+        quantiles = distinct
+    else:
+        # evenly spaced levels, and the tails, where the rare values that decide false alarms
+        # and misses lie
+        levels = np.union1d(np.linspace(0.0, 1.0, max(2, count)), TAIL_LEVELS)
+        quantiles = np.quantile(values, levels)
+    found = {round_sig(float(q)) for q in quantiles[1:-1]}
+    # the extremes rounded outwards, so that one candidate never flags and one always does
+    lo, hi = float(quantiles[0]), float(quantiles[-1])
+    found |= {_outward(lo, math.floor), _outward(hi, math.ceil)}
+    return sorted(found | {knob.value})
+
+
+def _outward(value: float, step) -> float:
+    """`value` to 4 significant digits, never inwards: rounded down (`math.floor`) or up
+    (`math.ceil`) when rounding to nearest would land on the inner side."""
+    rounded = round_sig(value)
+    if value == 0 or not math.isfinite(value):
+        return rounded
+    if (step is math.floor and rounded <= value) or (step is math.ceil and rounded >= value):
+        return rounded
+    unit = 10.0 ** (math.floor(math.log10(abs(value))) - 3)
+    return round_sig(rounded - unit if step is math.floor else rounded + unit)
+
+
+def duration_candidates(knob: Knob, period: float) -> list[float]:
+    base = {"for": SPI_WINDOWS, "min_duration": HAZARD_DURATIONS}.get(knob.duration_kind or "")
+    if base is None:
+        return [knob.duration]
+    # windows count whole samples: durations on the period grid
+    grid = {round(round(d / period) * period, 9) for d in base}
+    return sorted(grid | {knob.duration})
+
+
+def labels_of(knob: Knob, labels: Sequence[Label]) -> list[tuple[float, float]]:
+    """The labelled intervals that name the knob's node (by id or text)."""
+    texts = {knob.node_id: knob.node_text}
+    return [(lab.start, lab.end) for lab in labels if resolve_hazard(lab.hazard, texts)]
+
+
+@dataclass
+class Sweep:
+    """Counts of every candidate on every log: counts[c, log] = (tp, fp, fn, episodes)."""
+
+    knob: Knob
+    thresholds: list[float]
+    durations: list[float]
+    counts: np.ndarray
+    logs: list[str]
+    labelled: list[int] = field(default_factory=list)  # labels per log
+
+    def candidates(self) -> list[tuple[float, float]]:
+        return [(th, d) for d in self.durations for th in self.thresholds]
+
+
+def sweep(knob: Knob, logs: Sequence[SavedSignals], labels: Sequence[Sequence[Label]] | None,
+          count: int = 50) -> Sweep:  # fmt: skip
+    """Every (threshold, duration) candidate on every log. Without labels only the episode
+    counts are meaningful (calibration)."""
+    if not logs:
+        raise TuningError(f"{knob.formula_id}: no logs to sweep")
+    thresholds = threshold_candidates(knob, logs, count)
+    durations = duration_candidates(knob, logs[0].period)
+    grid = [(th, d) for d in durations for th in thresholds]
+    counts = np.zeros((len(grid), len(logs), 4), dtype=np.int64)
+    truth = [labels_of(knob, labels[k]) if labels is not None else [] for k in range(len(logs))]
+    for k, log in enumerate(logs):
+        for c, (th, d) in enumerate(grid):
+            found = episodes_for(knob, log, th, d)
+            tp, fp, fn = match_counts(found, truth[k])
+            counts[c, k] = (tp, fp, fn, len(found))
+    return Sweep(knob, thresholds, durations, counts, [log.path for log in logs],
+                 [len(x) for x in truth])  # fmt: skip
+
+
+def scores(tp: int, fp: int, fn: int) -> dict[str, float | int | None]:
+    """Counts with precision, recall (None when undefined) and F1, as plain numbers."""
+    tp, fp, fn = int(tp), int(fp), int(fn)
+    return {
+        "tp": tp, "fp": fp, "fn": fn,
+        "precision": tp / (tp + fp) if tp + fp else None,
+        "recall": tp / (tp + fn) if tp + fn else None,
+        "f1": 2 * tp / (2 * tp + fp + fn) if tp else 0.0,
+    }  # fmt: skip
+
+
+def pick(sw: Sweep, logs: Sequence[int], objective: str, min_precision: float | None) -> int:
+    """The operating point on `logs` (indices): the best F1, or with `min-precision` the best
+    recall among candidates at least that precise; ties go to the candidate nearest the
+    original threshold (then duration). Returns a candidate index, or -1 when no candidate
+    reaches the precision asked for."""
+    totals = sw.counts[:, list(logs), :3].sum(axis=1)
+    tp, fp, fn = totals[:, 0], totals[:, 1], totals[:, 2]
+    f1 = np.where(tp > 0, 2 * tp / np.maximum(2 * tp + fp + fn, 1), 0.0)
+    grid = sw.candidates()
+    span = max(sw.thresholds) - min(sw.thresholds) or 1.0
+    near = np.array([abs(th - sw.knob.value) / span + 1e-3 * abs(d - sw.knob.duration)
+                     for th, d in grid])  # fmt: skip
+    if objective == "min-precision":
+        assert min_precision is not None
+        precise = (tp + fp > 0) & (tp >= min_precision * np.maximum(tp + fp, 1) - 1e-12)
+        if not precise.any():
+            return -1
+        recall = np.where(tp + fn > 0, tp / np.maximum(tp + fn, 1), 0.0)
+        key = np.lexsort((near, -f1, -recall, ~precise))
+        return int(key[0])
+    return int(np.lexsort((near, -f1))[0])
+
+
+def tune(sw: Sweep, objective: str = "f1", min_precision: float | None = None) -> dict:
+    """Fitted operating point on all logs, the original's scores, leave-one-log-out held-out
+    scores (each log scored at the point picked on the others), and the PR points."""
+    everyone = list(range(len(sw.logs)))
+    grid = sw.candidates()
+    original = grid.index((sw.knob.value, sw.knob.duration))
+    chosen = pick(sw, everyone, objective, min_precision)
+    total = sw.counts[:, :, :3].sum(axis=1)
+    held = None
+    if len(everyone) >= 2:
+        counts = np.zeros(3, dtype=np.int64)
+        for k in everyone:
+            c = pick(sw, [j for j in everyone if j != k], objective, min_precision)
+            counts += sw.counts[c if c >= 0 else original, k, :3]
+        held = scores(*counts)
+    best = chosen if chosen >= 0 else original
+    th, d = grid[best]
+    curve = [
+        {"threshold": g[0], "duration": g[1], **scores(*total[c])}
+        for c, g in enumerate(grid)
+    ]
+    return {
+        "formula": sw.knob.formula_id,
+        "node": sw.knob.node_id,
+        "kind": sw.knob.kind,
+        "parameter": sw.knob.parameter,
+        "duration_kind": sw.knob.duration_kind,
+        "logs": len(sw.logs),
+        "labels": int(sum(sw.labelled)),
+        "original": {"threshold": sw.knob.value, "duration": sw.knob.duration,
+                     **scores(*total[original])},
+        "tuned": {"threshold": th, "duration": d, **scores(*total[best])},
+        "reached": chosen >= 0,
+        "heldout": held,
+        "curve": curve,
+    }
+
+
+def calibrate(sw: Sweep, per_hour: float, hours: float) -> dict:
+    """The strictest threshold (at the original duration) whose episodes on these nominal
+    logs stay within `per_hour` an hour, its rate, the original's rate, and the margin: how far
+    the calibrated threshold lies beyond the original one, towards stricter (negative: the
+    original raises more alarms than the budget allows)."""
+    k = sw.knob
+    stricter_up = (k.op in (">=", ">")) == k.signal_left  # a larger threshold flags more
+    rows = [c for c, (_, d) in enumerate(sw.candidates()) if d == k.duration]
+    rate = {c: sw.counts[c, :, 3].sum() / hours for c in rows}
+    grid = sw.candidates()
+    within = [c for c in rows if rate[c] <= per_hour + 1e-12]
+    original = grid.index((k.value, k.duration))
+    if not within:
+        raise TuningError(f"{k.formula_id}: no threshold keeps {k.signal} within {per_hour:g} "
+                          "episodes an hour on these logs")  # fmt: skip
+    best = max(within, key=lambda c: grid[c][0]) if stricter_up else min(within,
+                                                                        key=lambda c: grid[c][0])
+    th = grid[best][0]
+    margin = (th - k.value) if stricter_up else (k.value - th)
+    edge = min(sw.thresholds) if stricter_up else max(sw.thresholds)
+    return {
+        "formula": k.formula_id, "node": k.node_id, "parameter": k.parameter,
+        "duration": k.duration, "original": k.value,
+        "original_per_hour": float(rate[original]), "calibrated": th,
+        "calibrated_per_hour": float(rate[best]), "margin": round_sig(margin, 6),
+        "at_edge": th == edge, "hours": hours,
+    }  # fmt: skip
+
