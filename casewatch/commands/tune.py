@@ -1,0 +1,162 @@
+"""`casewatch tune CASE LOGS... --labels auto -o OUT`: thresholds from labelled logs.
+
+For every hazard rule and SPI with labels in the logs, sweeps its threshold (and its `for:` or
+`min_duration`) over the observed range, scores each candidate's episodes against the labels
+with the matcher of `casewatch run --labels`, picks an operating point (`--objective f1`, or
+`--min-precision P`: the best recall at that precision), and reports it fitted on all logs and
+held out (leave one log out). Writes OUT/tuned-case.yaml (the case with the tuned numbers, its
+comments and layout kept), OUT/tuned-case.diff, OUT/tuning.json and OUT/tuning.html (a PR
+curve per rule). `docs/tuning.md` has a worked example.
+"""
+
+from __future__ import annotations
+
+import argparse
+import difflib
+import json
+import sys
+from pathlib import Path
+
+from casewatch import api
+from casewatch.tuning_logs import LogsError, load_logs
+from evaluator.signal_store import SignalsError
+from evaluator.tuning import TuningError, knobs, labels_of, sweep, tune
+from reports.tuning import render_tuning
+from safety_case.findings import CaseError
+from safety_case.rewrite import Change, RewriteError, rewrite
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser(
+        "tune", help="thresholds from labelled logs (PR curves, held-out scores)",
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
+    )  # fmt: skip
+    p.add_argument("case", help="the safety case (YAML)")
+    p.add_argument("logs", nargs="+", metavar="LOG",
+                   help="run folders of `casewatch run --save-signals`, fleet folders, or "
+                        "streams (judged once, into OUT/runs)")  # fmt: skip
+    p.add_argument("-o", "--out", required=True, type=Path, help="output folder")
+    p.add_argument("--labels", default="auto",
+                   help="'auto' (default): each log's labels; a file: for a single log")
+    p.add_argument("--objective", choices=("f1", "min-precision"), default="f1")
+    p.add_argument("--min-precision", type=float, default=None, metavar="P",
+                   help="with it: the best recall among candidates at least this precise")
+    p.add_argument("--candidates", type=int, default=50,
+                   help="threshold candidates per rule (quantiles of the observed values)")
+    p.add_argument("--jobs", type=int, default=1, help="processes for judging streams")
+
+
+def main(args: argparse.Namespace) -> int:
+    objective = "min-precision" if args.min_precision is not None else args.objective
+    if objective == "min-precision" and not (
+        args.min_precision is not None and 0.0 < args.min_precision <= 1.0
+    ):
+        print("casewatch tune: --objective min-precision needs --min-precision P, "
+              "0 < P <= 1", file=sys.stderr)  # fmt: skip
+        return 2
+    if not 2 <= args.candidates <= 10_000:
+        print("casewatch tune: --candidates must be between 2 and 10000", file=sys.stderr)
+        return 2
+    try:
+        case, spec = api.prepare(args.case)
+    except CaseError as exc:
+        for finding in exc.findings:
+            print(finding.format(), file=sys.stderr)
+        print(f"casewatch tune: {args.case} has errors; fix them first", file=sys.stderr)
+        return 2
+    try:
+        logs = load_logs(args.logs, args.case, args.out, args.jobs, args.labels,
+                         need_labels=True)  # fmt: skip
+    except LogsError as exc:
+        print(f"casewatch tune: {exc}", file=sys.stderr)
+        return 2
+    all_knobs, skipped = knobs(case, spec)
+    names = {k.node_id: k.node_text for k in all_knobs}
+    every_label = [lab for log in logs for lab in log.labels or []]
+    unknown = sorted({lab.hazard for lab in every_label} - {
+        lab.hazard for k in all_knobs for lab in every_label if labels_of(k, [lab])})
+    if every_label and len(unknown) == len({lab.hazard for lab in every_label}):
+        print(f"casewatch tune: the labels name no node of {args.case} ({', '.join(unknown)}); "
+              f"label hazards by node id ({', '.join(sorted(names))})", file=sys.stderr)
+        return 2
+    rules = []
+    try:
+        for knob in all_knobs:
+            signals = [log.signals for log in logs]
+            labels = [log.labels or [] for log in logs]
+            if not any(labels_of(knob, lab) for lab in labels):
+                skipped.append({"formula": knob.formula_id,
+                                "reason": "no label names it (calibrate SPIs on nominal logs)"})
+                continue
+            result = tune(sweep(knob, signals, labels, args.candidates), objective,
+                          args.min_precision)  # fmt: skip
+            result["node_text"] = knob.node_text
+            rules.append((knob, result))
+    except (TuningError, SignalsError) as exc:
+        print(f"casewatch tune: {exc}", file=sys.stderr)
+        return 2
+    if not rules:
+        print("casewatch tune: no rule has labels in these logs; nothing to tune "
+              f"(labels named: {', '.join(sorted({lab.hazard for lab in every_label})) or 'none'})",
+              file=sys.stderr)  # fmt: skip
+        return 2
+    hours = sum(log.signals.hours for log in logs)
+    report = {
+        "format": "casewatch-tuning", "version": 1, "case": str(args.case),
+        "logs": len(logs), "hours": round(hours, 6), "objective": objective,
+        "min_precision": args.min_precision, "rules": [r for _, r in rules], "skipped": skipped,
+        "unknown_labels": unknown,
+    }  # fmt: skip
+    args.out.mkdir(parents=True, exist_ok=True)
+    original = Path(args.case).read_text(encoding="utf-8")
+    changes = [_change(k, r) for k, r in rules]
+    try:
+        tuned = rewrite(original, [c for c in changes if c is not None])
+    except RewriteError as exc:
+        print(f"casewatch tune: {args.case}: {exc}", file=sys.stderr)
+        return 2
+    (args.out / "tuned-case.yaml").write_text(tuned, encoding="utf-8")
+    diff = "".join(difflib.unified_diff(original.splitlines(True), tuned.splitlines(True),
+                                        str(args.case), "tuned-case.yaml"))  # fmt: skip
+    (args.out / "tuned-case.diff").write_text(diff, encoding="utf-8")
+    (args.out / "tuning.json").write_text(json.dumps(report, indent=1), encoding="utf-8")
+    (args.out / "tuning.html").write_text(render_tuning(report), encoding="utf-8")
+    _print(report)
+    print(f"tuned case: {args.out / 'tuned-case.yaml'} (diff: {args.out / 'tuned-case.diff'})")
+    print(f"PR curves: {args.out / 'tuning.html'}")
+    return 0
+
+
+def _change(knob, result: dict) -> Change | None:
+    t, o = result["tuned"], result["original"]
+    if (t["threshold"], t["duration"]) == (o["threshold"], o["duration"]):
+        return None
+    return Change(knob.node_id, knob.kind, knob.signal, knob.op, knob.signal_left,
+                  o["threshold"], t["threshold"], knob.duration_kind, o["duration"],
+                  t["duration"], knob.raw_stl)  # fmt: skip
+
+
+def _pr(row: dict | None) -> str:
+    if row is None:
+        return "n/a"
+    p = "n/a" if row["precision"] is None else f"{row['precision']:.0%}"
+    r = "n/a" if row["recall"] is None else f"{row['recall']:.0%}"
+    return f"P {p} R {r}"
+
+
+def _print(report: dict) -> None:
+    print(f"{report['logs']} logs, {report['hours']:.3f} h; objective {report['objective']}")
+    print(f"  {'rule':<6} {'parameter':<16} {'original':>10} {'tuned':>10}  "
+          f"{'fitted (orig.)':<16} {'fitted (tuned)':<16} {'held-out':<16}")
+    for r in report["rules"]:
+        o, t = r["original"], r["tuned"]
+        dur = ""
+        if r["duration_kind"] is not None:
+            dur = f" {o['duration']:g}s->{t['duration']:g}s"
+        print(f"  {r['formula']:<6} {r['parameter']:<16} {o['threshold']:>10g} "
+              f"{t['threshold']:>10g}  {_pr(o):<16} {_pr(t):<16} {_pr(r['heldout']):<16}{dur}")
+    reasons: dict[str, list[str]] = {}
+    for s in report["skipped"]:
+        reasons.setdefault(s["reason"], []).append(s["formula"])
+    for reason, formulas in reasons.items():
+        print(f"  not tuned ({reason}): {', '.join(formulas)}")

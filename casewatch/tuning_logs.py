@@ -1,0 +1,110 @@
+"""The logs `casewatch tune` and `calibrate` read: saved signals, and each log's labels.
+
+A LOG argument is a run folder of `casewatch run --save-signals` (it holds `signals.npz` and
+`result.json`), a fleet folder (its `summary.json` lists the run folders), or streams (a file,
+a folder of streams, a glob): those are judged once with `--save-signals` into `OUT/runs`, so
+the metrics are computed once and every candidate threshold reads the saved values.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+from casewatch import batch
+from evaluator.ground_truth import Label, LabelsError, read_labels
+from evaluator.signal_store import FILE_NAME, SavedSignals, SignalsError, load_signals
+
+
+class LogsError(ValueError):
+    """Logs tuning cannot use (names the log and what is missing)."""
+
+
+@dataclass(frozen=True)
+class TuningLog:
+    name: str
+    folder: Path
+    signals: SavedSignals
+    labels: list[Label] | None
+    labels_path: str | None
+
+
+def _run_folders(arguments: list[str], case_path: str, out: Path, jobs: int) -> list[Path]:
+    folders: list[Path] = []
+    streams: list[Path] = []
+    for arg in arguments:
+        path = Path(arg)
+        if path.is_dir() and (path / FILE_NAME).is_file():
+            folders.append(path)
+        elif path.is_dir() and (path / "summary.json").is_file():
+            summary = json.loads((path / "summary.json").read_text(encoding="utf-8"))
+            for log in summary.get("per_log", []):
+                if not log.get("ok", True):
+                    raise LogsError(f"{path}: log {log.get('stream')} failed in that run "
+                                    f"({log.get('error')}); run it again")  # fmt: skip
+                folders.append(Path(log["out_dir"]))
+        elif path.is_dir() and (path / "result.json").is_file():
+            raise LogsError(f"{path}: this run kept no signals; run the log again with "
+                            "--save-signals (or pass the stream itself)")  # fmt: skip
+        else:
+            try:
+                streams.extend(batch.find_streams(arg))
+            except batch.NoStreams as exc:
+                raise LogsError(str(exc)) from None
+    missing = [s for s in streams if not s.is_file()]
+    if missing:
+        raise LogsError(f"{missing[0]}: no such stream, run folder or fleet folder")
+    if streams:
+        runs = out / "runs"
+        summary = batch.run_many(case_path, "", streams, runs, jobs, "auto", False, (),
+                                 None, save_signals=True)  # fmt: skip
+        for log in summary["per_log"]:  # type: ignore[union-attr]
+            if not log["ok"]:
+                raise LogsError(f"{log['stream']}: could not be judged: {log['error']}")
+            folders.append(Path(log["out_dir"]))
+    return folders
+
+
+def _labels_of(folder: Path, labels: str | None, single: bool) -> tuple[list[Label], str] | None:
+    if labels not in (None, "auto"):
+        if not single:
+            raise LogsError("with several logs use --labels auto (each log's labels: the file "
+                            "its run was judged with, or NAME.labels.jsonl beside its stream)")
+        path = labels
+    else:
+        result = json.loads((folder / "result.json").read_text(encoding="utf-8"))
+        truth = result.get("ground_truth") or {}
+        path = truth.get("labels_path")
+        if not path and labels == "auto":
+            sibling = batch.sibling_labels(Path(result["stream"]["path"]))
+            path = str(sibling) if sibling else None
+    if not path:
+        return None
+    try:
+        found, _ = read_labels(path)
+    except LabelsError as exc:
+        raise LogsError(str(exc)) from None
+    return found, str(path)
+
+
+def load_logs(arguments: list[str], case_path: str, out: Path, jobs: int = 1,
+              labels: str | None = None, need_labels: bool = False) -> list[TuningLog]:  # fmt: skip
+    """Every log of `arguments` with its saved signals and (with `labels`) its labels."""
+    folders = _run_folders(arguments, case_path, out, jobs)
+    if not folders:
+        raise LogsError("no logs given")
+    logs = []
+    for folder in folders:
+        try:
+            signals = load_signals(folder)
+        except SignalsError as exc:
+            raise LogsError(str(exc)) from None
+        got = _labels_of(folder, labels, len(folders) == 1) if labels else None
+        if need_labels and got is None:
+            raise LogsError(f"{folder}: the log has no labels (NAME.labels.jsonl beside its "
+                            "stream, or a run judged with --labels); tune scores thresholds "
+                            "against labels")  # fmt: skip
+        logs.append(TuningLog(folder.name, folder, signals, got[0] if got else None,
+                              got[1] if got else None))  # fmt: skip
+    return logs
