@@ -64,8 +64,10 @@ def stream_stem(path: Path) -> str:
 
 
 def sibling_labels(path: Path) -> Path | None:
+    """NAME.labels.jsonl beside the stream NAME.jsonl(.gz), as an absolute path (result.json
+    records it, and `casewatch tune` reads it again from wherever it runs)."""
     candidate = path.with_name(stream_stem(path) + ".labels.jsonl")
-    return candidate if candidate.is_file() else None
+    return candidate.resolve() if candidate.is_file() else None
 
 
 def labels_for(stream: str, labels: str | None) -> str | None:

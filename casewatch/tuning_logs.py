@@ -81,6 +81,9 @@ def _labels_of(folder: Path, labels: str | None, single: bool) -> tuple[list[Lab
             path = str(sibling) if sibling else None
     if not path:
         return None
+    if not Path(path).is_file():
+        raise LogsError(f"{folder}: its labels {path} are not there (a path relative to where "
+                        "the log was judged?); pass --labels FILE for a single log")
     try:
         found, _ = read_labels(path)
     except LabelsError as exc:

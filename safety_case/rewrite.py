@@ -69,6 +69,18 @@ def _like(old: object, text: str) -> object:
     return type(old)(text) if isinstance(old, str) and type(old) is not str else text
 
 
+def _drop(mapping: CommentedMap, key: str) -> None:
+    """Remove `key`; what followed its value (a comment, the blank line before the next
+    node) moves to the key before it, so the layout around the mapping stays."""
+    if key not in mapping:
+        return
+    last = list(mapping)[-1] == key
+    tokens = mapping.ca.items.pop(key, None)
+    del mapping[key]
+    if last and tokens is not None and len(mapping):
+        mapping.ca.items.setdefault(list(mapping)[-1], tokens)
+
+
 def rewrite(yaml_text: str, changes: list[Change]) -> str:
     """The case text with every change applied (comments and layout kept)."""
     yaml = YAML(typ="rt")
@@ -95,7 +107,7 @@ def rewrite(yaml_text: str, changes: list[Change]) -> str:
         if ch.duration_kind and ch.new_duration != ch.old_duration:
             key = "for" if ch.duration_kind == "for" else "min_duration"
             if ch.new_duration == 0 and key == "for":
-                binding.pop(key, None)
+                _drop(binding, key)
             else:
                 binding[key] = seconds_text(ch.new_duration)
     out = io.StringIO()

@@ -86,7 +86,7 @@ def main(args: argparse.Namespace) -> int:
             labels = [log.labels or [] for log in logs]
             if not any(labels_of(knob, lab) for lab in labels):
                 skipped.append({"formula": knob.formula_id,
-                                "reason": "no label names it (calibrate SPIs on nominal logs)"})
+                                "reason": "no label names it; calibrate SPIs on nominal logs"})
                 continue
             result = tune(sweep(knob, signals, labels, args.candidates), objective,
                           args.min_precision)  # fmt: skip
