@@ -304,6 +304,16 @@ def scores(tp: int, fp: int, fn: int) -> dict[str, float | int | None]:
     }  # fmt: skip
 
 
+def pr_text(row: dict | None, counts: bool = False) -> str:
+    """`P 83% R 100%` of a scores row (`n/a` where undefined), with `(tp/fp/fn)` if asked."""
+    if row is None:
+        return "n/a"
+    p = "n/a" if row["precision"] is None else f"{row['precision']:.0%}"
+    r = "n/a" if row["recall"] is None else f"{row['recall']:.0%}"
+    tail = f" ({row['tp']}/{row['fp']}/{row['fn']})" if counts else ""
+    return f"P {p} R {r}{tail}"
+
+
 def pick(sw: Sweep, logs: Sequence[int], objective: str, min_precision: float | None) -> int:
     """The operating point on `logs` (indices): the best F1, or with `min-precision` the best
     recall among candidates at least that precise; ties go to the candidate nearest the

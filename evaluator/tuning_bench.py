@@ -21,7 +21,7 @@ import numpy as np
 from casewatch import api, batch
 from evaluator.ground_truth import Label, read_labels
 from evaluator.signal_store import SavedSignals, load_signals
-from evaluator.tuning import knobs, sweep, tune
+from evaluator.tuning import knobs, pr_text, sweep, tune
 
 REPO = Path(__file__).resolve().parent.parent
 CASE = REPO / "examples" / "reference-case.yaml"
@@ -85,16 +85,9 @@ def main(argv: list[str] | None = None) -> int:
         if r["labels"]:
             o, t = r["original"], r["tuned"]
             print(f"  {r['formula']:<5} {r['parameter']:<13} {o['threshold']:g} -> "
-                  f"{t['threshold']:g}: fitted {_pr(t)}, held-out {_pr(r['heldout'])}")
+                  f"{t['threshold']:g}: fitted {pr_text(t)}, held-out {pr_text(r['heldout'])}")
     return 0
 
-
-def _pr(row: dict | None) -> str:
-    if row is None:
-        return "n/a"
-    p = "n/a" if row["precision"] is None else f"{row['precision']:.0%}"
-    r = "n/a" if row["recall"] is None else f"{row['recall']:.0%}"
-    return f"P {p} R {r}"
 
 
 if __name__ == "__main__":

@@ -12,6 +12,8 @@ from pathlib import Path
 
 import jinja2
 
+from evaluator.tuning import pr_text
+
 TEMPLATES = Path(__file__).parent / "templates"
 
 
@@ -26,11 +28,7 @@ class _Plot:
 
 
 def _pr(row: dict | None) -> str:
-    if row is None:
-        return "n/a (one log)"
-    p = "n/a" if row["precision"] is None else f"{row['precision']:.0%}"
-    r = "n/a" if row["recall"] is None else f"{row['recall']:.0%}"
-    return f"{p} / {r} ({row['tp']}/{row['fp']}/{row['fn']})"
+    return "n/a (one log)" if row is None else pr_text(row, counts=True)
 
 
 def _setting(point: dict, duration_kind: str | None) -> str:

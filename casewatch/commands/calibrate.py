@@ -22,12 +22,11 @@ import math
 import sys
 from pathlib import Path
 
-from casewatch import api
+from casewatch.commands.common import prepare_case
 from casewatch.tuning_logs import LogsError, load_logs
 from evaluator.nominal import DEFAULT_MARGIN
 from evaluator.signal_store import SignalsError, nominal_only
 from evaluator.tuning import TuningError, calibrate, knobs, sweep
-from safety_case.findings import CaseError
 from safety_case.rewrite import Change, RewriteError, rewrite
 
 
@@ -62,13 +61,13 @@ def main(args: argparse.Namespace) -> int:
     if not 2 <= args.candidates <= 10_000:
         print("casewatch calibrate: --candidates must be between 2 and 10000", file=sys.stderr)
         return 2
-    try:
-        case, spec = api.prepare(args.case)
-    except CaseError as exc:
-        for finding in exc.findings:
-            print(finding.format(), file=sys.stderr)
-        print(f"casewatch calibrate: {args.case} has errors; fix them first", file=sys.stderr)
+    if args.jobs < 1:
+        print("casewatch calibrate: --jobs must be at least 1", file=sys.stderr)
         return 2
+    prepared = prepare_case("calibrate", args.case)
+    if prepared is None:
+        return 2
+    case, spec = prepared
     if not (math.isfinite(args.margin) and args.margin >= 0):
         print("casewatch calibrate: --margin must be a number of seconds >= 0", file=sys.stderr)
         return 2

@@ -17,6 +17,7 @@ import sys
 from pathlib import Path
 
 from casewatch import api, batch
+from casewatch.commands.common import prepare_case
 from casewatch.crash import INTERNAL_ERROR
 from evaluator.ground_truth import LabelsError
 from evaluator.result import DataGap, Episode, RunResult
@@ -25,7 +26,6 @@ from evaluator.signal_store import FILE_NAME as SIGNALS_FILE
 from evaluator.summary import LogSummary
 from monitor.warmup import warm_up
 from reports.render import FORMATS, parse_formats
-from safety_case.findings import CaseError
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -91,14 +91,10 @@ def main(args: argparse.Namespace) -> int:
     if args.jobs < 1:
         print("casewatch run: --jobs must be at least 1", file=sys.stderr)
         return 2
-    try:
-        case, spec = api.prepare(args.case)
-    except CaseError as exc:
-        for finding in exc.findings:
-            print(finding.format(), file=sys.stderr)
-        print(f"casewatch run: {args.case} has errors; fix them first "
-              f"(casewatch check {args.case})", file=sys.stderr)
+    prepared = prepare_case("run", args.case)
+    if prepared is None:
         return 2
+    case, spec = prepared
     single = len(args.streams) == 1 and (
         args.streams[0] == "-" or not (Path(args.streams[0]).is_dir()
                                        or any(c in args.streams[0] for c in "*?["))

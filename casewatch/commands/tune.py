@@ -17,12 +17,11 @@ import json
 import sys
 from pathlib import Path
 
-from casewatch import api
+from casewatch.commands.common import prepare_case
 from casewatch.tuning_logs import LogsError, load_logs
 from evaluator.signal_store import SignalsError
-from evaluator.tuning import TuningError, knobs, labels_of, sweep, tune
+from evaluator.tuning import TuningError, knobs, labels_of, pr_text, sweep, tune
 from reports.tuning import render_tuning
-from safety_case.findings import CaseError
 from safety_case.rewrite import Change, RewriteError, rewrite
 
 
@@ -57,13 +56,13 @@ def main(args: argparse.Namespace) -> int:
     if not 2 <= args.candidates <= 10_000:
         print("casewatch tune: --candidates must be between 2 and 10000", file=sys.stderr)
         return 2
-    try:
-        case, spec = api.prepare(args.case)
-    except CaseError as exc:
-        for finding in exc.findings:
-            print(finding.format(), file=sys.stderr)
-        print(f"casewatch tune: {args.case} has errors; fix them first", file=sys.stderr)
+    if args.jobs < 1:
+        print("casewatch tune: --jobs must be at least 1", file=sys.stderr)
         return 2
+    prepared = prepare_case("tune", args.case)
+    if prepared is None:
+        return 2
+    case, spec = prepared
     try:
         logs = load_logs(args.logs, args.case, args.out, args.jobs, args.labels,
                          need_labels=True)  # fmt: skip
@@ -136,14 +135,6 @@ def _change(knob, result: dict) -> Change | None:
                   t["duration"], knob.raw_stl)  # fmt: skip
 
 
-def _pr(row: dict | None) -> str:
-    if row is None:
-        return "n/a"
-    p = "n/a" if row["precision"] is None else f"{row['precision']:.0%}"
-    r = "n/a" if row["recall"] is None else f"{row['recall']:.0%}"
-    return f"P {p} R {r}"
-
-
 def _print(report: dict) -> None:
     print(f"{report['logs']} logs, {report['hours']:.3f} h; objective {report['objective']}")
     print(f"  {'rule':<6} {'parameter':<16} {'original':>10} {'tuned':>10}  "
@@ -153,8 +144,9 @@ def _print(report: dict) -> None:
         dur = ""
         if r["duration_kind"] is not None:
             dur = f" {o['duration']:g}s->{t['duration']:g}s"
+        held = pr_text(r["heldout"])
         print(f"  {r['formula']:<6} {r['parameter']:<16} {o['threshold']:>10g} "
-              f"{t['threshold']:>10g}  {_pr(o):<16} {_pr(t):<16} {_pr(r['heldout']):<16}{dur}")
+              f"{t['threshold']:>10g}  {pr_text(o):<16} {pr_text(t):<16} {held:<16}{dur}")
     reasons: dict[str, list[str]] = {}
     for s in report["skipped"]:
         reasons.setdefault(s["reason"], []).append(s["formula"])

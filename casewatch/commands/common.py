@@ -1,0 +1,23 @@
+"""What several commands do the same way: load and compile the case, refusing one with errors."""
+
+from __future__ import annotations
+
+import sys
+
+from casewatch import api
+from safety_case.findings import CaseError
+from safety_case.model import Case
+from spec.model import CompiledSpec
+
+
+def prepare_case(command: str, path: str) -> tuple[Case, CompiledSpec] | None:
+    """The case and its compiled formulas; None (exit 2) after printing every finding of a
+    case with errors."""
+    try:
+        return api.prepare(path)
+    except CaseError as exc:
+        for finding in exc.findings:
+            print(finding.format(), file=sys.stderr)
+        print(f"casewatch {command}: {path} has errors; fix them first "
+              f"(casewatch check {path})", file=sys.stderr)  # fmt: skip
+        return None
