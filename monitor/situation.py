@@ -366,10 +366,12 @@ def project(path: np.ndarray, pos: np.ndarray) -> tuple[np.ndarray, np.ndarray, 
 def neighbour(
     ego: Ego, objects: Objects, path: np.ndarray, half_width: float, ego_half_length: float
 ) -> Neighbour:
-    """The nearest object within `half_width` of `path` (from the ego outwards): the gap from
-    the ego's bumper to the object's near side along the path (its box projected on the
-    path's tangent), and the object's speed along the path (positive: moving the path's way,
-    away from the ego). One compiled call over every object and path segment."""
+    """The nearest object within `half_width` of `path` (from the ego outwards) that stays
+    there for LANE_HOLD: the gap from the ego's bumper to the object's near side along the
+    path (its box projected on the path's tangent), and the object's speed along the path
+    (positive: moving the path's way, away from the ego). One compiled call over every object
+    and path segment. The geometry alone: the engine's leader (`neighbours`) also asks that
+    the car share the ego's lane, and its follower may be found in the car's own lane."""
     if len(objects) == 0:
         return NONE
     hl, hw = _half_extents(objects)
