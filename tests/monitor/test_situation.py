@@ -248,3 +248,21 @@ def test_a_car_in_the_planned_path_is_no_leader_before_the_ego_is_in_its_lane():
         assert lead.present is leader, ego_y
         if leader:
             assert lead.gap == pytest.approx(14.0 - 2.0 - 2.0, abs=0.05)
+
+
+def test_a_leader_around_a_bend_shares_the_lane():
+    # A bend of radius 100 m to the left, the ego at its start heading +x; a car 30 m along
+    # the arc (0.3 rad further round) heading along it is 4.47 m off the ego's heading line,
+    # but the chord between them runs along their mean heading (an arc's chord halves its
+    # turn): the leader, gap 30 - 2 - 2 = 26 m along the arc (the plan's polyline)
+    from monitor.situation import neighbours
+
+    angles = np.linspace(0.0, 0.6, 31)
+    plan = [[0.1 * k, float(100 * np.sin(a)), float(100 * (1 - np.cos(a)))]
+            for k, a in enumerate(angles)]  # fmt: skip
+    car = obj(1, float(100 * np.sin(0.3)), float(100 * (1 - np.cos(0.3))), 0.3, 4, 2,
+              vx=float(20 * np.cos(0.3)), vy=float(20 * np.sin(0.3)))  # fmt: skip
+    s = frame(0.0, {"a": channel(ego(0, 0, 0.0, 4, 2, vx=20.0), plan=plan,
+                                 objects=[car])}).channels["a"]  # fmt: skip
+    lead, _ = neighbours(s.ego, s.plan, None, s.objects, HALF_WIDTH, 2.0, 250.0)
+    assert lead.present and lead.gap == pytest.approx(26.0, abs=0.1)
