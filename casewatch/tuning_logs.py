@@ -30,6 +30,17 @@ class TuningLog:
     labels_path: str | None
 
 
+def _read_json(path: Path) -> dict:
+    """A run's `result.json` or a fleet's `summary.json`; LogsError when it is not one."""
+    try:
+        value = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError, RecursionError) as exc:
+        raise LogsError(f"{path}: cannot read it as casewatch output ({exc})") from None
+    if not isinstance(value, dict):
+        raise LogsError(f"{path}: not casewatch output (expected a JSON object)")
+    return value
+
+
 def _run_folders(arguments: list[str], case_path: str, out: Path, jobs: int) -> list[Path]:
     folders: list[Path] = []
     streams: list[Path] = []
@@ -38,7 +49,7 @@ def _run_folders(arguments: list[str], case_path: str, out: Path, jobs: int) -> 
         if path.is_dir() and (path / FILE_NAME).is_file():
             folders.append(path)
         elif path.is_dir() and (path / "summary.json").is_file():
-            summary = json.loads((path / "summary.json").read_text(encoding="utf-8"))
+            summary = _read_json(path / "summary.json")
             for log in summary.get("per_log", []):
                 if not log.get("ok", True):
                     raise LogsError(f"{path}: log {log.get('stream')} failed in that run "
@@ -73,11 +84,12 @@ def _labels_of(folder: Path, labels: str | None, single: bool) -> tuple[list[Lab
                             "its run was judged with, or NAME.labels.jsonl beside its stream)")
         path = labels
     else:
-        result = json.loads((folder / "result.json").read_text(encoding="utf-8"))
+        result = _read_json(folder / "result.json")
         truth = result.get("ground_truth") or {}
-        path = truth.get("labels_path")
-        if not path and labels == "auto":
-            sibling = batch.sibling_labels(Path(result["stream"]["path"]))
+        path = truth.get("labels_path") if isinstance(truth, dict) else None
+        stream = (result.get("stream") or {}).get("path")
+        if not path and labels == "auto" and isinstance(stream, str):
+            sibling = batch.sibling_labels(Path(stream))
             path = str(sibling) if sibling else None
     if not path:
         return None

@@ -102,6 +102,13 @@ def test_tune_refuses_what_it_cannot_use(runs, tmp_path, capsys):
     other.write_text(CASE.read_text().replace("signal: els,", "signal: els_typo,"))
     assert cli(["tune", str(other), str(runs), "-o", str(out)]) == 2
     assert "els_typo" in capsys.readouterr().err
+    # a run folder whose result.json is damaged
+    broken = tmp_path / "broken"
+    broken.mkdir()
+    shutil.copy(runs / "highway-tailgating" / "signals.npz", broken / "signals.npz")
+    (broken / "result.json").write_text("{oops")
+    assert cli(["tune", str(CASE), str(broken), "-o", str(out)]) == 2
+    assert "broken/result.json: cannot read it as casewatch output" in capsys.readouterr().err
     # min-precision out of range
     assert cli(["tune", str(CASE), str(runs), "--min-precision", "1.5", "-o", str(out)]) == 2
 

@@ -167,3 +167,12 @@ def test_vectorised_episodes_equal_the_evaluators_on_a_bundled_run(tmp_path):
                   if e.node_id == knob.node_id]  # fmt: skip
         assert mine == theirs, knob.formula_id
     assert json.loads(json.dumps([k.parameter for k in found]))  # plain values
+
+
+def test_an_empty_sweep_names_the_rule():
+    from evaluator.tuning import TuningError
+
+    with pytest.raises(TuningError, match="H: signal 'x' has no value in any log"):
+        sweep(hazard("x < 0.9"), [saved([np.nan] * 5)], [[]])
+    with pytest.raises(TuningError, match="no logs"):
+        sweep(hazard("x < 0.9"), [], [])
