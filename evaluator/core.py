@@ -20,6 +20,7 @@ from evaluator.intervals import RunLength
 from evaluator.result import (
     DataGap,
     Episode,
+    EpisodeOpen,
     FormulaStats,
     NodeStatus,
     Series,
@@ -35,8 +36,8 @@ from spec.model import CompiledFormula, CompiledSpec
 #: `reset()` must work before the first update (it starts every run of samples).
 MonitorFactory = Callable[[CompiledFormula, float], Any]
 
-#: Receives each episode or data gap the moment it closes.
-EventSink = Callable[[Episode | DataGap], None]
+#: Receives each episode at its onset and when it closes, and each data gap when it closes.
+EventSink = Callable[[Episode | EpisodeOpen | DataGap], None]
 
 
 def rtamt_monitor(formula: CompiledFormula, period: float) -> Any:
@@ -146,6 +147,7 @@ class Evaluator:
         if violated:
             state.ticks_violated += 1
         self._emit_episode(state, state.episodes.step(t, robustness))
+        self._emit_onset(state, t)
         state.series.add(t, float(shown) if formula.signal and shown is not None else robustness)
         return "violated" if violated else "ok"
 
@@ -181,6 +183,16 @@ class Evaluator:
         self.episodes.append(episode)
         if self.on_event is not None:
             self.on_event(episode)
+
+    def _emit_onset(self, state: FormulaState, t: float) -> None:
+        opened = state.episodes.onset()
+        if opened is None or self.on_event is None:
+            return
+        formula = state.formula
+        self.on_event(EpisodeOpen(
+            formula_id=formula.id, node_id=formula.node_id, kind=formula.kind,
+            start=round(opened.start, 6), t=round(t, 6), trace=self._trace(formula.node_id),
+        ))  # fmt: skip
 
     def _emit_gap(self, state: FormulaState, closed: ClosedGap | None) -> None:
         if closed is None:

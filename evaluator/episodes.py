@@ -21,6 +21,7 @@ class OpenEpisode:
     ticks: int
     worst_robustness: float
     t_worst: float
+    announced: bool = False  # its onset was reported (`EpisodeTracker.onset`)
 
     def extend(self, t: float, robustness: float) -> None:
         self.end = t
@@ -94,6 +95,18 @@ class EpisodeTracker:
             else:
                 episode.extend(t, robustness)
         return done
+
+    def onset(self) -> OpenEpisode | None:
+        """The open episode, the first time it is certain to be reported: once it lasts
+        `min_duration` (then no closing can drop it). Call after `step`; a live run announces
+        an episode at this tick (`episode_open`) instead of only when it closes."""
+        episode = self.current
+        if episode is None or episode.announced:
+            return None
+        if self._duration(episode) < self.min_duration - 1e-9:
+            return None
+        episode.announced = True
+        return episode
 
     def finish(self) -> ClosedEpisode | None:
         """Close whatever is open at the end of the stream."""

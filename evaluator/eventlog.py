@@ -1,4 +1,5 @@
-"""`events.jsonl`: every episode, hazard event and data gap, written the moment it closes.
+"""`events.jsonl`: every episode and hazard event at its onset and when it closes, and every data
+gap when it closes, each written the moment it happens.
 
 Each event is one complete line written with a single `write` and flushed at once, so a run
 killed at any moment (even `kill -9`) leaves every event that closed before it, and no
@@ -10,12 +11,14 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from evaluator.result import DataGap, Episode
+from evaluator.result import DataGap, Episode, EpisodeOpen
 
 
-def event_record(event: Episode | DataGap) -> dict[str, object]:
+def event_record(event: Episode | EpisodeOpen | DataGap) -> dict[str, object]:
     if isinstance(event, Episode):
         kind = "hazard_event" if event.kind == "hazard" else "spi_episode"
+    elif isinstance(event, EpisodeOpen):
+        kind = "episode_open"
     else:
         kind = "data_gap"
     return {"event": kind, **event.model_dump()}
@@ -27,7 +30,7 @@ class EventLog:
         # A run starts a fresh log; each event is then appended as one flushed line.
         self._fh = open(path, "w", encoding="utf-8")  # noqa: SIM115
 
-    def write(self, event: Episode | DataGap) -> None:
+    def write(self, event: Episode | EpisodeOpen | DataGap) -> None:
         line = json.dumps(event_record(event), separators=(",", ":"), allow_nan=False) + "\n"
         self._fh.write(line)
         self._fh.flush()

@@ -130,6 +130,19 @@ class Episode(_Record):
     trace: list[list[TraceStep]]  # every path from node_id up to the root goal
 
 
+class EpisodeOpen(_Record):
+    """An episode announced at its onset: the tick `t` it became certain (it has lasted the
+    formula's min_duration), with its first violating tick `start`. The episode itself follows
+    as an `Episode` when it closes."""
+
+    formula_id: str
+    node_id: str
+    kind: Literal["spi", "hazard"]
+    start: float
+    t: float
+    trace: list[list[TraceStep]]
+
+
 class DataGap(_Record):
     """Ticks where a formula could not be evaluated because an input had no value."""
 

@@ -26,6 +26,7 @@ from evaluator.result import (
     CaseInfo,
     DataGap,
     Episode,
+    EpisodeOpen,
     RootNoData,
     RunResult,
     StreamDefect,
@@ -56,7 +57,7 @@ class RunOptions:
     strict: bool = False
     labels: Path | None = None
     events_path: Path | None = None  # events.jsonl, appended and flushed as events close
-    on_event: Callable[[Episode | DataGap], None] | None = None
+    on_event: Callable[[Episode | EpisodeOpen | DataGap], None] | None = None
     progress: Callable[[int, float], None] | None = None  # (frames, stream time) every ~1 s
     series_points: int = 1000
     # the largest share of ticks the root goal may be `no-data` before the run is unusable input
@@ -95,7 +96,7 @@ def evaluate_stream(
         raise InputError(f"{source}: cannot read stream: {exc.strerror or exc}") from None
     log = EventLog(options.events_path) if options.events_path else None
 
-    def emit(event: Episode | DataGap) -> None:
+    def emit(event: Episode | EpisodeOpen | DataGap) -> None:
         if log is not None:
             log.write(event)
         if options.on_event is not None:

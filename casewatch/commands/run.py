@@ -20,7 +20,7 @@ from casewatch import api, batch
 from casewatch.commands.common import prepare_case
 from casewatch.crash import INTERNAL_ERROR
 from evaluator.ground_truth import LabelsError
-from evaluator.result import DataGap, Episode, RunResult
+from evaluator.result import DataGap, Episode, EpisodeOpen, RunResult
 from evaluator.session import DEFAULT_MAX_NO_DATA, InputError, RunOptions, evaluate_stream
 from evaluator.signal_store import FILE_NAME as SIGNALS_FILE
 from evaluator.summary import LogSummary
@@ -71,12 +71,18 @@ def _formats(text: str) -> tuple[str, ...]:
     return tuple(parse_formats(text))
 
 
-def event_line(event: Episode | DataGap) -> str:
-    """One line per closed event: node, span, worst robustness and the root-ward trace."""
+def event_line(event: Episode | EpisodeOpen | DataGap) -> str:
+    """One line per event: an onset (node, start, trace), a closed episode (node, span, worst
+    robustness, trace) or a data gap."""
+    if isinstance(event, EpisodeOpen):
+        label = "HAZARD  " if event.kind == "hazard" else "VIOLATED"
+        trace = " | ".join(" -> ".join(step.id for step in path) for path in event.trace)
+        return (f"{label} {event.node_id}  from {event.start:.1f} s (open at {event.t:.1f} s)"
+                f"  trace {trace}")
     if isinstance(event, DataGap):
         return (f"NO DATA  {event.node_id}  {event.start:.1f}-{event.end:.1f} s  "
                 f"({event.ticks} ticks; missing {', '.join(event.missing)})")
-    label = "HAZARD " if event.kind == "hazard" else "VIOLATED"
+    label = "ENDED   "
     trace = " | ".join(" -> ".join(step.id for step in path) for path in event.trace)
     return (f"{label} {event.node_id}  {event.start:.1f}-{event.end:.1f} s  "
             f"worst {event.worst_robustness:+.3f} at {event.t_worst:.1f} s  trace {trace}")
@@ -109,8 +115,8 @@ def _run_single(args, case, spec, formats: tuple[str, ...]) -> int:
     live = stream == "-"
     labels = batch.labels_for(stream, args.labels)
 
-    def on_event(event: Episode | DataGap) -> None:
-        if live and not args.quiet and isinstance(event, Episode):
+    def on_event(event: Episode | EpisodeOpen | DataGap) -> None:
+        if live and not args.quiet and isinstance(event, Episode | EpisodeOpen):
             print(event_line(event), flush=True)
 
     def progress(frames: int, t: float) -> None:

@@ -72,23 +72,26 @@ def test_defects_are_kept_not_dropped_without_strict(tmp_path):
     assert result["stream"]["defects"][0]["line"] == 2
 
 
-def _feed_until_episode(proc: subprocess.Popen, frames: int) -> tuple[str, int]:
-    """Feed frames one by one; return the first episode line printed and frames fed so far."""
+def _feed_until_episode(
+    proc: subprocess.Popen, frames: int, marker: str = "ENDED", start: int = 0, wait_from: int = 35
+) -> tuple[str, int]:
+    """Feed frames one by one from `start` until a line with `marker` is printed; return what
+    was printed and the frames fed so far."""
     assert proc.stdin is not None and proc.stdout is not None
     os.set_blocking(proc.stdout.fileno(), False)
     printed = ""
-    for i in range(frames):
+    for i in range(start, frames):
         proc.stdin.write(json.dumps(frame(i)) + "\n")
         proc.stdin.flush()
-        deadline = time.monotonic() + (0.2 if i > 35 else 0.0)
+        deadline = time.monotonic() + (0.2 if i > wait_from else 0.0)
         while True:
             chunk = proc.stdout.readline()
             if chunk:
                 printed += chunk
-            if "VIOLATED" in printed or time.monotonic() >= deadline:
+            if marker in printed or time.monotonic() >= deadline:
                 break
             time.sleep(0.01)
-        if "VIOLATED" in printed:
+        if marker in printed:
             return printed, i + 1
     return printed, frames
 
@@ -98,10 +101,15 @@ def test_live_mode_prints_the_episode_before_the_input_ends(tmp_path):
     proc = casewatch_process("run", str(case), "-", "-o", str(tmp_path / "out"),
                              "--format", "none")
     try:
-        printed, fed = _feed_until_episode(proc, 100)
-        # The episode (2.0-3.0 s) can close once merge_gap (1 s) of clean time has passed,
-        # at t = 4.0 s, i.e. frame 40: well before the 100 frames end.
-        assert "VIOLATED Sn1  2.0-3.0 s" in printed and "trace Sn1 -> G2 -> S1 -> G1" in printed
+        # The onset is announced the tick the episode opens (t = 2.0 s, frame 20; the case's
+        # min_duration is 0)...
+        printed, fed = _feed_until_episode(proc, 100, "VIOLATED", wait_from=15)
+        assert "VIOLATED Sn1  from 2.0 s (open at 2.0 s)  trace Sn1 -> G2 -> S1 -> G1" in printed
+        assert fed <= 25
+        # ...and the episode (2.0-3.0 s) when it closes, once merge_gap (1 s) of clean time has
+        # passed, at t = 4.0 s, i.e. frame 40: well before the 100 frames end.
+        printed, fed = _feed_until_episode(proc, 100, "ENDED", start=fed)
+        assert "ENDED    Sn1  2.0-3.0 s" in printed and "trace Sn1 -> G2 -> S1 -> G1" in printed
         assert fed < 60
         for i in range(fed, 100):
             proc.stdin.write(json.dumps(frame(i)) + "\n")
@@ -117,7 +125,7 @@ def test_kill_9_keeps_every_closed_episode_and_no_truncated_line(tmp_path):
     proc = casewatch_process("run", str(case), "-", "-o", str(out), "--format", "none")
     try:
         printed, _ = _feed_until_episode(proc, 100)
-        assert "VIOLATED Sn1" in printed
+        assert "ENDED    Sn1" in printed
         proc.send_signal(signal.SIGKILL)
         proc.wait(timeout=30)
     finally:
@@ -126,9 +134,10 @@ def test_kill_9_keeps_every_closed_episode_and_no_truncated_line(tmp_path):
     raw = (out / "events.jsonl").read_text()
     assert raw.endswith("\n")
     events = [json.loads(line) for line in raw.splitlines()]
-    assert [(e["event"], e["node_id"], e["start"], e["end"]) for e in events] == [
-        ("spi_episode", "Sn1", 2.0, 3.0)
+    assert [(e["event"], e["node_id"], e["start"], e.get("end")) for e in events] == [
+        ("episode_open", "Sn1", 2.0, None), ("spi_episode", "Sn1", 2.0, 3.0)
     ]
+    assert events[0]["t"] == 2.0 and events[0]["trace"] == events[1]["trace"]
     assert not (out / "result.json").exists()
 
 

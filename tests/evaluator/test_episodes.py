@@ -65,3 +65,23 @@ def test_episode_is_returned_when_merge_window_passes_not_before():
     # at 0.3 a violation from 0.4 on would be 0.3 s of clean time away: no merge possible
     done = tracker.step(0.3, 1)
     assert done is not None and (done.start, done.end) == (0.0, 0.0)
+
+
+def test_onset_is_announced_once_the_episode_is_certain():
+    # min_duration 0.3 s, merge_gap 0.5 s, period 0.1 s: ticks 0.0 and 0.1 violate (0.2 s, not
+    # yet certain), 0.2 is clean, 0.3 violates again: the same episode, now 0.4 s long, so it
+    # is announced at 0.3 s with its start 0.0; later ticks do not announce it again
+    from evaluator.episodes import EpisodeTracker
+
+    tracker = EpisodeTracker(0.5, 0.3, 0.1)
+    seen = []
+    for t, rho in ((0.0, -1.0), (0.1, -1.0), (0.2, 1.0), (0.3, -1.0), (0.4, -1.0)):
+        tracker.step(t, rho)
+        opened = tracker.onset()
+        seen.append(None if opened is None else (t, opened.start))
+    assert seen == [None, None, None, (0.3, 0.0), None]
+    # a violation shorter than min_duration is never announced (and then dropped)
+    short = EpisodeTracker(0.5, 0.3, 0.1)
+    short.step(0.0, -1.0)
+    assert short.onset() is None
+    assert short.step(1.0, 1.0) is None and short.onset() is None and short.dropped == 1
