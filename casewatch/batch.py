@@ -89,6 +89,7 @@ class Job:
     formats: tuple[str, ...]
     max_no_data: float = DEFAULT_MAX_NO_DATA
     save_signals: bool = False
+    fail_on: str = "any"
 
 
 def run_job(job: Job) -> LogSummary:
@@ -106,6 +107,7 @@ def run_job(job: Job) -> LogSummary:
             events_path=out / "events.jsonl",
             max_no_data=job.max_no_data,
             signals_path=out / SIGNALS_FILE if job.save_signals else None,
+            fail_on=job.fail_on,
         )
         result = evaluate_stream(case, spec, job.stream, options)
         api.write_result(result, out)
@@ -135,6 +137,7 @@ def run_many(
     on_done: Callable[[LogSummary], None] | None = None,
     max_no_data: float = DEFAULT_MAX_NO_DATA,
     save_signals: bool = False,
+    fail_on: str = "any",
 ) -> dict[str, object]:
     """Judge every stream (in `jobs` processes) and write `out_dir/summary.json`; with
     `save_signals`, each log's folder keeps its `signals.npz` too."""
@@ -148,7 +151,7 @@ def run_many(
         used.add(name)
         work.append(Job(case_path, str(stream), str(out_dir / name),
                         labels_for(str(stream), labels),
-                        strict, tuple(formats), max_no_data, save_signals))
+                        strict, tuple(formats), max_no_data, save_signals, fail_on))
     results: list[LogSummary] = []
     if jobs <= 1:
         for job in work:

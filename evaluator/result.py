@@ -266,4 +266,6 @@ class RunResult(_Record):
     ground_truth: GroundTruth | None = None
     timings: Timings = Timings()
     complete: bool = True  # False when the run stopped early (interrupted, strict-mode defect)
+    # which episodes fail the run (evaluator.policy): the exit code and JUnit's failures
+    fail_on: Literal["any", "hazard", "spi", "never"] = "any"
     root_no_data: RootNoData | None = None  # None in results written before it existed

@@ -64,6 +64,7 @@ class RunOptions:
     max_no_data: float = DEFAULT_MAX_NO_DATA
     # where to save every per-tick signal value (`signals.npz`, evaluator.signal_store); None: not
     signals_path: Path | None = None
+    fail_on: str = "any"  # which episodes fail the run (evaluator.policy), recorded in the result
 
 
 @dataclass
@@ -212,6 +213,7 @@ def evaluate_stream(
             peak_rss_mib=peak_rss_mib(),
         ),
         complete=complete,
+        fail_on=options.fail_on,
         root_no_data=RootNoData(
             ticks=root_ticks,
             no_data_ticks=no_data_ticks,

@@ -1,7 +1,9 @@
 """JUnit XML: the run as a test suite, so CI systems show violated evidence like failed tests.
 
-One test case per SPI node and per hazard node; it fails when its formula had any episode, and
-the failure holds the worst episode (span, worst robustness) and its trace. A formula that was
+One test case per SPI node and per hazard node; it fails when its formula had any episode that
+the run's `--fail-on` policy counts (evaluator.policy), and the failure holds the worst episode
+(span, worst robustness) and its trace; episodes the policy does not count are listed in the
+test's output. A formula that was
 never evaluated (no tick had data) is an error, not a pass: missing data is never a success.
 Built with xml.etree so the output is always well-formed; characters XML 1.0 forbids are dropped.
 """
@@ -11,6 +13,7 @@ from __future__ import annotations
 import re
 import xml.etree.ElementTree as ET
 
+from evaluator.policy import gated
 from evaluator.result import Episode, FormulaStats, RunResult
 from reports.view import fmt_share, fmt_time
 
@@ -37,7 +40,12 @@ def _trace_lines(e: Episode) -> list[str]:
 
 
 def _case(
-    suite: ET.Element, classname: str, formula: FormulaStats, episodes: list[Episode], period: float
+    suite: ET.Element,
+    classname: str,
+    formula: FormulaStats,
+    episodes: list[Episode],
+    period: float,
+    fail_on: str = "any",
 ) -> tuple[int, int]:
     """Add one test case; returns (failures, errors) it adds."""
     name = f"{formula.node_id}: {formula.node_text}"
@@ -50,6 +58,12 @@ def _case(
         f"({fmt_share(formula.ticks_violated, formula.ticks_evaluated)}), without data "
         f"{formula.ticks_no_data}",
     ]
+    if episodes and not gated(formula.kind, fail_on):
+        noun = "episode" if formula.kind == "spi" else "event"
+        worst = min(episodes, key=lambda e: e.worst_robustness)
+        out.append(f"{len(episodes)} {noun}{'s' if len(episodes) != 1 else ''}, not counted as "
+                   f"failures (--fail-on {fail_on}); worst {_episode_line(worst)}")
+        episodes = []
     ET.SubElement(case, "system-out").text = xml_text("\n".join(out))
     if episodes:
         worst = min(episodes, key=lambda e: e.worst_robustness)
@@ -97,6 +111,7 @@ def render_junit(result: RunResult) -> str:
         ("stream_digest", result.stream.digest or "not hashed"),
         ("frames", result.stream.frames_read),
         ("complete", str(result.complete).lower()),
+        ("fail_on", result.fail_on),
     ):
         ET.SubElement(props, "property", name=key, value=xml_text(value))
     by_formula: dict[str, list[Episode]] = {}
@@ -112,6 +127,7 @@ def render_junit(result: RunResult) -> str:
                 formula,
                 by_formula.get(formula.id, []),
                 result.case.period,
+                result.fail_on,
             )
             tests, failures, errors = tests + 1, failures + f_count, errors + e_count
     if not result.complete:

@@ -6,6 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from evaluator.policy import FAIL_ON
 from reports.render import FORMATS, ResultError, load_result, parse_formats, render_reports
 
 
@@ -22,6 +23,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         default=",".join(FORMATS),
         help=f"comma-separated formats to write (default and valid: {','.join(FORMATS)})",
     )
+    parser.add_argument("--fail-on", choices=FAIL_ON, default=None,
+                        help="which episodes JUnit counts as failures (default: the run's own "
+                             "--fail-on, recorded in result.json)")  # fmt: skip
 
 
 def main(args: argparse.Namespace) -> int:
@@ -44,6 +48,8 @@ def main(args: argparse.Namespace) -> int:
     except ResultError as exc:
         print(f"casewatch report: {exc}", file=sys.stderr)
         return 2
+    if args.fail_on is not None:
+        result.fail_on = args.fail_on
     try:
         written = render_reports(result, outdir, formats)
     except OSError as exc:

@@ -20,6 +20,7 @@ from casewatch import api, batch
 from casewatch.commands.common import prepare_case
 from casewatch.crash import INTERNAL_ERROR
 from evaluator.ground_truth import LabelsError
+from evaluator.policy import FAIL_ON, gated
 from evaluator.result import DataGap, Episode, EpisodeOpen, RunResult
 from evaluator.session import DEFAULT_MAX_NO_DATA, InputError, RunOptions, evaluate_stream
 from evaluator.signal_store import FILE_NAME as SIGNALS_FILE
@@ -47,6 +48,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--format", default=",".join(FORMATS),
                    help="reports to write: any of html,md,junit, or 'none' (default: all)")
     p.add_argument("--quiet", action="store_true", help="no progress or event lines")
+    p.add_argument("--fail-on", choices=FAIL_ON, default="any",
+                   help="which episodes make the run exit 1 and fail in JUnit: any (default), "
+                        "hazard (hazard events only), spi, never")  # fmt: skip
     p.add_argument("--save-signals", action="store_true",
                    help="keep every per-tick signal value in OUT/signals.npz (for casewatch "
                         "tune and calibrate)")
@@ -131,6 +135,7 @@ def _run_single(args, case, spec, formats: tuple[str, ...]) -> int:
         progress=None if live else progress,
         max_no_data=args.max_no_data,
         signals_path=args.out / SIGNALS_FILE if args.save_signals else None,
+        fail_on=args.fail_on,
     )
     warm_up()  # compiled kernels ready before the first frame (matters for a live stream)
     try:
@@ -155,7 +160,7 @@ def _run_single(args, case, spec, formats: tuple[str, ...]) -> int:
               "--max-no-data); the stream cannot vouch for the case: unusable input, not a "
               "pass", file=sys.stderr)
         return 2
-    return 1 if result.episodes else 0
+    return 1 if any(gated(e.kind, args.fail_on) for e in result.episodes) else 0
 
 
 def _print_summary(result: RunResult, path: Path, written: dict[str, Path]) -> None:
@@ -208,7 +213,7 @@ def _run_many(args, case, formats: tuple[str, ...]) -> int:
 
     summary = batch.run_many(args.case, case.digest, streams, args.out, args.jobs,
                              args.labels, args.strict, formats, on_done, args.max_no_data,
-                             args.save_signals)  # fmt: skip
+                             args.save_signals, args.fail_on)  # fmt: skip
     if not args.quiet:
         print(f"{summary['logs']} logs, {summary['hours']:.3f} h judged, "
               f"{summary['logs_failed']} failed, {summary['logs_without_data']} with too little "
@@ -217,5 +222,6 @@ def _run_many(args, case, formats: tuple[str, ...]) -> int:
         return INTERNAL_ERROR
     if summary["logs_failed"] or summary["logs_without_data"]:
         return 2
-    episodes = sum(int(f["episodes"]) for f in summary["formulas"])
+    episodes = sum(int(f["episodes"]) for f in summary["formulas"]
+                   if gated(f["kind"], args.fail_on))  # fmt: skip
     return 1 if episodes else 0

@@ -167,3 +167,30 @@ def test_many_logs_write_one_result_each_and_a_summary(tmp_path, jobs):
     assert truth["logs"] == 1
     assert truth["overall"] == {"hazard": "all", "true_positives": 0, "false_positives": 0,
                                 "false_negatives": 1, "precision": None, "recall": 0.0}
+
+
+def test_fail_on_policy_sets_the_exit_code_and_junit(tmp_path):
+    """The hand-made stream has one SPI episode (Sn1, 2.0-3.0 s) and no hazard event."""
+    case = write_case(tmp_path / "case.yaml")
+    stream = write_stream(tmp_path / "s.jsonl")
+    codes = {}
+    for policy in ("any", "hazard", "spi", "never"):
+        out = tmp_path / policy
+        codes[policy] = main(["run", str(case), str(stream), "-o", str(out), "--format", "junit",
+                              "--quiet", "--fail-on", policy])  # fmt: skip
+        result = json.loads((out / "result.json").read_text())
+        assert result["fail_on"] == policy
+        assert [e["kind"] for e in result["episodes"]] == ["spi"]
+    assert codes == {"any": 1, "hazard": 0, "spi": 1, "never": 0}
+    gated = (tmp_path / "any" / "junit.xml").read_text()
+    waved = (tmp_path / "hazard" / "junit.xml").read_text()
+    assert 'failures="1"' in gated and "<failure" in gated
+    assert 'failures="0"' in waved and "<failure" not in waved
+    assert "1 episode, not counted as failures (--fail-on hazard)" in waved
+    # re-rendering with another policy follows it
+    assert main(["report", str(tmp_path / "hazard"), "--format", "junit", "--fail-on",
+                 "any"]) == 0  # fmt: skip
+    assert 'failures="1"' in (tmp_path / "hazard" / "junit.xml").read_text()
+    # an unknown policy is a usage error
+    assert main(["run", str(case), str(stream), "-o", str(tmp_path / "x"), "--fail-on",
+                 "hazards"]) == 2  # fmt: skip

@@ -1,0 +1,19 @@
+"""Which episodes fail a run: the `--fail-on` policy of `casewatch run` and `casewatch diff`.
+
+`any` (the default): every SPI episode and hazard event; `hazard`: hazard events only (SPI
+episodes are reported, a CI job passes); `spi`: SPI episodes only; `never`: nothing fails on
+episodes (input that cannot be used still exits 2). JUnit marks only the gated formulas as
+failures, so a CI system shows what the exit code counted.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+FailOn = Literal["any", "hazard", "spi", "never"]
+FAIL_ON: tuple[str, ...] = ("any", "hazard", "spi", "never")
+
+
+def gated(kind: str, policy: str) -> bool:
+    """True when an episode of `kind` ("spi" or "hazard") fails a run under `policy`."""
+    return policy == "any" or policy == kind
