@@ -14,7 +14,7 @@ import sys
 from casewatch import __version__
 from casewatch.crash import report_crash
 
-COMMANDS = ("check", "compile", "run", "report", "tune", "calibrate")
+COMMANDS = ("check", "compile", "run", "report", "tune", "calibrate", "diff")
 
 
 def build_parser() -> tuple[argparse.ArgumentParser, dict[str, object]]:

@@ -96,21 +96,29 @@ def match_counts(
     """(TP, FP, FN) of detected intervals against labelled ones: an event and a label match
     when they overlap (closed intervals), each at most once, as many pairs as possible (a
     maximum bipartite matching). `casewatch tune` scores its candidates with this too."""
-    if not detected or not truth:
-        return 0, len(detected), len(truth)
+    tp = len(match_pairs(detected, truth))
+    return tp, len(detected) - tp, len(truth) - tp
+
+
+def match_pairs(
+    first: list[tuple[float, float]], second: list[tuple[float, float]]
+) -> list[tuple[int, int]]:
+    """The matched (index in first, index in second) pairs of `match_counts`'s matching,
+    sorted (`casewatch diff` pairs two runs' episodes with it)."""
+    if not first or not second:
+        return []
     graph = nx.Graph()
-    events_side = [("event", i) for i in range(len(detected))]
+    events_side = [("event", i) for i in range(len(first))]
     graph.add_nodes_from(events_side)
-    graph.add_nodes_from(("label", j) for j in range(len(truth)))
-    for i, (start, end) in enumerate(detected):
-        for j, (label_start, label_end) in enumerate(truth):
+    graph.add_nodes_from(("label", j) for j in range(len(second)))
+    for i, (start, end) in enumerate(first):
+        for j, (label_start, label_end) in enumerate(second):
             if start <= label_end and label_start <= end:
                 graph.add_edge(("event", i), ("label", j))
     if graph.number_of_edges() == 0:
-        return 0, len(detected), len(truth)
+        return []
     matching = nx.bipartite.hopcroft_karp_matching(graph, top_nodes=events_side)
-    tp = sum(1 for node in matching if node[0] == "event")
-    return tp, len(detected) - tp, len(truth) - tp
+    return sorted((node[1], other[1]) for node, other in matching.items() if node[0] == "event")
 
 
 def score_events(
