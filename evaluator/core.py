@@ -22,6 +22,7 @@ from evaluator.result import (
     Episode,
     EpisodeOpen,
     FormulaStats,
+    NearMiss,
     NodeStatus,
     Series,
     StatusInterval,
@@ -37,7 +38,7 @@ from spec.model import CompiledFormula, CompiledSpec
 MonitorFactory = Callable[[CompiledFormula, float], Any]
 
 #: Receives each episode at its onset and when it closes, and each data gap when it closes.
-EventSink = Callable[[Episode | EpisodeOpen | DataGap], None]
+EventSink = Callable[[Episode | EpisodeOpen | NearMiss | DataGap], None]
 
 
 def rtamt_monitor(formula: CompiledFormula, period: float) -> Any:
@@ -60,6 +61,7 @@ class FormulaState:
     ticks_evaluated: int = 0
     ticks_violated: int = 0
     ticks_no_data: int = 0
+    near: EpisodeTracker | None = None  # near misses, for a formula with a warning margin
     worst: float | None = None
     t_worst: float | None = None
 
@@ -86,9 +88,11 @@ class Evaluator:
                 monitor=monitor_factory(f, spec.period),
                 episodes=EpisodeTracker(f.merge_gap, f.min_duration, spec.period),
                 series=DecimatedSeries(spec.period, series_points),
+                near=EpisodeTracker(f.merge_gap, f.min_duration, spec.period) if f.warn else None,
             )
             for f in spec.formulas
         ]
+        self.near_misses: list[NearMiss] = []
         self.propagator = StatusPropagator(case, {f.node_id: f.id for f in spec.formulas})
         self.timelines = {node_id: RunLength() for node_id in case.nodes}
         self.episodes: list[Episode] = []
@@ -129,6 +133,8 @@ class Evaluator:
             state.gaps.missing(t, missing)
             state.fresh = True
             self._emit_episode(state, state.episodes.step(t, None))
+            if state.near is not None:
+                self._emit_near(state, state.near.step(t, None))
             state.series.add(t, None)
             return "no-data"
         self._emit_gap(state, state.gaps.close())
@@ -148,6 +154,10 @@ class Evaluator:
             state.ticks_violated += 1
         self._emit_episode(state, state.episodes.step(t, robustness))
         self._emit_onset(state, t)
+        if state.near is not None:
+            # inside the margin: how far below it (negative), else clear of it
+            inside = 0.0 <= robustness < formula.warn
+            self._emit_near(state, state.near.step(t, robustness - formula.warn if inside else 1.0))
         state.series.add(t, float(shown) if formula.signal and shown is not None else robustness)
         return "violated" if violated else "ok"
 
@@ -183,6 +193,21 @@ class Evaluator:
         self.episodes.append(episode)
         if self.on_event is not None:
             self.on_event(episode)
+
+    def _emit_near(self, state: FormulaState, closed: ClosedEpisode | None) -> None:
+        if closed is None:
+            return
+        formula = state.formula
+        near = NearMiss(
+            formula_id=formula.id, node_id=formula.node_id, kind=formula.kind,
+            start=round(closed.start, 6), end=round(closed.end, 6), ticks=closed.ticks,
+            least_robustness=round(closed.worst_robustness + formula.warn, 12),
+            t_least=round(closed.t_worst, 6), warn=formula.warn,
+            trace=self._trace(formula.node_id),
+        )  # fmt: skip
+        self.near_misses.append(near)
+        if self.on_event is not None:
+            self.on_event(near)
 
     def _emit_onset(self, state: FormulaState, t: float) -> None:
         opened = state.episodes.onset()
@@ -221,8 +246,11 @@ class Evaluator:
         """Close every open episode and gap (emitting them)."""
         for state in self.states:
             self._emit_episode(state, state.episodes.finish())
+            if state.near is not None:
+                self._emit_near(state, state.near.finish())
             self._emit_gap(state, state.gaps.close())
         self.episodes.sort(key=lambda e: (e.start, e.formula_id))
+        self.near_misses.sort(key=lambda e: (e.start, e.formula_id))
         self.data_gaps.sort(key=lambda g: (g.start, g.formula_id))
 
     def formula_stats(self) -> list[FormulaStats]:

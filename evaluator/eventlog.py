@@ -11,14 +11,18 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from evaluator.result import DataGap, Episode, EpisodeOpen
+from evaluator.result import DataGap, Episode, EpisodeOpen, NearMiss
+
+Event = Episode | EpisodeOpen | NearMiss | DataGap
 
 
-def event_record(event: Episode | EpisodeOpen | DataGap) -> dict[str, object]:
+def event_record(event: Event) -> dict[str, object]:
     if isinstance(event, Episode):
         kind = "hazard_event" if event.kind == "hazard" else "spi_episode"
     elif isinstance(event, EpisodeOpen):
         kind = "episode_open"
+    elif isinstance(event, NearMiss):
+        kind = "near_miss"
     else:
         kind = "data_gap"
     return {"event": kind, **event.model_dump()}
@@ -30,7 +34,7 @@ class EventLog:
         # A run starts a fresh log; each event is then appended as one flushed line.
         self._fh = open(path, "w", encoding="utf-8")  # noqa: SIM115
 
-    def write(self, event: Episode | EpisodeOpen | DataGap) -> None:
+    def write(self, event: Event) -> None:
         line = json.dumps(event_record(event), separators=(",", ":"), allow_nan=False) + "\n"
         self._fh.write(line)
         self._fh.flush()

@@ -130,6 +130,23 @@ class Episode(_Record):
     trace: list[list[TraceStep]]  # every path from node_id up to the root goal
 
 
+class NearMiss(_Record):
+    """Ticks where a formula held, but by less than its warning margin (`warn:`): robustness in
+    [0, warn). Formed like episodes (merge_gap, min_duration); reported, never a violation,
+    never a change of any node's status."""
+
+    formula_id: str
+    node_id: str
+    kind: Literal["spi", "hazard"]
+    start: float
+    end: float
+    ticks: int
+    least_robustness: float  # the smallest robustness inside the near miss (>= 0)
+    t_least: float
+    warn: float
+    trace: list[list[TraceStep]]
+
+
 class EpisodeOpen(_Record):
     """An episode announced at its onset: the tick `t` it became certain (it has lasted the
     formula's min_duration), with its first violating tick `start`. The episode itself follows
@@ -259,6 +276,7 @@ class RunResult(_Record):
     verdict: Status  # the root goal's worst status over the run
     formulas: list[FormulaStats]
     episodes: list[Episode]  # every SPI episode and hazard event, by start time
+    near_misses: list[NearMiss] = []  # formulas with `warn:`, by start time; never violations
     data_gaps: list[DataGap]
     status: list[NodeStatus]
     series: list[Series]

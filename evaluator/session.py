@@ -17,16 +17,13 @@ from pathlib import Path
 
 from casewatch import __version__
 from evaluator.core import Evaluator
-from evaluator.eventlog import EventLog
+from evaluator.eventlog import Event, EventLog
 from evaluator.ground_truth import read_labels, score_events
 from evaluator.inputs import open_hashed
 from evaluator.intervals import RunLength
 from evaluator.result import (
     ArbitrationInterval,
     CaseInfo,
-    DataGap,
-    Episode,
-    EpisodeOpen,
     RootNoData,
     RunResult,
     StreamDefect,
@@ -57,7 +54,7 @@ class RunOptions:
     strict: bool = False
     labels: Path | None = None
     events_path: Path | None = None  # events.jsonl, appended and flushed as events close
-    on_event: Callable[[Episode | EpisodeOpen | DataGap], None] | None = None
+    on_event: Callable[[Event], None] | None = None
     progress: Callable[[int, float], None] | None = None  # (frames, stream time) every ~1 s
     series_points: int = 1000
     # the largest share of ticks the root goal may be `no-data` before the run is unusable input
@@ -97,7 +94,7 @@ def evaluate_stream(
         raise InputError(f"{source}: cannot read stream: {exc.strerror or exc}") from None
     log = EventLog(options.events_path) if options.events_path else None
 
-    def emit(event: Episode | EpisodeOpen | DataGap) -> None:
+    def emit(event: Event) -> None:
         if log is not None:
             log.write(event)
         if options.on_event is not None:
@@ -194,6 +191,7 @@ def evaluate_stream(
         verdict=root.worst if root.timeline else "no-data",
         formulas=evaluator.formula_stats(),
         episodes=evaluator.episodes,
+        near_misses=evaluator.near_misses,
         data_gaps=evaluator.data_gaps,
         status=statuses,
         series=evaluator.series(),

@@ -172,6 +172,17 @@ def render_markdown(result: RunResult) -> str:
         out += _trace(e.trace)
     if len(view.episodes) > MD_EPISODE_CAP:
         out += ["", f"… and {len(view.episodes) - MD_EPISODE_CAP} more episodes (see report.html)."]
+    if result.near_misses:
+        out += ["", f"## Near misses ({len(result.near_misses)})", "",
+                "Formulas with a warning margin (`warn:`) that held, but by less than the "
+                "margin: reported, never violations.", ""]  # fmt: skip
+        out += _table(
+            ["node", "from", "to", "ticks", "least robustness", "margin"],
+            [[md_escape(n.node_id), fmt_time(n.start), fmt_time(n.end), str(n.ticks),
+              f"{n.least_robustness:.4g}", f"{n.warn:g}"]
+             for n in result.near_misses[:MD_EPISODE_CAP]],
+            ["l", "r", "r", "r", "r", "r"],
+        )  # fmt: skip
     out += ["", f"## Data gaps ({len(result.data_gaps)})", ""]
     if view.gaps.shown:
         out += _table(

@@ -40,6 +40,7 @@ _TABLE: tuple[tuple[str, Severity, str], ...] = (
     ("CW013", "error", "unknown key"),
     ("CW014", "error", "missing required key"),
     ("CW016", "error", "malformed threshold"),
+    ("CW015", "error", "malformed warning margin (`warn`): not a finite number above 0"),
     ("CW017", "error", "malformed duration"),
     ("CW018", "error", "`spi` needs `signal` + `threshold` or `stl`, not both, not neither"),
     ("CW019", "error", "invalid channel set"),

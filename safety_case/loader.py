@@ -62,6 +62,7 @@ _CODE_BY_ERROR = {
     "missing": "CW014",
     "malformed_threshold": "CW016",
     "malformed_duration": "CW017",
+    "malformed_margin": "CW015",
     "spi_shape": "CW018",
     "channels": "CW019",
     "declared_signal": "CW025",
@@ -372,6 +373,7 @@ class _Builder:
             stl=raw.spi.stl,
             merge_gap=raw.spi.merge_gap,
             min_duration=raw.spi.min_duration,
+            warn=raw.spi.warn,
             mark=entries["spi"].key_mark,
             formula_mark=spi_entries[formula_key].value.content_mark,
         )
@@ -384,6 +386,7 @@ class _Builder:
             when=raw.hazard.when,
             merge_gap=raw.hazard.merge_gap,
             min_duration=raw.hazard.min_duration,
+            warn=raw.hazard.warn,
             mark=entries["hazard"].key_mark,
             formula_mark=hazard_entries["when"].value.content_mark,
         )

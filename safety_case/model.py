@@ -92,6 +92,8 @@ class SpiBinding(BaseModel):
     stl: str | None = None
     merge_gap: float | None = None  # seconds; None = the case default
     min_duration: float | None = None  # seconds; None = the case default
+    # near-miss margin in robustness units: 0 <= robustness < warn forms near_miss episodes
+    warn: float | None = None
     mark: Mark = Mark()  # position of the `spi:` key
     formula_mark: Mark = Mark()  # position of the `stl` / `signal` value (formula text start)
 
@@ -103,6 +105,7 @@ class HazardBinding(BaseModel):
     when: str
     merge_gap: float | None = None
     min_duration: float | None = None
+    warn: float | None = None  # near-miss margin (robustness units of `not when`)
     mark: Mark = Mark()
     formula_mark: Mark = Mark()  # position of the `when` value
 

@@ -148,10 +148,30 @@ def _describe(value: object) -> str:
 
 describe_value = _describe
 
+#: Largest warning margin a case may write (robustness units: the formula's own).
+MAX_MARGIN = 1e6
+
+
+def _optional_margin(raw: object) -> float | None:
+    """`warn:` (a near-miss margin in the formula's robustness units): a finite number > 0."""
+    if raw is None:
+        return None
+    value = float(raw) if isinstance(raw, int | float) and not isinstance(raw, bool) else None
+    if value is None or not math.isfinite(value) or not 0 < value <= MAX_MARGIN:
+        raise PydanticCustomError(
+            "malformed_margin",
+            "expected a warning margin: a number above 0 and at most 1e6, in the units of the "
+            "formula's robustness (e.g. 0.1 for `els >= 0.6`), got {got}",
+            {"got": _describe(raw)},
+        )
+    return value
+
+
 Duration = Annotated[float, BeforeValidator(parse_duration)]
 OptionalDuration = Annotated[float | None, BeforeValidator(_optional_duration)]
 PositiveDuration = Annotated[float, BeforeValidator(_positive_duration)]
 OptionalThreshold = Annotated[Threshold | None, BeforeValidator(_optional_threshold)]
+OptionalMargin = Annotated[float | None, BeforeValidator(_optional_margin)]
 IdList = Annotated[list[StrictStr], BeforeValidator(_as_list)]
 Text = Annotated[StrictStr, Field(min_length=1)]
 
@@ -166,6 +186,7 @@ class RawSpi(BaseModel):
     stl: Text | None = None
     merge_gap: OptionalDuration = None
     min_duration: OptionalDuration = None
+    warn: OptionalMargin = None
 
     @model_validator(mode="after")
     def _one_binding(self) -> RawSpi:
@@ -201,6 +222,7 @@ class RawHazard(BaseModel):
     when: Text
     merge_gap: OptionalDuration = None
     min_duration: OptionalDuration = None
+    warn: OptionalMargin = None
 
 
 class RawNode(BaseModel):

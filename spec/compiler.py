@@ -57,6 +57,7 @@ class _Source:
     binding_mark: Mark  # the `spi:` / `hazard:` key
     merge_gap: float | None
     min_duration: float | None
+    warn: float | None = None
 
 
 def _period_ok(case: Case) -> tuple[Fraction | None, list[Finding]]:
@@ -100,6 +101,7 @@ def _spi_source(case: Case, node: Node, spi: SpiBinding) -> _Source | Finding:
         "binding_mark": spi.mark,
         "merge_gap": spi.merge_gap,
         "min_duration": spi.min_duration,
+        "warn": spi.warn,
     }
     if spi.stl is not None and spi.signal is None:
         return _Source(text=spi.stl, formula=None, **common)  # type: ignore[arg-type]
@@ -133,6 +135,7 @@ def _hazard_source(node: Node, hazard: HazardBinding) -> _Source:
         binding_mark=hazard.mark,
         merge_gap=hazard.merge_gap,
         min_duration=hazard.min_duration,
+        warn=hazard.warn,
     )
 
 
@@ -302,6 +305,7 @@ def _compile_one(
         min_duration=(
             src.min_duration if src.min_duration is not None else case.monitor.min_duration
         ),
+        warn=src.warn or 0.0,
         horizon=float(past_horizon(monitored, period) * period),
         future_horizon=float(future_depth(monitored, period) * period),
     )

@@ -35,6 +35,9 @@ class CompiledFormula(BaseModel):
     threshold: str | None = None  # e.g. ">= 0.6", when bound by signal + threshold
     merge_gap: float  # seconds, resolved against the case default
     min_duration: float  # seconds, resolved against the case default
+    # near-miss margin (robustness units): 0 <= robustness < warn forms near_miss episodes;
+    # 0 = none
+    warn: float = 0.0
     horizon: float = 0.0  # seconds of past the formula looks at (for warm-up accounting)
     # seconds the formula looks ahead (0 online; offline, a verdict at t needs data to t + this)
     future_horizon: float = 0.0

@@ -19,9 +19,10 @@ from pathlib import Path
 from casewatch import api, batch
 from casewatch.commands.common import prepare_case
 from casewatch.crash import INTERNAL_ERROR
+from evaluator.eventlog import Event
 from evaluator.ground_truth import LabelsError
 from evaluator.policy import FAIL_ON, gated
-from evaluator.result import DataGap, Episode, EpisodeOpen, RunResult
+from evaluator.result import DataGap, Episode, EpisodeOpen, NearMiss, RunResult
 from evaluator.session import DEFAULT_MAX_NO_DATA, InputError, RunOptions, evaluate_stream
 from evaluator.signal_store import FILE_NAME as SIGNALS_FILE
 from evaluator.summary import LogSummary
@@ -75,7 +76,7 @@ def _formats(text: str) -> tuple[str, ...]:
     return tuple(parse_formats(text))
 
 
-def event_line(event: Episode | EpisodeOpen | DataGap) -> str:
+def event_line(event: Event) -> str:
     """One line per event: an onset (node, start, trace), a closed episode (node, span, worst
     robustness, trace) or a data gap."""
     if isinstance(event, EpisodeOpen):
@@ -83,6 +84,10 @@ def event_line(event: Episode | EpisodeOpen | DataGap) -> str:
         trace = " | ".join(" -> ".join(step.id for step in path) for path in event.trace)
         return (f"{label} {event.node_id}  from {event.start:.1f} s (open at {event.t:.1f} s)"
                 f"  trace {trace}")
+    if isinstance(event, NearMiss):
+        return (f"NEAR     {event.node_id}  {event.start:.1f}-{event.end:.1f} s  robustness down "
+                f"to {event.least_robustness:.3f} at {event.t_least:.1f} s (margin "
+                f"{event.warn:g}; not a violation)")
     if isinstance(event, DataGap):
         return (f"NO DATA  {event.node_id}  {event.start:.1f}-{event.end:.1f} s  "
                 f"({event.ticks} ticks; missing {', '.join(event.missing)})")
@@ -119,8 +124,8 @@ def _run_single(args, case, spec, formats: tuple[str, ...]) -> int:
     live = stream == "-"
     labels = batch.labels_for(stream, args.labels)
 
-    def on_event(event: Episode | EpisodeOpen | DataGap) -> None:
-        if live and not args.quiet and isinstance(event, Episode | EpisodeOpen):
+    def on_event(event: Event) -> None:
+        if live and not args.quiet and isinstance(event, Episode | EpisodeOpen | NearMiss):
             print(event_line(event), flush=True)
 
     def progress(frames: int, t: float) -> None:

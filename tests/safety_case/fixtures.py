@@ -47,6 +47,15 @@ LOADER_FIXTURES: list[tuple[str, str, int, int | None]] = [
         33,
     ),
     (
+        "CW015",
+        case(
+            "G1: {text: t, supportedBy: Sn1}\nSn1:\n  text: e\n"
+            "  spi: {signal: els, threshold: '>= 0.6', warn: -0.1}\n"
+        ),
+        6,
+        49,
+    ),
+    (
         "CW017",
         case(
             "G1: {text: t, supportedBy: Sn1}\nSn1:\n  text: e\n"
