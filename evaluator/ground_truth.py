@@ -15,7 +15,7 @@ from pathlib import Path
 
 import networkx as nx
 
-from evaluator.result import Episode, GroundTruth, HazardScore
+from evaluator.result import Episode, EventMark, GroundTruth, HazardScore, LabelInterval
 
 
 @dataclass(frozen=True)
@@ -139,11 +139,16 @@ def score_events(
             by_hazard[node_id].append(label)
     per_hazard: list[HazardScore] = []
     totals = [0, 0, 0]
+    marks: list[EventMark] = []
     for hazard in hazard_texts:
-        detected = [(e.start, e.end) for e in events if e.node_id == hazard and e.kind == "hazard"]
+        found = [e for e in events if e.node_id == hazard and e.kind == "hazard"]
+        detected = [(e.start, e.end) for e in found]
         truth = [(label.start, label.end) for label in by_hazard[hazard]]
-        tp, fp, fn = match_counts(detected, truth)
+        hits = {i for i, _ in match_pairs(detected, truth)}
+        tp, fp, fn = len(hits), len(detected) - len(hits), len(truth) - len(hits)
         per_hazard.append(_score(tp, fp, fn, hazard))
+        marks += [EventMark(formula_id=e.formula_id, node_id=e.node_id, start=e.start, end=e.end,
+                            match="TP" if i in hits else "FP") for i, e in enumerate(found)]
         totals = [totals[0] + tp, totals[1] + fp, totals[2] + fn]
     return GroundTruth(
         labels_path=labels_path,
@@ -151,4 +156,7 @@ def score_events(
         per_hazard=per_hazard,
         overall=_score(*totals, hazard="all"),
         unmatched_label_names=sorted(unmatched_names),
+        labels=[LabelInterval(node_id=h, start=lab.start, end=lab.end)
+                for h, labs in by_hazard.items() for lab in labs],
+        marks=marks,
     )

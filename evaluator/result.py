@@ -228,12 +228,32 @@ class HazardScore(_Record):
     recall: float | None  # None when undefined (no labels)
 
 
+class LabelInterval(_Record):
+    """A labelled interval of a hazard of the case (its node id, resolved from the label)."""
+
+    node_id: str
+    start: float
+    end: float
+
+
+class EventMark(_Record):
+    """A hazard event scored against the labels: a true or a false positive."""
+
+    formula_id: str
+    node_id: str
+    start: float
+    end: float
+    match: Literal["TP", "FP"]
+
+
 class GroundTruth(_Record):
     labels_path: str
     labels_digest: str
     per_hazard: list[HazardScore]
     overall: HazardScore
     unmatched_label_names: list[str] = []  # labels naming no hazard of the case
+    labels: list[LabelInterval] = []  # the labels of the case's hazards (for the report's plots)
+    marks: list[EventMark] = []  # every hazard event, TP or FP (the report marks them)
 
 
 class ArbitrationInterval(_Record):

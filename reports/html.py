@@ -17,6 +17,7 @@ from evaluator.result import STATUS_SEVERITY, RunResult
 from reports.layout import LINE_HEIGHT, SKEW, Diagram, layout_case
 from reports.plot import PlotView, StripRect, plot_series, status_strip
 from reports.view import (
+    INCIDENT_WINDOW,
     STATUS_LABELS,
     STATUS_MEANING,
     ReportView,
@@ -106,12 +107,17 @@ def _plots(result: RunResult) -> list[PlotCard]:
             continue
         episodes = [e for e in result.episodes if e.formula_id == formula.id]
         gaps = [g for g in result.data_gaps if g.formula_id == formula.id]
-        plot = plot_series(series, episodes, gaps, result.case.period, t_range)
+        labels = [(lab.start, lab.end) for lab in
+                  (result.ground_truth.labels if result.ground_truth else [])
+                  if lab.node_id == formula.node_id]  # fmt: skip
+        plot = plot_series(series, episodes, gaps, result.case.period, t_range, labels)
         if series.quantity == "signal":
             title = f"{series.name} {formula.threshold or ''}".strip()
         else:
             title = f"robustness of {formula.id}"
         note = f"{len(episodes)} episodes · {len(gaps)} gaps"
+        if labels:
+            note += f" · {len(labels)} labelled (top strip)"
         if plot.buckets and plot.bucket > result.case.period * 1.5:
             note += f" · min–max per {plot.bucket:g} s"
         cards.append(PlotCard(formula.id, formula.node_id, title, note, plot))
@@ -126,6 +132,39 @@ def _strips(view: ReportView, result: RunResult) -> dict[str, list[StripRect]]:
     }
 
 
+@dataclass(frozen=True)
+class ArbitrationRect:
+    x: float
+    w: float
+    status: str  # the CSS class of its channel
+    label: str
+
+
+def _arbitration(result: RunResult) -> tuple[list[ArbitrationRect], dict[str, str]]:
+    """The recommended channel over the run as a strip (one rectangle per pixel column at
+    most, the channel covering most of a column wins it) and each channel's CSS class."""
+    channels = sorted({iv.channel or "none" for iv in result.arbitration})
+    css = {c: ("arb-none" if c == "none" else f"arb-{k % 4}") for k, c in enumerate(
+        [c for c in channels if c != "none"])}  # fmt: skip
+    css.setdefault("none", "arb-none")
+    t0 = result.stream.t_start or 0.0
+    t1 = (result.stream.t_end if result.stream.t_end is not None else t0) + result.case.period
+    if not result.arbitration or t1 <= t0:
+        return [], css
+    scale = STRIP_WIDTH / (t1 - t0)
+    rects: list[ArbitrationRect] = []
+    for iv in result.arbitration:
+        name = iv.channel or "none"
+        x = (iv.start - t0) * scale
+        w = max((iv.end + result.case.period - iv.start) * scale, 0.5)
+        if rects and rects[-1].status == css[name] and abs(rects[-1].x + rects[-1].w - x) < 0.5:
+            last = rects[-1]
+            rects[-1] = ArbitrationRect(last.x, x + w - last.x, last.status, last.label)
+        else:
+            rects.append(ArbitrationRect(round(x, 2), round(w, 2), css[name], name))
+    return rects, css
+
+
 def render_html(result: RunResult) -> str:
     """The complete HTML report of `result`."""
     view = build_view(result)
@@ -137,8 +176,12 @@ def render_html(result: RunResult) -> str:
         episode = next((e for e in result.episodes if e.node_id == node.id), None)
         traces[node.id] = episode.trace if episode is not None else []
     statuses = sorted(STATUS_SEVERITY, key=lambda s: -STATUS_SEVERITY[s])
+    arbitration_strip, arbitration_class = _arbitration(result)
     template = _ENV.get_template("report.html.j2")
     return template.render(
+        incident_window=f"{INCIDENT_WINDOW:g}",
+        arbitration_strip=arbitration_strip,
+        arbitration_class=arbitration_class,
         view=view,
         diagram=diagram,
         plots=plots,

@@ -11,7 +11,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -58,6 +58,7 @@ class PlotView:
     y_title: str
     buckets: int
     bucket: float  # seconds per plotted bucket (after any re-bucketing)
+    labels: list[Span] = field(default_factory=list)  # labelled intervals (hazard plots)
 
 
 def nice_ticks(lo: float, hi: float, target: int = 6) -> list[float]:
@@ -122,8 +123,10 @@ def plot_series(
     gaps: Sequence[DataGap],
     period: float,
     t_range: tuple[float, float] | None = None,
+    labels: Sequence[tuple[float, float]] = (),
 ) -> PlotView:
-    """Coordinates of one SPI (or hazard robustness) plot."""
+    """Coordinates of one SPI (or hazard robustness) plot; `labels` are ground-truth intervals
+    drawn as a strip along the top."""
     t, bucket, lo, hi = _rebucket(series)
     inner_w, inner_h = PLOT_W - LEFT - RIGHT, PLOT_H - TOP - BOTTOM
     if t_range is not None:
@@ -200,6 +203,7 @@ def plot_series(
         y_title=series.name,
         buckets=len(t),
         bucket=bucket,
+        labels=spans([a for a, _ in labels], [b for _, b in labels]),
     )
 
 

@@ -7,8 +7,10 @@ episode and status comes verbatim from `result.json`.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
+import re
 from dataclasses import dataclass, field
 
 from evaluator.result import (
@@ -174,6 +176,11 @@ class HazardRow:
     status: str
 
 
+#: Episodes starting within this many seconds of an incident's first one, and sharing a claim
+#: below the root with it, join that incident (a fault seen by several SPIs at once).
+INCIDENT_WINDOW = 1.0
+
+
 @dataclass(frozen=True)
 class EpisodeView:
     number: int  # 1-based position in result.episodes; the HTML anchor is episode-<number>
@@ -189,6 +196,59 @@ class EpisodeView:
     t_worst: str
     trace: list[list[TraceStep]]
     raw: Episode
+    incident: int = 0  # the incident it belongs to (incidents of one episode included)
+    mark: str | None = None  # "TP" or "FP" for a hazard event scored against labels
+
+
+@dataclass(frozen=True)
+class IncidentView:
+    """Episodes that started together and challenge a common claim: one card in the report."""
+
+    number: int
+    start: str
+    end: str
+    members: list[EpisodeView]
+    shared: list[str]  # the goals below the root that every member's trace passes through
+
+
+def _claims(episode: Episode) -> set[str]:
+    """The goals an episode's traces pass through below the root (strategies are left out:
+    one strategy under the root would join everything)."""
+    return {step.id for path in episode.trace for step in path[1:-1] if _GOAL.match(step.id)}
+
+
+_GOAL = re.compile(r"G[0-9]")
+
+
+def incidents(episodes: list[EpisodeView]) -> list[IncidentView]:
+    """Group episodes (by start time) into incidents: an episode joins the earliest incident
+    whose first episode started at most INCIDENT_WINDOW before it and one of whose members
+    shares a goal below the root with it; otherwise it opens an incident of its own."""
+    groups: list[list[EpisodeView]] = []
+    claims: list[set[str]] = []
+    for e in sorted(episodes, key=lambda v: (v.raw.start, v.number)):
+        mine = _claims(e.raw)
+        home = None
+        for k in range(len(groups) - 1, -1, -1):  # the incidents still open, earliest wins
+            if e.raw.start - groups[k][0].raw.start > INCIDENT_WINDOW + 1e-9:
+                break
+            if mine & claims[k]:
+                home = k
+        if home is None:
+            groups.append([e])
+            claims.append(set(mine))
+        else:
+            groups[home].append(e)
+            claims[home] |= mine
+    out = []
+    for number, members in enumerate(groups, start=1):
+        shared = set.intersection(*(_claims(m.raw) for m in members))
+        out.append(IncidentView(
+            number=number, start=fmt_time(min(m.raw.start for m in members)),
+            end=fmt_time(max(m.raw.end for m in members)), members=members,
+            shared=sorted(shared),
+        ))  # fmt: skip
+    return out
 
 
 @dataclass(frozen=True)
@@ -222,6 +282,7 @@ class ReportView:
     spi_rows: list[SpiRow]
     hazard_rows: list[HazardRow]
     episodes: list[EpisodeView]
+    incidents: list[IncidentView]
     gaps: Capped
     defects: Capped
     nodes: list[NodeView]
@@ -352,6 +413,8 @@ def build_view(result: RunResult) -> ReportView:
             )
         )
 
+    marks = {(m.formula_id, m.start, m.end): m.match
+             for m in (result.ground_truth.marks if result.ground_truth else [])}  # fmt: skip
     episodes = [
         EpisodeView(
             number=number,
@@ -367,9 +430,15 @@ def build_view(result: RunResult) -> ReportView:
             t_worst=fmt_time(e.t_worst),
             trace=e.trace,
             raw=e,
+            mark=marks.get((e.formula_id, e.start, e.end)),
         )
         for number, e in enumerate(result.episodes, start=1)
     ]
+    grouped = incidents(episodes)
+    of_episode = {m.number: inc.number for inc in grouped for m in inc.members}
+    episodes = [dataclasses.replace(e, incident=of_episode[e.number]) for e in episodes]
+    grouped = [dataclasses.replace(inc, members=[episodes[m.number - 1] for m in inc.members])
+               for inc in grouped]  # fmt: skip
 
     supports: dict[str, list[str]] = {}
     for n in case.nodes:
@@ -407,6 +476,7 @@ def build_view(result: RunResult) -> ReportView:
         spi_rows=spi_rows,
         hazard_rows=hazard_rows,
         episodes=episodes,
+        incidents=grouped,
         gaps=Capped(gaps, len(result.data_gaps) - len(gaps)),
         defects=Capped(defects, max(stream.defect_count, len(stream.defects)) - len(defects)),
         nodes=nodes,

@@ -28,6 +28,17 @@ def test_one_true_positive_one_false_positive_one_false_negative():
     assert gt.overall.true_positives == 1 and gt.overall.precision == pytest.approx(0.5)
 
 
+def test_events_are_marked_and_labels_kept_for_the_report():
+    events = [event("CSn2", 10.0, 12.0), event("CSn2", 30.0, 31.0)]
+    labels = [Label("CSn2", 11.0, 13.0, 1), Label("Ego tailgating identified", 50.0, 52.0, 2),
+              Label("cut-in", 60.0, 61.0, 3)]  # fmt: skip
+    gt = score_events(events, labels, HAZARDS, "labels.jsonl", "d")
+    assert [(m.start, m.match) for m in gt.marks] == [(10.0, "TP"), (30.0, "FP")]
+    # labels resolved to hazard nodes (by id or text); the unknown one is reported apart
+    assert [(lab.node_id, lab.start) for lab in gt.labels] == [("CSn2", 11.0), ("CSn2", 50.0)]
+    assert gt.unmatched_label_names == ["cut-in"]
+
+
 def test_each_label_is_matched_at_most_once():
     # two events overlap the same single label: one TP, one FP
     events = [event("CSn1", 0.0, 1.0), event("CSn1", 1.5, 2.0)]

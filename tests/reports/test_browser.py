@@ -37,8 +37,25 @@ def test_report_in_chromium(real_run_result: RunResult, tmp_path: Path) -> None:
             len(reference_result.episodes),
         )
         scripts = page.evaluate("() => document.querySelectorAll('script').length")
+        # the triage parts: TP/FP marks drawn, the arbitration strip as wide as its cell,
+        # labelled intervals on the hazard plots, incident cards holding their members
+        triage = page.evaluate(
+            """() => ({
+                marks: Array.from(document.querySelectorAll('span.mark'))
+                    .filter(m => m.getBoundingClientRect().width > 5).map(m => m.textContent),
+                strip: document.querySelector('svg.strip.arbitration')
+                    .getBoundingClientRect().width,
+                labels: document.querySelectorAll('rect.label-span').length,
+                incidents: Array.from(document.querySelectorAll('.episode.incident'))
+                    .map(i => i.querySelectorAll('li[id^=episode-]').length),
+            })"""
+        )
     assert errors == []
     assert scripts == 0
+    events = reference_result.ground_truth.marks
+    assert sorted(triage["marks"][2:]) == sorted(m.match for m in events)  # 2: the legend
+    assert triage["strip"] > 400 and triage["labels"] >= 1
+    assert all(n >= 2 for n in triage["incidents"])
     assert shot.stat().st_size > 10_000
     assert sorted(b["id"] for b in boxes) == sorted(n.id for n in reference_result.case.nodes)
     assert missing == []

@@ -37,6 +37,15 @@ def test_thousands_of_episodes_keep_every_section_but_bound_traces() -> None:
     episode = base.episodes[0]
     many = [episode.model_copy(update={"start": i * 0.1, "end": i * 0.1}) for i in range(1200)]
     html = render_html(base.model_copy(update={"episodes": many}))
-    assert 'id="episode-1200"' in html
-    # the first TRACE_LIMIT episodes draw their trace, the rest link to the node's trace
+    assert 'id="episode-1200"' in html and 'id="episode-1"' in html
+    # episodes of one node starting 0.1 s apart form incidents of 11 (starts within
+    # INCIDENT_WINDOW = 1 s of the first, inclusive: one card, one trace each): 109 incident
+    # cards and one single card left over; traces stay bounded by TRACE_LIMIT either way
+    paths = len(episode.trace)
+    assert html.count('class="episode incident"') == 1200 // 11 == 109
+    assert html.count('<ol class="trace">') <= TRACE_LIMIT * paths
+    # apart (2 s between starts) every episode is its own card: the first TRACE_LIMIT draw
+    # their trace, the rest link to the node's trace
+    apart = [episode.model_copy(update={"start": i * 2.0, "end": i * 2.0}) for i in range(1200)]
+    html = render_html(base.model_copy(update={"episodes": apart}))
     assert html.count("(traces of episodes past #") == 1200 - TRACE_LIMIT
