@@ -65,3 +65,31 @@ def test_fleets_pair_logs_by_name_and_bad_input_exits_2(tmp_path, capsys):
     assert main(["diff", str(tmp_path / "fa"), str(tmp_path / "nothing"), "-o",
                  str(tmp_path / "d")]) == 2  # fmt: skip
     assert "neither a run folder" in capsys.readouterr().err
+
+
+def test_a_degraded_case_on_a_bundled_drive_shows_exactly_its_new_episodes(tmp_path):
+    """The reference case against itself with Sn1's threshold raised to 0.9 (the localisation
+    SPI now flags ordinary jitter), on a real bundled drive."""
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parents[2]
+    stream = repo / "examples" / "data" / "highway-tailgated.jsonl.gz"
+    text = (repo / "examples" / "reference-case.yaml").read_text()
+    degraded = text.replace('spi: {signal: els, threshold: ">= 0.6"}',
+                            'spi: {signal: els, threshold: ">= 0.9"}')  # fmt: skip
+    assert degraded != text
+    a = run(tmp_path, "ref", text, stream)
+    b = run(tmp_path, "degraded", degraded, stream)
+    assert main(["diff", a, a, "-o", str(tmp_path / "self")]) == 0
+    assert main(["diff", a, b, "-o", str(tmp_path / "d"), "--fail-on", "hazard"]) == 0
+    report = json.loads((tmp_path / "d" / "diff.json").read_text())
+    nodes = {n["formula"]: n for n in report["logs"][0]["nodes"]}
+    changed = {f for f, n in nodes.items() if n["new"] or n["fixed"] or n["changed"]}
+    assert changed == {"Sn1"}  # nothing else moves
+    ra = json.loads(Path(a, "result.json").read_text())["episodes"]
+    rb = json.loads(Path(b, "result.json").read_text())["episodes"]
+    old = [(e["start"], e["end"]) for e in ra if e["node_id"] == "Sn1"]
+    want_new = [(e["start"], e["end"]) for e in rb if e["node_id"] == "Sn1"
+                and not any(s <= e["end"] and e["start"] <= t for s, t in old)]  # fmt: skip
+    assert [(s["start"], s["end"]) for s in nodes["Sn1"]["new"]] == want_new and want_new
+    assert report["regressions"] == 0  # --fail-on hazard: new SPI episodes are no regression
