@@ -22,7 +22,7 @@ import math
 import sys
 from pathlib import Path
 
-from casewatch.commands.common import prepare_case
+from casewatch.commands.common import prepare_case, sweep_options_ok
 from casewatch.tuning_logs import LogsError, load_logs
 from evaluator.nominal import DEFAULT_MARGIN
 from evaluator.signal_store import SignalsError, nominal_only
@@ -58,11 +58,7 @@ def main(args: argparse.Namespace) -> int:
         print("casewatch calibrate: --false-alarms-per-hour must be a number >= 0",
               file=sys.stderr)  # fmt: skip
         return 2
-    if not 2 <= args.candidates <= 10_000:
-        print("casewatch calibrate: --candidates must be between 2 and 10000", file=sys.stderr)
-        return 2
-    if args.jobs < 1:
-        print("casewatch calibrate: --jobs must be at least 1", file=sys.stderr)
+    if not sweep_options_ok("calibrate", args.candidates, args.jobs):
         return 2
     prepared = prepare_case("calibrate", args.case)
     if prepared is None:

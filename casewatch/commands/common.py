@@ -21,3 +21,14 @@ def prepare_case(command: str, path: str) -> tuple[Case, CompiledSpec] | None:
         print(f"casewatch {command}: {path} has errors; fix them first "
               f"(casewatch check {path})", file=sys.stderr)  # fmt: skip
         return None
+
+
+def sweep_options_ok(command: str, candidates: int, jobs: int) -> bool:
+    """`--candidates` and `--jobs` of tune and calibrate in range; otherwise print why."""
+    if not 2 <= candidates <= 10_000:
+        print(f"casewatch {command}: --candidates must be between 2 and 10000", file=sys.stderr)
+        return False
+    if jobs < 1:
+        print(f"casewatch {command}: --jobs must be at least 1", file=sys.stderr)
+        return False
+    return True

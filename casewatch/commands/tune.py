@@ -17,7 +17,7 @@ import json
 import sys
 from pathlib import Path
 
-from casewatch.commands.common import prepare_case
+from casewatch.commands.common import prepare_case, sweep_options_ok
 from casewatch.tuning_logs import LogsError, load_logs
 from evaluator.signal_store import SignalsError
 from evaluator.tuning import TuningError, knobs, labels_of, pr_text, sweep, tune
@@ -53,11 +53,7 @@ def main(args: argparse.Namespace) -> int:
         print("casewatch tune: --objective min-precision needs --min-precision P, "
               "0 < P <= 1", file=sys.stderr)  # fmt: skip
         return 2
-    if not 2 <= args.candidates <= 10_000:
-        print("casewatch tune: --candidates must be between 2 and 10000", file=sys.stderr)
-        return 2
-    if args.jobs < 1:
-        print("casewatch tune: --jobs must be at least 1", file=sys.stderr)
+    if not sweep_options_ok("tune", args.candidates, args.jobs):
         return 2
     prepared = prepare_case("tune", args.case)
     if prepared is None:
