@@ -14,7 +14,7 @@ import sys
 from casewatch import __version__
 from casewatch.crash import report_crash
 
-COMMANDS = ("check", "compile", "run", "report", "tune", "calibrate", "diff")
+COMMANDS = ("check", "compile", "run", "report", "tune", "calibrate", "diff", "export_scenarios")
 
 
 def build_parser() -> tuple[argparse.ArgumentParser, dict[str, object]]:
@@ -28,7 +28,7 @@ def build_parser() -> tuple[argparse.ArgumentParser, dict[str, object]]:
     for name in COMMANDS:
         module = importlib.import_module(f"casewatch.commands.{name}")
         module.register(sub)
-        modules[name] = module
+        modules[name.replace("_", "-")] = module  # the command line spells it with a hyphen
     return parser, modules
 
 

@@ -18,6 +18,8 @@ from pathlib import Path
 
 from casewatch import api, batch
 from casewatch.commands.common import prepare_case
+from casewatch.commands.export_scenarios import add_options as add_scenario_options
+from casewatch.commands.export_scenarios import run_export
 from casewatch.crash import INTERNAL_ERROR
 from evaluator.eventlog import Event
 from evaluator.ground_truth import LabelsError
@@ -52,6 +54,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--fail-on", choices=FAIL_ON, default="any",
                    help="which episodes make the run exit 1 and fail in JUnit: any (default), "
                         "hazard (hazard events only), spi, never")  # fmt: skip
+    p.add_argument("--scenarios", action="store_true",
+                   help="also export every hazard event as OpenSCENARIO into OUT/scenarios "
+                        "(one stream; options as for export-scenarios, prefixed scenario-)")
+    add_scenario_options(p, prefix="scenario-")
     p.add_argument("--save-signals", action="store_true",
                    help="keep every per-tick signal value in OUT/signals.npz (for casewatch "
                         "tune and calibrate)")
@@ -154,6 +160,12 @@ def _run_single(args, case, spec, formats: tuple[str, ...]) -> int:
     written = api.render(args.out, formats) if formats else {}
     if not args.quiet:
         _print_summary(result, path, written)
+    if args.scenarios and not live and any(e.kind == "hazard" for e in result.episodes):
+        code = run_export(result, Path(stream), args.out / "scenarios", args.scenario_channel,
+                          args.scenario_lead_in, args.scenario_lead_out, args.scenario_radius,
+                          args.scenario_opendrive)  # fmt: skip
+        if code:
+            return code
     if result.stream.frames_read == 0:
         print(f"casewatch run: {stream}: no frames could be read "
               f"({result.stream.defect_count} defects); nothing was judged", file=sys.stderr)

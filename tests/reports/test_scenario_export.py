@@ -1,0 +1,119 @@
+"""OpenSCENARIO export of hazard events: every file valid against the 1.2 XSD and the ASAM
+checker, positions equal to the stream's within 1 cm, and every refusal an exit 2."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import pytest
+
+from casewatch import api
+from casewatch.cli import main
+from evaluator.session import RunOptions, evaluate_stream
+from monitor.reader import read_stream
+
+REPO = Path(__file__).resolve().parents[2]
+STREAM = REPO / "examples" / "data" / "highway-tailgating.jsonl.gz"
+
+
+@pytest.fixture(scope="module")
+def exported(tmp_path_factory) -> tuple[Path, Path]:
+    run = tmp_path_factory.mktemp("run")
+    case, spec = api.prepare(REPO / "examples" / "reference-case.yaml")
+    result = evaluate_stream(case, spec, STREAM, RunOptions())
+    api.write_result(result, run)
+    out = tmp_path_factory.mktemp("xosc")
+    assert main(["export-scenarios", str(run), str(STREAM), "-o", str(out)]) == 0
+    return run, out
+
+
+def test_one_file_per_hazard_event_traced_back(exported):
+    run, out = exported
+    result = json.loads((run / "result.json").read_text())
+    events = [e for e in result["episodes"] if e["kind"] == "hazard"]
+    catalogue = json.loads((out / "scenarios.json").read_text())["scenarios"]
+    assert [(c["node"], c["start"]) for c in catalogue] == [(e["node_id"], e["start"])
+                                                           for e in events]  # fmt: skip
+    for c in catalogue:
+        assert (out / c["file"]).is_file() and c["entities"][0] == "ego" and len(c["entities"]) > 1
+        assert c["trace"][0][0] == c["node"] and c["trace"][0][-1] == "G1"
+        assert c["stream_digest"] == result["stream"]["digest"]
+        header = ET.parse(out / c["file"]).getroot().find("FileHeader")
+        assert header.get("revMajor") == "1" and header.get("revMinor") == "2"
+        assert "no road network attached" in header.get("description")
+
+
+def test_every_file_passes_the_xsd_and_the_asam_checker(exported):
+    import qc_openscenario
+    import xmlschema
+    from qc_baselib import Configuration, Result, StatusType
+    from qc_openscenario import constants
+    from qc_openscenario.main import run_checks
+
+    _, out = exported
+    xsd = Path(qc_openscenario.__file__).parent / "schema" / "1.2.0" / "OpenSCENARIO.xsd"
+    schema = xmlschema.XMLSchema(str(xsd))
+    files = sorted(out.glob("*.xosc"))
+    assert files
+    for path in files:
+        assert list(schema.iter_errors(str(path))) == [], path.name
+        config = Configuration()
+        config.set_config_param("InputFile", str(path))
+        result = Result()
+        result.register_checker_bundle(name=constants.BUNDLE_NAME, description="",
+                                       version=constants.BUNDLE_VERSION, summary="")  # fmt: skip
+        result.set_result_version(version=constants.BUNDLE_VERSION)
+        run_checks(config, result)
+        checks = result.get_checker_results(constants.BUNDLE_NAME)
+        assert all(c.status != StatusType.ERROR for c in checks), path.name
+        assert result.get_checker_bundle_issue_count(constants.BUNDLE_NAME) == 0, path.name
+        # the schema and reference checks ran (not skipped)
+        ran = {c.checker_id for c in checks if c.status == StatusType.COMPLETED}
+        assert "check_asam_xosc_xml_valid_schema" in ran
+
+
+def test_positions_round_trip_within_a_centimetre(exported):
+    _, out = exported
+    entry = json.loads((out / "scenarios.json").read_text())["scenarios"][0]
+    t0 = entry["window"][0]
+    root = ET.parse(out / entry["file"]).getroot()
+    vertices = {}
+    for group in root.iter("ManeuverGroup"):
+        actor = group.find("Actors/EntityRef").get("entityRef")
+        vertices[actor] = [(float(v.get("time")), float(v.find("Position/WorldPosition").get("x")),
+                            float(v.find("Position/WorldPosition").get("y")))
+                           for v in group.iter("Vertex")]  # fmt: skip
+    truth = {}
+    for frame in read_stream(STREAM):
+        state = frame.channels.get(entry["channel"])
+        if state is None or not t0 - 1e-9 <= frame.t <= entry["window"][1] + 1e-9:
+            continue
+        truth[("ego", round(frame.t - t0, 6))] = (state.ego.x, state.ego.y)
+        for k, oid in enumerate(state.objects.ids):
+            truth[(f"obj_{oid}", round(frame.t - t0, 6))] = tuple(state.objects.pos[k])
+    assert set(vertices) == set(entry["entities"])
+    compared = 0
+    for actor, points in vertices.items():
+        for t, x, y in points:
+            tx, ty = truth[(actor, round(t, 6))]
+            assert abs(x - tx) <= 0.01 and abs(y - ty) <= 0.01, (actor, t)
+            compared += 1
+    assert compared > 100
+
+
+def test_refusals_exit_2(exported, tmp_path, capsys):
+    run, _ = exported
+    out = str(tmp_path / "x")
+    assert main(["export-scenarios", str(run), str(STREAM), "-o", out, "--event", "99"]) == 2
+    assert "no hazard event 99" in capsys.readouterr().err
+    other = tmp_path / "other.jsonl.gz"
+    shutil.copy(REPO / "examples" / "data" / "urban-grid.jsonl.gz", other)
+    assert main(["export-scenarios", str(run), str(other), "-o", out]) == 2
+    assert "not the stream this run judged" in capsys.readouterr().err
+    assert main(["export-scenarios", str(run), str(STREAM), "-o", out, "--radius", "0.001"]) == 2
+    assert "saw no object within 0.001 m" in capsys.readouterr().err
+    assert main(["export-scenarios", str(run), str(STREAM), "-o", out, "--channel", "cam"]) == 2
+    assert "'cam' is not one of the run's channels" in capsys.readouterr().err
