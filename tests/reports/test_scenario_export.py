@@ -117,3 +117,19 @@ def test_refusals_exit_2(exported, tmp_path, capsys):
     assert "saw no object within 0.001 m" in capsys.readouterr().err
     assert main(["export-scenarios", str(run), str(STREAM), "-o", out, "--channel", "cam"]) == 2
     assert "'cam' is not one of the run's channels" in capsys.readouterr().err
+
+
+def test_an_opendrive_file_is_referenced_not_invented(exported, tmp_path):
+    run, _ = exported
+    road = tmp_path / "highway.xodr"
+    road.write_text("<OpenDRIVE/>\n")
+    out = tmp_path / "with-road"
+    assert main(["export-scenarios", str(run), str(STREAM), "-o", str(out), "--event", "1",
+                 "--opendrive", str(road)]) == 0  # fmt: skip
+    root = ET.parse(next(out.glob("*.xosc"))).getroot()
+    assert root.find("RoadNetwork/LogicFile").get("filepath") == str(road)
+    assert "no road network" not in root.find("FileHeader").get("description")
+    catalogue = json.loads((out / "scenarios.json").read_text())["scenarios"]
+    assert catalogue[0]["road_network"] == str(road)
+    assert main(["export-scenarios", str(run), str(STREAM), "-o", str(out), "--opendrive",
+                 str(tmp_path / "missing.xodr")]) == 2  # fmt: skip
