@@ -17,6 +17,7 @@ from pathlib import Path
 
 from casewatch.crash import write_crash_log
 from evaluator.ground_truth import LabelsError
+from evaluator.inputs import file_digest
 from evaluator.session import DEFAULT_MAX_NO_DATA, InputError, RunOptions, evaluate_stream
 from evaluator.signal_store import FILE_NAME as SIGNALS_FILE
 from evaluator.summary import LogSummary, summarise, summarise_result
@@ -125,6 +126,25 @@ def run_job(job: Job) -> LogSummary:
     return summarise_result(result, str(out), time.perf_counter() - started)
 
 
+def reusable(job: Job, case_digest: str) -> LogSummary | None:
+    """The summary of a log already judged completely with this case from this stream (its
+    result.json's case digest and stream sha256 match), else None (`--resume`)."""
+    from reports.render import ResultError, load_result
+
+    try:
+        result = load_result(Path(job.out_dir) / "result.json")
+    except ResultError:
+        return None
+    if not result.complete or result.case.digest != case_digest:
+        return None
+    try:
+        if result.stream.digest != file_digest(job.stream):
+            return None
+    except OSError:
+        return None
+    return summarise_result(result, job.out_dir, 0.0)
+
+
 def run_many(
     case_path: str,
     case_digest: str,
@@ -138,9 +158,15 @@ def run_many(
     max_no_data: float = DEFAULT_MAX_NO_DATA,
     save_signals: bool = False,
     fail_on: str = "any",
+    *,
+    engine: str = "processes",
+    scheduler: str | None = None,
+    resume: bool = False,
 ) -> dict[str, object]:
-    """Judge every stream (in `jobs` processes) and write `out_dir/summary.json`; with
-    `save_signals`, each log's folder keeps its `signals.npz` too."""
+    """Judge every stream (in `jobs` processes, or as Dask tasks with `engine="dask"`) and
+    write `out_dir/summary.json`; with `save_signals`, each log's folder keeps its
+    `signals.npz` too; with `resume`, a log whose complete `result.json` was judged with this
+    case (digest) from this very stream (sha256) is not judged again."""
     used: set[str] = set()
     work: list[Job] = []
     for stream in streams:
@@ -152,9 +178,22 @@ def run_many(
         work.append(Job(case_path, str(stream), str(out_dir / name),
                         labels_for(str(stream), labels),
                         strict, tuple(formats), max_no_data, save_signals, fail_on))
+    done: dict[int, LogSummary] = {}
+    if resume:
+        for k, job in enumerate(work):
+            reused = reusable(job, case_digest)
+            if reused is not None:
+                done[k] = reused
+                if on_done:
+                    on_done(reused)
+    todo = [job for k, job in enumerate(work) if k not in done]
     results: list[LogSummary] = []
-    if jobs <= 1:
-        for job in work:
+    if engine == "dask":
+        from casewatch.dask_engine import run_on_dask
+
+        results = run_on_dask(todo, jobs, scheduler, on_done)
+    elif jobs <= 1:
+        for job in todo:
             results.append(run_job(job))
             if on_done:
                 on_done(results[-1])
@@ -165,10 +204,12 @@ def run_many(
         methods = multiprocessing.get_all_start_methods()
         context = multiprocessing.get_context("fork" if "fork" in methods else None)
         with ProcessPoolExecutor(max_workers=jobs, mp_context=context) as pool:
-            for summary in pool.map(run_job, work):
+            for summary in pool.map(run_job, todo):
                 results.append(summary)
                 if on_done:
                     on_done(summary)
+    fresh = iter(results)
+    results = [done[k] if k in done else next(fresh) for k in range(len(work))]
     summary = summarise(results, case_path, case_digest)
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=1), encoding="utf-8")

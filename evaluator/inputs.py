@@ -57,3 +57,12 @@ def open_hashed(source: str | Path) -> tuple[IO[bytes], HashingReader, str]:
     if buffered.peek(2)[:2] == b"\x1f\x8b":  # gzip, from a file or piped in
         return gzip.GzipFile(fileobj=buffered, mode="rb"), hashing, name  # type: ignore[return-value]
     return buffered, hashing, name
+
+
+def file_digest(path: Path | str) -> str:
+    """The sha256 of a file's bytes, as a run records its stream's (`stream.digest`)."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()

@@ -19,13 +19,13 @@ event, node, trace, channel, window and stream digest.
 
 from __future__ import annotations
 
-import hashlib
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from scenariogeneration import xosc
 
+from evaluator.inputs import file_digest
 from evaluator.result import Episode, RunResult
 from monitor.reader import read_stream
 
@@ -59,14 +59,6 @@ class _Window:
     t1: float
     ego: _Track | None = None
     objects: dict[str, _Track] = field(default_factory=dict)
-
-
-def stream_digest(path: Path) -> str:
-    digest = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
 
 
 def _channel_at(result: RunResult, t: float) -> str:
@@ -187,7 +179,7 @@ def export_scenarios(
 ) -> list[dict]:
     """Write one `.xosc` per hazard event (or only event `event`, 1-based) into `out` and the
     catalogue `scenarios.json`'s entries, which it returns."""
-    if result.stream.digest and stream_digest(stream) != result.stream.digest:
+    if result.stream.digest and file_digest(stream) != result.stream.digest:
         raise ExportError(f"{stream}: not the stream this run judged (sha256 differs from "
                           f"result.json's {result.stream.digest[:12]}...)")  # fmt: skip
     if channel is not None and channel not in result.case.channels:

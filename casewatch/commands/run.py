@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
 from pathlib import Path
 
 from casewatch import api, batch
@@ -21,6 +22,7 @@ from casewatch.commands.common import prepare_case
 from casewatch.commands.export_scenarios import add_options as add_scenario_options
 from casewatch.commands.export_scenarios import run_export
 from casewatch.crash import INTERNAL_ERROR
+from casewatch.dask_engine import EngineError
 from evaluator.eventlog import Event
 from evaluator.ground_truth import LabelsError
 from evaluator.policy import FAIL_ON, gated
@@ -47,7 +49,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                                     "NAME.labels.jsonl next to each stream when present")
     p.add_argument("--strict", action="store_true",
                    help="stop at the first stream defect instead of skipping the frame")
-    p.add_argument("--jobs", type=int, default=1, help="parallel processes for several logs")
+    p.add_argument("--jobs", type=int, default=1,
+                   help="parallel processes (or local Dask workers) for several logs")
+    p.add_argument("--engine", choices=("processes", "dask"), default="processes",
+                   help="several logs as local processes (default) or as Dask tasks "
+                        "(docs/fleet.md; needs pip install 'casewatch[fleet]')")  # fmt: skip
+    p.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
+                   help="with --engine dask: an existing Dask scheduler instead of a local "
+                        "cluster of --jobs workers")  # fmt: skip
+    p.add_argument("--resume", action="store_true",
+                   help="skip logs whose complete result.json was judged with this case from "
+                        "the same stream (sha256)")  # fmt: skip
     p.add_argument("--format", default=",".join(FORMATS),
                    help="reports to write: any of html,md,junit, or 'none' (default: all)")
     p.add_argument("--quiet", action="store_true", help="no progress or event lines")
@@ -218,9 +230,21 @@ def _run_many(args, case, formats: tuple[str, ...]) -> int:
               "(NAME.labels.jsonl next to each stream)", file=sys.stderr)
         return 2
 
+    started = time.perf_counter()
+    progress = {"done": 0, "hours": 0.0}
+    tty = sys.stderr.isatty()
+
     def on_done(log: LogSummary) -> None:
+        progress["done"] += 1
+        progress["hours"] += (log.duration_s or 0.0) / 3600.0
         if args.quiet:
             return
+        if tty:  # a progress line above the per-log lines, only on a terminal
+            done, total = progress["done"], len(streams)
+            spent = time.perf_counter() - started
+            eta = spent / done * (total - done)
+            print(f"\r  [{done}/{total} logs, {progress['hours']:.3f} h judged, "
+                  f"ETA {eta:.0f} s]", end="\n", file=sys.stderr, flush=True)
         if log.ok:
             short = " (too little data: --max-no-data)" if log.too_little_data else ""
             print(f"  {log.stream}: {log.frames} frames, {log.verdict}{short} "
@@ -228,9 +252,17 @@ def _run_many(args, case, formats: tuple[str, ...]) -> int:
         else:
             print(f"  {log.stream}: FAILED: {log.error}", file=sys.stderr)
 
-    summary = batch.run_many(args.case, case.digest, streams, args.out, args.jobs,
-                             args.labels, args.strict, formats, on_done, args.max_no_data,
-                             args.save_signals, args.fail_on)  # fmt: skip
+    if args.scheduler and args.engine != "dask":
+        print("casewatch run: --scheduler goes with --engine dask", file=sys.stderr)
+        return 2
+    try:
+        summary = batch.run_many(args.case, case.digest, streams, args.out, args.jobs,
+                                 args.labels, args.strict, formats, on_done, args.max_no_data,
+                                 args.save_signals, args.fail_on, engine=args.engine,
+                                 scheduler=args.scheduler, resume=args.resume)  # fmt: skip
+    except EngineError as exc:
+        print(f"casewatch run: {exc}", file=sys.stderr)
+        return 2
     if not args.quiet:
         print(f"{summary['logs']} logs, {summary['hours']:.3f} h judged, "
               f"{summary['logs_failed']} failed, {summary['logs_without_data']} with too little "
