@@ -10,6 +10,8 @@
 4. Report rendering time and size for a 1-hour run.
 5. Kernel start-up: compiling every numba metric kernel in a fresh cache (a machine's first
    run) and loading them from the cache (every later process).
+3b. The same replay on a Dask LocalCluster (`--engine dask`) of 1 and 2 workers: the speed-up
+   (goal >= 1.8x) and the overhead against `--jobs 2` (goal <= 10 %), when dask is installed.
 6. Threshold tuning (`casewatch tune`) on 1 hour of saved signals, 17 formulas x 50 candidate
    thresholds (and durations): `python -m evaluator.tuning_bench`; target <= 60 s.
 
@@ -209,9 +211,10 @@ def run_cli(args: list[str], stdin_files: list[Path] | None = None) -> tuple[flo
     return wall, peak, code
 
 
-def offline(streams: list[Path], frames: int, hours: float, jobs: int, out: Path) -> dict:
+def offline(streams: list[Path], frames: int, hours: float, jobs: int, out: Path,
+            engine: str = "processes") -> dict:  # fmt: skip
     args = ["run", str(CASE), *map(str, streams), "-o", str(out), "--jobs", str(jobs),
-            "--format", "none", "--quiet"]
+            "--format", "none", "--quiet", "--engine", engine]
     wall, _, _ = run_cli(args)
     return {"jobs": jobs, "frames": frames, "hours": round(hours, 4), "wall_s": round(wall, 2),
             "frames_per_s": round(frames / wall, 1), "x_real_time": round(hours * 3600 / wall, 1)}
@@ -271,6 +274,16 @@ def main(argv: list[str] | None = None) -> int:
               "x_real_time": round(hours * 3600 / wall, 1), "peak_rss_mib": round(rss, 1)}
     results["offline_replay"] = [single,
                                  offline(replay, replay_frames, hours, 2, BENCH / "replay-j2")]
+    try:
+        import distributed  # noqa: F401
+
+        print("3b. the replay on a Dask LocalCluster of 1 and 2 workers ...", flush=True)
+        results["dask_replay"] = [
+            offline(replay, replay_frames, hours, n, BENCH / f"replay-dask{n}", "dask")
+            for n in (1, 2)
+        ]
+    except ImportError:
+        results["dask_replay"] = []
 
     print("4. report rendering ...", flush=True)
     from reports.bench import run as report_bench
@@ -283,6 +296,15 @@ def main(argv: list[str] | None = None) -> int:
     (BENCH / "results.json").write_text(json.dumps(results, indent=1))
     print_table(results)
     print(f"\nwritten: {BENCH / 'results.json'}")
+    dask = results.get("dask_replay") or []
+    if len(dask) == 2:
+        speedup = dask[0]["wall_s"] / dask[1]["wall_s"]
+        jobs2 = results["offline_replay"][1]["wall_s"]
+        overhead = dask[1]["wall_s"] / jobs2 - 1
+        print(f"\nDask LocalCluster, {hours:g} h replay: 1 worker {dask[0]['wall_s']:.1f} s, "
+              f"2 workers {dask[1]['wall_s']:.1f} s: speed-up {speedup:.2f}x (goal >= 1.8x: "
+              f"{'met' if speedup >= 1.8 else 'MISSED'}); against --jobs 2 ({jobs2:.1f} s): "
+              f"{overhead:+.1%} (goal <= +10 %: {'met' if overhead <= 0.10 else 'MISSED'})")
     print("\n6. threshold tuning on 1 hour of saved signals ...", flush=True)
     from evaluator.tuning_bench import main as tuning_bench
 

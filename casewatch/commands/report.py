@@ -15,7 +15,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "report",
         help="re-render the reports of a run from OUTDIR/result.json",
         description="Re-render HTML, Markdown and JUnit reports from OUTDIR/result.json, "
-        "without re-running the evaluator.",
+        "without re-running the evaluator; for a fleet folder (summary.json), write its "
+        "overview page OUTDIR/fleet.html.",
     )
     parser.add_argument("outdir", metavar="OUTDIR", help="output folder of `casewatch run`")
     parser.add_argument(
@@ -36,6 +37,8 @@ def main(args: argparse.Namespace) -> int:
         print(f"casewatch report: {exc}", file=sys.stderr)
         return 2
     outdir = Path(args.outdir)
+    if (outdir / "summary.json").is_file() and not (outdir / "result.json").is_file():
+        return _fleet(outdir)
     if not outdir.is_dir():
         print(
             f"casewatch report: {outdir}: no such folder (expected the output folder of "
@@ -57,4 +60,25 @@ def main(args: argparse.Namespace) -> int:
         return 2
     for name, path in written.items():
         print(f"{name}: {path}")
+    return 0
+
+
+def _fleet(folder: Path) -> int:
+    """A fleet folder: its overview page `fleet.html` (the logs' own reports stay as they are)."""
+    import json
+
+    from reports.fleet import render_fleet
+
+    try:
+        summary = json.loads((folder / "summary.json").read_text(encoding="utf-8"))
+        if not isinstance(summary, dict) or "per_log" not in summary:
+            raise ValueError("no per_log list")
+        html = render_fleet(summary, folder)
+    except (ValueError, KeyError, TypeError, RecursionError) as exc:
+        print(f"casewatch report: {folder}/summary.json: not a casewatch fleet summary ({exc})",
+              file=sys.stderr)  # fmt: skip
+        return 2
+    target = folder / "fleet.html"
+    target.write_text(html, encoding="utf-8")
+    print(f"fleet: {target}")
     return 0
