@@ -243,8 +243,9 @@ def _run_many(args, case, formats: tuple[str, ...]) -> int:
             done, total = progress["done"], len(streams)
             spent = time.perf_counter() - started
             eta = spent / done * (total - done)
-            print(f"\r  [{done}/{total} logs, {progress['hours']:.3f} h judged, "
-                  f"ETA {eta:.0f} s]", end="\n", file=sys.stderr, flush=True)
+            bar = "#" * round(20 * done / total) + "-" * (20 - round(20 * done / total))
+            print(f"  [{bar}] {done}/{total} logs, {progress['hours']:.3f} h judged, "
+                  f"ETA {eta:.0f} s", file=sys.stderr, flush=True)
         if log.ok:
             short = " (too little data: --max-no-data)" if log.too_little_data else ""
             print(f"  {log.stream}: {log.frames} frames, {log.verdict}{short} "
