@@ -126,6 +126,25 @@ def run_job(job: Job) -> LogSummary:
     return summarise_result(result, str(out), time.perf_counter() - started)
 
 
+class FleetError(ValueError):
+    """A `summary.json` that is not a casewatch fleet summary (names the file)."""
+
+
+def read_summary(folder: Path) -> dict:
+    """A fleet folder's `summary.json`, checked to hold a `per_log` list of logs with their
+    `out_dir` (what `diff`, `tune`, `calibrate` and `report` read of a fleet)."""
+    path = Path(folder) / "summary.json"
+    try:
+        summary = json.loads(path.read_text(encoding="utf-8"))
+        if not isinstance(summary, dict) or not isinstance(summary.get("per_log"), list):
+            raise ValueError("no per_log list")
+        if not all(isinstance(log, dict) and "out_dir" in log for log in summary["per_log"]):
+            raise ValueError("a log without out_dir")
+    except (OSError, UnicodeDecodeError, ValueError, RecursionError) as exc:
+        raise FleetError(f"{path}: not a casewatch fleet summary ({exc})") from None
+    return summary
+
+
 def reusable(job: Job, case_digest: str) -> LogSummary | None:
     """The summary of a log already judged completely with this case from this stream (its
     result.json's case digest and stream sha256 match), else None (`--resume`)."""

@@ -31,7 +31,7 @@ class TuningLog:
 
 
 def _read_json(path: Path) -> dict:
-    """A run's `result.json` or a fleet's `summary.json`; LogsError when it is not one."""
+    """A run's `result.json`; LogsError when it is not one."""
     try:
         value = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, ValueError, RecursionError) as exc:
@@ -49,8 +49,11 @@ def _run_folders(arguments: list[str], case_path: str, out: Path, jobs: int) -> 
         if path.is_dir() and (path / FILE_NAME).is_file():
             folders.append(path)
         elif path.is_dir() and (path / "summary.json").is_file():
-            summary = _read_json(path / "summary.json")
-            for log in summary.get("per_log", []):
+            try:
+                summary = batch.read_summary(path)
+            except batch.FleetError as exc:
+                raise LogsError(str(exc)) from None
+            for log in summary["per_log"]:
                 if not log.get("ok", True):
                     raise LogsError(f"{path}: log {log.get('stream')} failed in that run "
                                     f"({log.get('error')}); run it again")  # fmt: skip

@@ -73,7 +73,7 @@ def hazard_events(result: RunResult) -> list[Episode]:
     return [e for e in result.episodes if e.kind == "hazard"]
 
 
-def _collect(stream: Path, windows: list[_Window], radius: float) -> None:
+def _collect(stream: Path, windows: list[_Window]) -> None:
     """One pass over the stream: every window's ego and object poses in its channel."""
     reader = read_stream(stream)
     for frame in reader:
@@ -193,7 +193,7 @@ def export_scenarios(
     windows = [_Window(n, e, channel or _channel_at(result, e.start),
                        max(e.start - lead_in, result.stream.t_start or 0.0), e.end + lead_out)
                for n, e in chosen]  # fmt: skip
-    _collect(stream, windows, radius)
+    _collect(stream, windows)
     texts = {n.id: n.text for n in result.case.nodes}
     out.mkdir(parents=True, exist_ok=True)
     entries = []

@@ -16,6 +16,7 @@ import json
 import sys
 from pathlib import Path
 
+from casewatch.batch import FleetError, read_summary
 from evaluator.diff import diff_runs, regressions
 from evaluator.policy import FAIL_ON
 from reports.diff import render_diff_html, render_diff_md
@@ -42,10 +43,9 @@ def _runs(folder: Path) -> dict[str, Path]:
     """{log name: run folder} of a run folder or a fleet folder."""
     if (folder / "summary.json").is_file():
         try:
-            summary = json.loads((folder / "summary.json").read_text(encoding="utf-8"))
-            logs = summary["per_log"]
-        except (ValueError, KeyError, TypeError) as exc:
-            raise _Usage(f"{folder}/summary.json: not a casewatch fleet summary ({exc})") from None
+            logs = read_summary(folder)["per_log"]
+        except FleetError as exc:
+            raise _Usage(str(exc)) from None
         return {Path(log["out_dir"]).name: Path(log["out_dir"]) for log in logs
                 if log.get("ok", True)}  # fmt: skip
     if (folder / "result.json").is_file():

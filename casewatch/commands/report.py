@@ -65,18 +65,18 @@ def main(args: argparse.Namespace) -> int:
 
 def _fleet(folder: Path) -> int:
     """A fleet folder: its overview page `fleet.html` (the logs' own reports stay as they are)."""
-    import json
-
+    from casewatch.batch import FleetError, read_summary
     from reports.fleet import render_fleet
 
     try:
-        summary = json.loads((folder / "summary.json").read_text(encoding="utf-8"))
-        if not isinstance(summary, dict) or "per_log" not in summary:
-            raise ValueError("no per_log list")
-        html = render_fleet(summary, folder)
-    except (ValueError, KeyError, TypeError, RecursionError) as exc:
-        print(f"casewatch report: {folder}/summary.json: not a casewatch fleet summary ({exc})",
-              file=sys.stderr)  # fmt: skip
+        summary = read_summary(folder)
+        try:
+            html = render_fleet(summary, folder)
+        except (KeyError, TypeError, ValueError) as exc:  # a log entry missing its fields
+            raise FleetError(f"{folder}/summary.json: not a casewatch fleet summary "
+                             f"({type(exc).__name__}: {exc})") from None
+    except FleetError as exc:
+        print(f"casewatch report: {exc}", file=sys.stderr)
         return 2
     target = folder / "fleet.html"
     target.write_text(html, encoding="utf-8")
