@@ -17,14 +17,16 @@ from pathlib import Path
 
 from casewatch.crash import write_crash_log
 from evaluator.ground_truth import LabelsError
-from evaluator.inputs import file_digest
+from evaluator.inputs import path_digest
 from evaluator.session import DEFAULT_MAX_NO_DATA, InputError, RunOptions, evaluate_stream
 from evaluator.signal_store import FILE_NAME as SIGNALS_FILE
 from evaluator.summary import LogSummary, summarise, summarise_result
+from monitor.bags.reader import is_bag
 from monitor.warmup import warm_up
 from safety_case.findings import CaseError
 
 STREAM_SUFFIXES = (".jsonl", ".jsonl.gz", ".ndjson", ".ndjson.gz")
+BAG_SUFFIXES = (".mcap", ".db3")
 LABEL_SUFFIXES = (".labels.jsonl", "-labels.jsonl")
 
 
@@ -33,7 +35,11 @@ class NoStreams(ValueError):
 
 
 def is_stream_file(path: Path) -> bool:
+    """A JSON Lines stream or a ROS 2 bag (an .mcap or .db3 file, or a bag folder); a storage
+    file inside a bag folder belongs to that bag, not a log of its own."""
     name = path.name
+    if is_bag(path):
+        return path.is_dir() or not (path.parent / "metadata.yaml").is_file()
     return name.endswith(STREAM_SUFFIXES) and not name.endswith(LABEL_SUFFIXES)
 
 
@@ -41,11 +47,14 @@ def find_streams(pattern: str) -> list[Path]:
     """A folder (its stream files, sorted), a glob, or a single file."""
     path = Path(pattern)
     if path.is_dir():
-        found = sorted(p for p in path.iterdir() if p.is_file() and is_stream_file(p))
+        if is_bag(path):
+            return [path]
+        found = sorted(p for p in path.iterdir() if is_stream_file(p))
         if not found:
             raise NoStreams(
-                f"{pattern}: no stream files in this folder "
-                f"(looked for {', '.join(STREAM_SUFFIXES)}; labels files are not streams)"
+                f"{pattern}: no stream files in this folder (looked for "
+                f"{', '.join(STREAM_SUFFIXES + BAG_SUFFIXES)} and bag folders; labels files "
+                "are not streams)"
             )
         return found
     if any(ch in pattern for ch in "*?["):
@@ -58,7 +67,7 @@ def find_streams(pattern: str) -> list[Path]:
 
 def stream_stem(path: Path) -> str:
     name = path.name
-    for suffix in sorted(STREAM_SUFFIXES, key=len, reverse=True):
+    for suffix in sorted(STREAM_SUFFIXES + BAG_SUFFIXES, key=len, reverse=True):
         if name.endswith(suffix):
             return name[: -len(suffix)]
     return path.stem
@@ -91,6 +100,7 @@ class Job:
     max_no_data: float = DEFAULT_MAX_NO_DATA
     save_signals: bool = False
     fail_on: str = "any"
+    topics: str | None = None  # a bag's topic mapping (`--topics`); None: the case's
 
 
 def run_job(job: Job) -> LogSummary:
@@ -109,6 +119,7 @@ def run_job(job: Job) -> LogSummary:
             max_no_data=job.max_no_data,
             signals_path=out / SIGNALS_FILE if job.save_signals else None,
             fail_on=job.fail_on,
+            topics=Path(job.topics) if job.topics else None,
         )
         result = evaluate_stream(case, spec, job.stream, options)
         api.write_result(result, out)
@@ -157,7 +168,7 @@ def reusable(job: Job, case_digest: str) -> LogSummary | None:
     if not result.complete or result.case.digest != case_digest:
         return None
     try:
-        if result.stream.digest != file_digest(job.stream):
+        if result.stream.digest != path_digest(job.stream):
             return None
     except OSError:
         return None
@@ -178,6 +189,7 @@ def run_many(
     save_signals: bool = False,
     fail_on: str = "any",
     *,
+    topics: str | None = None,
     engine: str = "processes",
     scheduler: str | None = None,
     resume: bool = False,
@@ -196,7 +208,8 @@ def run_many(
         used.add(name)
         work.append(Job(case_path, str(stream), str(out_dir / name),
                         labels_for(str(stream), labels),
-                        strict, tuple(formats), max_no_data, save_signals, fail_on))
+                        strict, tuple(formats), max_no_data, save_signals, fail_on,
+                        topics))
     done: dict[int, LogSummary] = {}
     if resume:
         for k, job in enumerate(work):

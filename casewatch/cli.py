@@ -14,7 +14,8 @@ import sys
 from casewatch import __version__
 from casewatch.crash import report_crash
 
-COMMANDS = ("check", "compile", "run", "report", "tune", "calibrate", "diff", "export_scenarios")
+COMMANDS = ("check", "compile", "run", "report", "tune", "calibrate", "diff", "export_scenarios",
+            "convert")
 
 
 def build_parser() -> tuple[argparse.ArgumentParser, dict[str, object]]:

@@ -66,3 +66,16 @@ def file_digest(path: Path | str) -> str:
         for block in iter(lambda: fh.read(1 << 20), b""):
             digest.update(block)
     return digest.hexdigest()
+
+
+def path_digest(path: Path | str) -> str:
+    """The sha256 of a file, or of a folder (a rosbag2 bag: metadata.yaml and its storage
+    files) as the names and bytes of its files in name order."""
+    path = Path(path)
+    if not path.is_dir():
+        return file_digest(path)
+    digest = hashlib.sha256()
+    for item in sorted(p for p in path.rglob("*") if p.is_file()):
+        digest.update(str(item.relative_to(path)).encode() + b"\0")
+        digest.update(bytes.fromhex(file_digest(item)))
+    return digest.hexdigest()

@@ -114,6 +114,8 @@ class StreamInfo(_Record):
     defects: list[StreamDefect] = []
     defect_count: int = 0  # defects may be truncated in `defects`; this is the full count
     dropouts: dict[str, int] = {}  # channel -> frames in which it was absent
+    # a ROS 2 bag's mapped topics: topic -> {missing_ticks, late_messages} (docs/bags.md)
+    topics: dict[str, dict[str, int]] = {}
 
 
 class Episode(_Record):

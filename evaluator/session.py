@@ -19,7 +19,7 @@ from casewatch import __version__
 from evaluator.core import Evaluator
 from evaluator.eventlog import Event, EventLog
 from evaluator.ground_truth import read_labels, score_events
-from evaluator.inputs import open_hashed
+from evaluator.inputs import open_hashed, path_digest
 from evaluator.intervals import RunLength
 from evaluator.result import (
     ArbitrationInterval,
@@ -31,6 +31,8 @@ from evaluator.result import (
     Timings,
 )
 from evaluator.signal_store import SignalRecorder
+from monitor.bags.mapping import MappingError, resolve_mapping
+from monitor.bags.reader import BagError, BagReader, is_bag, read_bag
 from monitor.engine import MetricEngine
 from monitor.frames import Coverage, Header
 from monitor.reader import StreamError, read_stream
@@ -62,6 +64,8 @@ class RunOptions:
     # where to save every per-tick signal value (`signals.npz`, evaluator.signal_store); None: not
     signals_path: Path | None = None
     fail_on: str = "any"  # which episodes fail the run (evaluator.policy), recorded in the result
+    # the topic mapping for a ROS 2 bag (`--topics`); None: the case's `monitor.topics`
+    topics: Path | None = None
 
 
 @dataclass
@@ -88,10 +92,15 @@ def evaluate_stream(
     labels = None
     if options.labels is not None:
         labels = read_labels(options.labels)
-    try:
-        binary, hashing, name = open_hashed(source)
-    except OSError as exc:
-        raise InputError(f"{source}: cannot read stream: {exc.strerror or exc}") from None
+    bag = is_bag(source)
+    if bag:
+        reader, name, digest = _open_bag(case, source, options)
+        binary = hashing = None
+    else:
+        try:
+            binary, hashing, name = open_hashed(source)
+        except OSError as exc:
+            raise InputError(f"{source}: cannot read stream: {exc.strerror or exc}") from None
     log = EventLog(options.events_path) if options.events_path else None
 
     def emit(event: Event) -> None:
@@ -107,9 +116,10 @@ def evaluate_stream(
         inputs = {name for f in spec.formulas for name in f.signals}
         names = [*engine.signal_names, *sorted(inputs - set(engine.signal_names))]
         recorder = SignalRecorder(names, case.monitor.period, case.monitor.metrics.max_gap)
-    text = io.TextIOWrapper(binary, encoding="utf-8", errors="strict")
-    reader = read_stream(text, strict=options.strict, channels=list(case.monitor.channels),
-                         period=case.monitor.period)
+    if not bag:
+        text = io.TextIOWrapper(binary, encoding="utf-8", errors="strict")
+        reader = read_stream(text, strict=options.strict, channels=list(case.monitor.channels),
+                             period=case.monitor.period)
     arbitration = RunLength()
     clock = _Clock()
     complete = True
@@ -148,8 +158,9 @@ def evaluate_stream(
         except KeyboardInterrupt:
             complete = False
         finally:
-            binary.close()
-            hashing.close()
+            if binary is not None:
+                binary.close()
+                hashing.close()
         evaluator.finish()
     finally:
         if log is not None:
@@ -159,7 +170,7 @@ def evaluate_stream(
     total = time.perf_counter() - clock.started
     stream = StreamInfo(
         path=str(source),
-        digest=hashing.sha256.hexdigest(),
+        digest=digest if bag else hashing.sha256.hexdigest(),
         meta=dict(reader.header.meta) if reader.header is not None else {},
         frames_read=reader.frames_read,
         t_start=t_first,
@@ -171,6 +182,7 @@ def evaluate_stream(
         ],
         defect_count=len(reader.defects),
         dropouts=dict(reader.dropouts),
+        topics=reader.topic_report() if bag else {},
     )
     statuses = evaluator.node_statuses()
     root = next(s for s in statuses if s.node_id == spec.root_id)
@@ -220,6 +232,19 @@ def evaluate_stream(
             exceeded=share > options.max_no_data,
         ),
     )
+
+
+def _open_bag(case: Case, source: str | Path, options: RunOptions) -> tuple[BagReader, str, str]:
+    """A bag's reader, display name and digest (sha256 of its files), or `InputError`."""
+    try:
+        mapping = resolve_mapping(options.topics, case.path, case.monitor.topics)
+        reader = read_bag(source, mapping, channels=list(case.monitor.channels),
+                          period=case.monitor.period, strict=options.strict)  # fmt: skip
+        return reader, str(source), path_digest(source)
+    except (MappingError, BagError) as exc:
+        raise InputError(str(exc)) from None
+    except OSError as exc:
+        raise InputError(f"{source}: cannot read the bag: {exc.strerror or exc}") from None
 
 
 def _timed(reader, clock: _Clock) -> Iterator:

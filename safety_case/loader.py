@@ -288,6 +288,7 @@ class _Builder:
             coverage=raw.coverage,
             merge_gap=raw.merge_gap,
             min_duration=raw.min_duration,
+            topics=raw.topics,
             mark=entry.key_mark,
         )
 

@@ -161,6 +161,9 @@ class MonitorConfig(BaseModel):
     coverage: dict[str, ChannelCoverage] = {}  # channel -> what it can see (default: all)
     merge_gap: float = 1.0  # seconds; episodes closer than this merge
     min_duration: float = 0.0  # seconds; shorter episodes are dropped (and counted)
+    #: the topic mapping for ROS 2 bags, as written: a path relative to the case, or inline
+    #: (checked when a bag is read: monitor.bags.mapping, docs/bags.md); None: not given
+    topics: str | dict | None = None
     mark: Mark = Mark()
 
 

@@ -348,6 +348,9 @@ class RawMonitor(BaseModel):
     coverage: dict[StrictStr, ChannelCoverage] = {}
     merge_gap: Duration = 1.0
     min_duration: Duration = 0.0
+    # how ROS 2 bags feed the channels: a topics file (relative to the case) or the mapping
+    # itself; its content is checked when a bag is read (monitor.bags.mapping, docs/bags.md)
+    topics: StrictStr | dict | None = None
 
     @model_validator(mode="after")
     def _gap_covers_a_period(self) -> RawMonitor:

@@ -30,6 +30,7 @@ from evaluator.result import DataGap, Episode, EpisodeOpen, NearMiss, RunResult
 from evaluator.session import DEFAULT_MAX_NO_DATA, InputError, RunOptions, evaluate_stream
 from evaluator.signal_store import FILE_NAME as SIGNALS_FILE
 from evaluator.summary import LogSummary
+from monitor.bags.reader import is_bag
 from monitor.warmup import warm_up
 from reports.render import FORMATS, parse_formats
 
@@ -42,8 +43,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("case", help="the safety case (YAML)")
     p.add_argument("streams", nargs="+", metavar="STREAM",
-                   help="a JSON Lines stream (.jsonl or .jsonl.gz), '-' for standard input, "
-                        "a folder of streams, or a glob such as 'logs/*.jsonl.gz'")
+                   help="a JSON Lines stream (.jsonl or .jsonl.gz), a ROS 2 bag (.mcap, .db3 "
+                        "or a bag folder), '-' for standard input, a folder of streams and "
+                        "bags, or a glob such as 'logs/*.jsonl.gz'")
+    p.add_argument("--topics", type=Path, metavar="FILE",
+                   help="for ROS 2 bags: the topic mapping (YAML; default: the case's "
+                        "monitor.topics; docs/bags.md)")
     p.add_argument("-o", "--out", required=True, type=Path, help="output folder")
     p.add_argument("--labels", help="ground-truth labels (JSON Lines); 'auto' uses "
                                     "NAME.labels.jsonl next to each stream when present")
@@ -128,9 +133,10 @@ def main(args: argparse.Namespace) -> int:
     if prepared is None:
         return 2
     case, spec = prepared
+    first = args.streams[0]
     single = len(args.streams) == 1 and (
-        args.streams[0] == "-" or not (Path(args.streams[0]).is_dir()
-                                       or any(c in args.streams[0] for c in "*?["))
+        first == "-" or is_bag(first)
+        or not (Path(first).is_dir() or any(c in first for c in "*?["))
     )
     if single:
         return _run_single(args, case, spec, formats)
@@ -159,6 +165,7 @@ def _run_single(args, case, spec, formats: tuple[str, ...]) -> int:
         max_no_data=args.max_no_data,
         signals_path=args.out / SIGNALS_FILE if args.save_signals else None,
         fail_on=args.fail_on,
+        topics=args.topics,
     )
     warm_up()  # compiled kernels ready before the first frame (matters for a live stream)
     try:
@@ -259,7 +266,9 @@ def _run_many(args, case, formats: tuple[str, ...]) -> int:
     try:
         summary = batch.run_many(args.case, case.digest, streams, args.out, args.jobs,
                                  args.labels, args.strict, formats, on_done, args.max_no_data,
-                                 args.save_signals, args.fail_on, engine=args.engine,
+                                 args.save_signals, args.fail_on,
+                                 topics=str(args.topics) if args.topics else None,
+                                 engine=args.engine,
                                  scheduler=args.scheduler, resume=args.resume)  # fmt: skip
     except EngineError as exc:
         print(f"casewatch run: {exc}", file=sys.stderr)

@@ -1,0 +1,194 @@
+"""Decoded messages -> the channel state of one tick (`monitor.frames`), in numpy.
+
+Conventions (docs/bags.md, "How messages become frames"):
+
+- yaw from the pose quaternion; velocities in the world frame, rotated from the body frame
+  where ROS puts them (Odometry twist in `child_frame_id`, Autoware object twist in the
+  object's frame);
+- trajectories count from the tick: a point `tau` seconds after the message stamp `s` is
+  `s + tau - T` after the tick `T`; points already in the past are dropped, nothing is
+  interpolated or extrapolated;
+- the ego and object poses are the ones reported at their stamps (at most `max_age` old).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from monitor.bags.decode import (
+    BOUNDING_BOX,
+    CLASS_NAMES,
+    CYLINDER,
+    ObjectsRecord,
+    OdometryRecord,
+    TrajectoryRecord,
+)
+from monitor.frames import Ego, Objects, box_footprint, is_convex
+
+#: Below this speed (m/s) a plan segment timed from velocities is a stop: the plan ends there.
+STOP_SPEED = 0.05
+
+
+class RecordDefect(ValueError):
+    """A decoded message that cannot become part of a frame (`kind`, message)."""
+
+    def __init__(self, kind: str, message: str):
+        super().__init__(message)
+        self.kind = kind
+        self.message = message
+
+
+def yaw_of(q: np.ndarray) -> np.ndarray:
+    """Heading (rad) of (..., 4) quaternions x, y, z, w about the z axis."""
+    x, y, z, w = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    return np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+
+
+def to_world(v_body: np.ndarray, yaw: np.ndarray) -> np.ndarray:
+    """(..., 2) body-frame vectors turned by `yaw` into the world frame."""
+    c, s = np.cos(yaw), np.sin(yaw)
+    out = np.empty_like(v_body)
+    out[..., 0] = c * v_body[..., 0] - s * v_body[..., 1]
+    out[..., 1] = s * v_body[..., 0] + c * v_body[..., 1]
+    return out
+
+
+def _finite(values: np.ndarray, what: str) -> None:
+    if not np.isfinite(values).all():
+        raise RecordDefect("non-finite", f"{what}: NaN or infinity in a pose or velocity")
+
+
+def ego_state(rec: OdometryRecord, footprint: np.ndarray) -> Ego:
+    _finite(rec.pose, "odometry")
+    _finite(rec.twist, "odometry")
+    yaw = float(yaw_of(rec.pose[3:7]))
+    vx, vy = to_world(rec.twist, np.float64(yaw))
+    return Ego(x=float(rec.pose[0]), y=float(rec.pose[1]), yaw=yaw, vx=float(vx), vy=float(vy),
+               footprint=footprint, convex=True,
+               half=(float(footprint[0, 0]), float(footprint[0, 1])))  # fmt: skip
+
+
+def _from_tick(times: np.ndarray, shift: float) -> np.ndarray:
+    """Boolean mask of points at or after the tick, for times counted from the stamp."""
+    return times + shift >= 0.0
+
+
+def plan_state(rec: TrajectoryRecord, tick_ns: int, plan_time: str) -> np.ndarray:
+    """The plan as (N, 3) `[dt, x, y]` from the tick. `plan_time`: `stamps` uses
+    `time_from_start`, `velocity` times the points from arc length and
+    `longitudinal_velocity_mps` (up to the first stop), `auto` the stamps when they increase
+    strictly, else the velocities (several Autoware planners leave `time_from_start` at 0)."""
+    _finite(rec.pose[:, :2], "plan")
+    tfs = rec.time_from_start / 1e9  # exact ns over 1e9: 41_700_000 ns is 0.0417 s as written
+    xy = rec.pose[:, :2]
+    increasing = len(tfs) < 2 or bool(np.all(np.diff(tfs) > 0))
+    if plan_time == "velocity" or (plan_time == "auto" and not increasing):
+        tfs, xy = _timed_by_speed(xy, rec.speed)
+    elif not increasing:
+        raise RecordDefect("bad-trajectory", "plan time_from_start does not increase strictly "
+                           "(plan_time: auto times such plans from their velocities)")
+    if len(tfs) and tfs[0] < 0:
+        raise RecordDefect("bad-trajectory", f"plan time_from_start {tfs[0]:g} s is negative")
+    shift = (rec.stamp - tick_ns) / 1e9
+    keep = _from_tick(tfs, shift)
+    out = np.empty((int(keep.sum()), 3))
+    out[:, 0] = tfs[keep] + shift
+    out[:, 1:] = xy[keep]
+    return out
+
+
+def _timed_by_speed(xy: np.ndarray, speed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Point times from arc length over the mean speed of each segment, the first point at 0;
+    the plan ends at the first segment slower than STOP_SPEED (it is never driven past)."""
+    if len(xy) < 2:
+        return np.zeros(len(xy)), xy
+    if not np.isfinite(speed).all():
+        raise RecordDefect("non-finite", "plan: NaN or infinity in longitudinal_velocity_mps")
+    ds = np.hypot(*np.diff(xy, axis=0).T)
+    v = 0.5 * (np.abs(speed[:-1]) + np.abs(speed[1:]))
+    moving = v >= STOP_SPEED
+    end = len(xy) if moving.all() else int(np.argmin(moving)) + 1
+    ds, v = ds[: end - 1], v[: end - 1]
+    keep = np.concatenate([[True], ds > 0])  # repeated points carry no time
+    times = np.concatenate([[0.0], np.cumsum(ds / np.where(moving[: end - 1], v, 1.0))])
+    return times[keep[:end]], xy[:end][keep[:end]]
+
+
+def objects_state(rec: ObjectsRecord, tick_ns: int) -> Objects:
+    k = len(rec.uuids)
+    if k == 0:
+        return Objects.empty()
+    _finite(rec.pose[:, :2], "objects")
+    _finite(rec.twist, "objects")
+    yaw = yaw_of(rec.pose[:, 3:7])
+    vel = to_world(rec.twist, yaw)
+    footprints, half, convex = _footprints(rec)
+    shift = (rec.stamp - tick_ns) / 1e9
+    preds = []
+    for i in range(k):
+        path = rec.paths[i]
+        n = len(path)
+        if n == 0:
+            preds.append(np.zeros((0, 3)))
+            continue
+        if rec.steps[i] <= 0 and n > 1:
+            raise RecordDefect("bad-trajectory", f"objects[{i}]: predicted path with a time "
+                               f"step of {rec.steps[i]} ns")  # fmt: skip
+        times = (np.arange(n, dtype=np.int64) * int(rec.steps[i])) / 1e9
+        keep = _from_tick(times, shift)
+        p = np.empty((int(keep.sum()), 3))
+        p[:, 0] = times[keep] + shift
+        p[:, 1:] = path[keep, :2]
+        _finite(p, f"objects[{i}] prediction")
+        preds.append(p)
+    lens = np.fromiter((len(p) for p in preds), dtype=np.int64, count=k)
+    width = int(lens.max())
+    pred = np.zeros((k, width, 3))
+    for i, p in enumerate(preds):
+        if len(p):
+            pred[i, : len(p)] = p
+            pred[i, len(p) :] = p[-1]
+    return Objects(
+        ids=[u.hex() for u in rec.uuids],
+        cls=[CLASS_NAMES.get(int(c), "unknown") for c in rec.label],
+        pos=rec.pose[:, :2].copy(),
+        yaw=yaw,
+        vel=vel,
+        footprints=footprints,
+        pred=pred,
+        pred_len=lens,
+        convex=convex,
+        half=half,
+    )
+
+
+def _footprints(rec: ObjectsRecord) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Body-frame footprints (K, V, 2), box halves (K, 2; NaN for polygons), convexity.
+
+    A box takes `dimensions` x and y; a cylinder the square around its circle (diameter
+    `dimensions.x`), which never understates its extent; a polygon its footprint points."""
+    k = len(rec.uuids)
+    half = np.full((k, 2), np.nan)
+    convex = np.ones(k, dtype=bool)
+    polys: list[np.ndarray] = []
+    for i in range(k):
+        kind = int(rec.shape[i])
+        if kind in (BOUNDING_BOX, CYLINDER):
+            length = rec.dims[i, 0]
+            width = rec.dims[i, 1] if kind == BOUNDING_BOX else rec.dims[i, 0]
+            if not (length > 0 and width > 0):
+                raise RecordDefect("bad-footprint", f"objects[{i}]: shape dimensions "
+                                   f"{length:g} x {width:g} m are not positive")  # fmt: skip
+            polys.append(box_footprint(length, width))
+            half[i] = (0.5 * length, 0.5 * width)
+        else:
+            poly = rec.footprints[i]
+            if len(poly) < 3 or not np.isfinite(poly).all():
+                raise RecordDefect("bad-footprint", f"objects[{i}]: a polygon shape needs at "
+                                   f"least 3 finite points, got {len(poly)}")  # fmt: skip
+            polys.append(poly)
+            convex[i] = is_convex(poly)
+    vmax = max(len(p) for p in polys)
+    fp = np.stack([p if len(p) == vmax else np.concatenate([p, np.repeat(p[-1:], vmax - len(p), 0)])
+                   for p in polys])  # fmt: skip
+    return fp, half, convex

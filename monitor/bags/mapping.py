@@ -1,0 +1,179 @@
+"""The topic mapping: which bag topics feed which casewatch channel, and how to align them.
+
+Written as a small YAML file (`--topics topics.yaml`) or inline under `monitor.topics` in the
+case (`docs/bags.md`). Every error names the file, the line and the key, and what was expected.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Annotated, Literal
+
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError
+
+from safety_case.schema import parse_duration
+from safety_case.yamltree import YNode, compose, to_plain
+
+
+class MappingError(ValueError):
+    """A topic mapping that cannot be used; the message is `FILE:LINE: key: what is wrong`."""
+
+
+Seconds = Annotated[float, BeforeValidator(parse_duration)]
+
+
+class TopicRef(BaseModel):
+    """One topic, with an optional age limit of its own."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    topic: str = Field(min_length=1)
+    max_age: Seconds | None = None
+
+
+def _topic(value: object) -> object:
+    """A bare topic name is short for `{topic: NAME}`."""
+    return {"topic": value} if isinstance(value, str) else value
+
+
+Topic = Annotated[TopicRef, BeforeValidator(_topic)]
+
+
+class ChannelTopics(BaseModel):
+    """The topics of one driving stack. `plan` may be left out (plan metrics then have no
+    value); a channel without fresh odometry and objects at a tick is a dropout."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    odometry: Topic
+    objects: Topic
+    plan: Topic | None = None
+
+
+class EgoSize(BaseModel):
+    """The ego footprint, which `nav_msgs/Odometry` does not carry."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    length: float = Field(gt=0, le=100)
+    width: float = Field(gt=0, le=100)
+
+
+class SignalTopic(TopicRef):
+    """A scalar stream signal: the `data` field of a std_msgs number (or Bool) message."""
+
+    field: str = "data"
+
+
+class TopicMapping(BaseModel):
+    """The whole mapping (see the module docstring)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    ego: EgoSize
+    channels: dict[str, ChannelTopics] = Field(min_length=1)
+    signals: dict[str, Annotated[SignalTopic, BeforeValidator(_topic)]] = {}
+    time: Literal["header", "receive"] = "header"
+    max_age: Seconds | None = None  # default: one period
+    max_delay: Seconds = 1.0
+    plan_time: Literal["auto", "stamps", "velocity"] = "auto"
+    meta: dict[str, str | int | float] = {}
+
+    def age_limit(self, ref: TopicRef, period: float) -> float:
+        """Seconds a message of `ref` stays usable: its own limit, the mapping's, or one
+        period, so that a message serves one tick and a lost one is a dropout, never bridged
+        by its predecessor (raise it for topics slower than the ticks)."""
+        if ref.max_age is not None:
+            return ref.max_age
+        if self.max_age is not None:
+            return self.max_age
+        return period
+
+    def topics(self) -> dict[str, str]:
+        """topic name -> role (`odometry`, `objects`, `plan`, `signal`), for type checks."""
+        roles: dict[str, str] = {}
+        for ch in self.channels.values():
+            roles[ch.odometry.topic] = "odometry"
+            roles[ch.objects.topic] = "objects"
+            if ch.plan is not None:
+                roles[ch.plan.topic] = "plan"
+        for sig in self.signals.values():
+            roles[sig.topic] = "signal"
+        return roles
+
+
+@dataclass(frozen=True)
+class LoadedMapping:
+    mapping: TopicMapping
+    source: str  # where it was written, for messages ("topics.yaml" or "case.yaml:12")
+
+
+def load_mapping(path: str | Path, key: tuple[str, ...] = ()) -> LoadedMapping:
+    """Read a mapping from a YAML file, or from the node at `key` inside it (the case's
+    `("monitor", "topics")`). Raises `MappingError`."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise MappingError(f"{path}: cannot read the topic mapping: {exc}") from None
+    root, findings = compose(text, str(path))
+    if findings:
+        f = findings[0]
+        raise MappingError(f"{path}:{f.mark.line}: {f.message}")
+    node = root
+    for part in key:
+        if node is None or node.kind != "map" or part not in node.entries():
+            raise MappingError(f"{path}: no `{'.'.join(key)}` in this file")
+        node = node.entries()[part].value
+    if node is None or node.kind != "map":
+        line = node.mark.line if node is not None else 1
+        raise MappingError(f"{path}:{line}: a topic mapping must be a YAML mapping "
+                           "(ego:, channels:, ...; see docs/bags.md)")  # fmt: skip
+    try:
+        mapping = TopicMapping.model_validate(to_plain(node))
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        loc = [str(p) for p in err["loc"]]
+        line = _line(node, loc)
+        where = ".".join([*key, *loc]) or "topic mapping"
+        raise MappingError(f"{path}:{line}: {where}: {_explain(err)}") from None
+    prefix = ".".join(key)
+    return LoadedMapping(mapping, f"{path}:{node.mark.line}" if prefix else str(path))
+
+
+def _line(node: YNode, loc: list[str]) -> int:
+    """The line of the deepest key of `loc` that exists in the YAML."""
+    line = node.mark.line
+    for part in loc:
+        if node.kind != "map" or part not in node.entries():
+            break
+        entry = node.entries()[part]
+        line = entry.key_mark.line
+        node = entry.value
+    return line
+
+
+def _explain(err: dict) -> str:
+    kind = err["type"]
+    if kind == "missing":
+        return "required here and missing"
+    if kind == "extra_forbidden":
+        return ("unknown key (allowed: ego, channels, signals, time, max_age, max_delay, "
+                "plan_time, meta; per channel: odometry, objects, plan)")  # fmt: skip
+    return str(err["msg"])
+
+
+def resolve_mapping(
+    override: str | Path | None, case_path: str | Path | None, case_topics: str | dict | None
+) -> LoadedMapping:
+    """The mapping a run uses: `--topics FILE` when given, else the case's `monitor.topics`
+    (a file relative to the case, or the mapping written inline). Raises `MappingError`."""
+    if override is not None:
+        return load_mapping(override)
+    if case_topics is None or case_path is None:
+        raise MappingError(
+            "a ROS 2 bag needs a topic mapping (which topics are the odometry, objects and "
+            "plan of each channel): give --topics topics.yaml or write monitor.topics in the "
+            "case; docs/bags.md has an example, and `casewatch convert BAG --list-topics` "
+            "lists what the bag holds"
+        )
+    if isinstance(case_topics, str):
+        return load_mapping(Path(case_path).parent / case_topics)
+    return load_mapping(case_path, ("monitor", "topics"))
