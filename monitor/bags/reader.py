@@ -13,7 +13,6 @@ The reader has `StreamReader`'s surface (`header`, `defects`, `dropouts`, `frame
 from __future__ import annotations
 
 import bisect
-import sqlite3
 import struct
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -21,8 +20,6 @@ from dataclasses import field as _field
 from pathlib import Path
 
 import numpy as np
-from rosbags.interfaces import Connection, MessageDefinitionFormat
-from rosbags.rosbag2 import Reader, ReaderError
 from rosbags.serde import SerdeError
 from rosbags.typesys import Stores, get_types_from_idl, get_types_from_msg, get_typestore
 from rosbags.typesys.base import TypesysError
@@ -31,16 +28,20 @@ from rosbags.typesys.store import Typestore
 from monitor.bags.assemble import RecordDefect, ego_state, objects_state, plan_state
 from monitor.bags.decode import DecodeError, Record, decode_fast, generic_record, header_stamp
 from monitor.bags.mapping import LoadedMapping, TopicMapping
+from monitor.bags.storage import (
+    BagTopic,
+    McapScan,
+    RosbagsStorage,
+    StorageBreak,
+    StorageError,
+    open_storage,
+)
 from monitor.bags.types import ROLE_TYPES, base_typestore, field_layout
 from monitor.frames import ChannelState, Frame, Header, box_footprint
 from monitor.reader import StreamDefect, StreamError
 
 #: The plan of a channel whose plan topic had nothing fresh: plan metrics then have no value.
 _NO_PLAN = np.zeros((0, 3))
-
-#: What a broken storage file raises while its messages are read.
-_STORAGE_ERRORS = (ReaderError, sqlite3.DatabaseError, struct.error, EOFError, ValueError,
-                   KeyError, IndexError)  # fmt: skip
 
 
 class BagError(ValueError):
@@ -144,15 +145,11 @@ class BagReader:
             raise BagError(f"{self.mapping_source}: the case's channel(s) {', '.join(absent)} "
                            "have no topics; map them under channels: (odometry, objects, plan)")
 
-    def _open(self) -> Reader:
+    def _open(self) -> RosbagsStorage | McapScan:
         try:
-            bag = Reader(self.path)
-            bag.open()
-        except FileNotFoundError:
-            raise BagError(f"{self.name}: no such bag") from None
-        except (ReaderError, *_STORAGE_ERRORS) as exc:
-            raise BagError(f"{self.name}: cannot open as a ROS 2 bag (MCAP or sqlite3): "
-                           f"{exc}") from None  # fmt: skip
+            bag = open_storage(self.path)
+        except StorageError as exc:
+            raise BagError(f"{self.name}: {exc}") from None
         mcap = self.path.suffix == ".mcap" or (self.path.is_dir()
                                                and any(self.path.glob("*.mcap")))  # fmt: skip
         self.header.meta["storage"] = "mcap" if mcap else "sqlite3"
@@ -160,14 +157,15 @@ class BagReader:
 
     def _connect(self) -> dict[str, _Topic]:
         """Check every mapped topic against the bag and choose its decoder."""
-        conns: dict[str, Connection] = {}
-        for c in self._bag.connections:
-            conns.setdefault(c.topic, c)
+        conns = self._bag.topics
         roles = self.mapping.topics()
         missing = [t for t in roles if t not in conns]
         if missing:
             have = "\n".join(f"  {c.topic}  ({c.msgtype})" for c in conns.values()) or "  (none)"
             self._bag.close()
+            if self._bag.recovered:
+                raise BagError(f"{self.name}: the MCAP file is cut short before it names "
+                               f"topic(s) {', '.join(missing)}; what it holds:\n{have}")
             raise BagError(f"{self.name}: topic(s) {', '.join(missing)} from {self.mapping_source}"
                            f" are not in the bag; it has:\n{have}")
         store = self._typestore([conns[t] for t in roles])
@@ -189,26 +187,21 @@ class BagReader:
                     ref, self.period)), fast)  # fmt: skip
         for sig in self.mapping.signals.values():
             conn = conns[sig.topic]
-            if conn.msgtype not in store.fielddefs:
-                self._bag.close()
-                raise BagError(f"{self.name}: topic {sig.topic} carries {conn.msgtype}, which "
-                               "the bag does not define and casewatch does not know")
             topics[sig.topic] = _Topic(sig.topic, "signal", conn.msgtype,
                                        _ns(self.mapping.age_limit(sig, self.period)), False,
                                        sig.field)  # fmt: skip
         self._store = store
-        self._conns = [conns[t] for t in topics]
         return topics
 
-    def _typestore(self, conns: list[Connection]) -> Typestore:
+    def _typestore(self, conns: list[BagTopic]) -> Typestore:
         """The shipped types, overridden by the definitions the bag carries for its topics."""
         types = dict(base_typestore().fielddefs)
         for c in conns:
             try:
-                if c.msgdef.format == MessageDefinitionFormat.MSG and c.msgdef.data:
-                    types.update(get_types_from_msg(c.msgdef.data, c.msgtype))
-                elif c.msgdef.format == MessageDefinitionFormat.IDL and c.msgdef.data:
-                    for part in c.msgdef.data.split("=" * 80 + "\n"):
+                if c.definition_format == "msg" and c.definition:
+                    types.update(get_types_from_msg(c.definition, c.msgtype))
+                elif c.definition_format == "idl" and c.definition:
+                    for part in c.definition.split("=" * 80 + "\n"):
                         body = part.split("\n", 1)[1] if part.startswith("IDL: ") else part
                         if body.strip():
                             types.update(get_types_from_idl(body))
@@ -251,35 +244,37 @@ class BagReader:
         tick: int | None = None
         newest: int | None = None  # the latest stamp seen on a channel topic
         number = 0
-        messages = self._bag.messages(connections=self._conns)
+        messages = self._bag.messages(list(topics))
+        if self._bag.recovered:
+            self.header.meta["recovered"] = "read record by record: the MCAP file has no end"
         while True:
             try:
                 item = next(messages, None)
-            except _STORAGE_ERRORS as exc:
+            except StorageBreak as exc:
                 self._defect(number + 1, "truncated-bag", f"the bag breaks off after message "
-                             f"{number} ({type(exc).__name__}: {exc}); the frames before were "
-                             "judged, nothing after could be read")  # fmt: skip
+                             f"{number} ({exc}); the frames before were judged, nothing after "
+                             "could be read")  # fmt: skip
                 break
             if item is None:
                 break
-            conn, logtime, raw = item
+            name, logtime, raw = item
             number += 1
-            topic = topics[conn.topic]
+            topic = topics[name]
             if receive or topic.role == "signal":
                 stamp = logtime
             else:
                 try:
                     stamp = header_stamp(raw)
                 except DecodeError as exc:
-                    self._defect(number, "bad-message", f"{conn.topic}: {exc}")
+                    self._defect(number, "bad-message", f"{name}: {exc}")
                     continue
                 if stamp <= 0:
-                    self._defect(number, "bad-stamp", f"{conn.topic}: header stamp {stamp} ns "
+                    self._defect(number, "bad-stamp", f"{name}: header stamp {stamp} ns "
                                  "is not a time (time: receive uses the recording time)")
                     continue
             if tick is not None and tick > (self.origin_ns or 0) and stamp <= tick - period:
                 topic.late += 1  # a tick it belonged to was built without it
-            topic.add(_Message(stamp, number, bytes(raw), conn.topic))
+            topic.add(_Message(stamp, number, bytes(raw), name))
             if topic.role == "signal":
                 continue
             if tick is None:

@@ -57,8 +57,9 @@ def default_mapping(channels: list[str], signals: list[str], length: float,
     }
 
 
-class _Messages:
-    """Builders of rosbags message objects for one typestore."""
+class MessageBuilder:
+    """rosbags message objects of the shipped types, built from frame values (the writer's
+    and the tests' way to make Autoware messages)."""
 
     def __init__(self) -> None:
         self.store = base_typestore()
@@ -222,7 +223,7 @@ def write_bag(
     """Write `frames` as a rosbag2 folder `out` (created; it must not exist). Returns the
     number of frames written. `storage` is `mcap` or `sqlite3`."""
     plugin = {"mcap": StoragePlugin.MCAP, "sqlite3": StoragePlugin.SQLITE3}[storage]
-    build = _Messages()
+    build = MessageBuilder()
     store = build.store
     try:
         writer = Writer(Path(out), version=9, storage_plugin=plugin)
