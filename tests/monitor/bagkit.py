@@ -74,7 +74,8 @@ class BagKit:
                  T0 + round((stamp_ms if log_ms is None else log_ms) * MS))
 
     def objects(self, stamp_ms: float, x: float, log_ms: float | None = None,
-                pred: np.ndarray | None = None, topic: str = TOPICS["objects"]) -> None:  # fmt: skip
+                pred: np.ndarray | None = None) -> None:  # fmt: skip
+        topic = TOPICS["objects"]
         stamp = T0 + round(stamp_ms * MS)
         msg = self.build.objects(stamp, one_object(x, pred))
         self.raw(topic, OBJECTS, self.store.serialize_cdr(msg, OBJECTS),

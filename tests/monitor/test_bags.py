@@ -341,7 +341,7 @@ def test_an_mcap_recording_cut_short_is_judged_up_to_the_break(tmp_path: Path) -
 
 def test_a_cut_sqlite3_bag_is_a_clear_error(tmp_path: Path) -> None:
     bag, m, _ = _cut(tmp_path, "sqlite3", 0.5)
-    with pytest.raises(BagError, match="cannot open as a ROS 2 bag .* malformed"):
+    with pytest.raises(BagError, match=r"cannot open as a ROS 2 bag .* malformed"):
         read_bag(bag, m, ["lav", "tfuse"], 0.1)
 
 
@@ -360,7 +360,8 @@ def test_a_corrupt_message_is_a_defect_and_a_dropout(tmp_path: Path) -> None:
     reader, frames = frames_of(tmp_path / "corrupt")
     assert ["lav" in f.channels for f in frames] == [True, True, False, True]
     assert [d.kind for d in reader.defects] == ["bad-message"]
-    assert "cannot decode autoware_perception_msgs/msg/PredictedObjects" in reader.defects[0].message
+    message = reader.defects[0].message
+    assert "cannot decode autoware_perception_msgs/msg/PredictedObjects" in message
 
 
 # -- the mapping file ---------------------------------------------------------------------------
