@@ -50,6 +50,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="seconds between frames (default: the case's monitor.period, else 0.1)")
     p.add_argument("--storage", choices=("mcap", "sqlite3"), default="mcap",
                    help="storage of a bag written from a stream (default: mcap)")
+    p.add_argument("--compress", action="store_true",
+                   help="zstd-compress the chunks of an MCAP bag written from a stream")
     p.add_argument("--ego-size", nargs=2, type=float, metavar=("LENGTH", "WIDTH"),
                    default=None, help="ego footprint for the default mapping (default: the "
                                       "stream's first ego box)")  # fmt: skip
@@ -148,17 +150,19 @@ def _stream_to_bag(args) -> int:
     frames = read_stream(source, strict=True, channels=channels, period=period)
     if args.topics is not None or case_topics is not None:
         mapping: TopicMapping = resolve_mapping(args.topics, case_path, case_topics).mapping
-        written = write_bag(frames, args.out, mapping, args.storage)
+        written = write_bag(frames, args.out, mapping, args.storage, compress=args.compress)
         saved = None
     else:
-        first = _peek(source, channels)
+        first, header = _peek(source, channels)
         if first is None:
             raise _Usage(f"{source}: no frames to convert")
         size = args.ego_size or _ego_box(first)
-        plain = default_mapping(list(first.channels), sorted(first.signals), *size)
+        names = header.channels if header is not None and header.channels else list(first.channels)
+        plain = default_mapping(names, sorted(first.signals), *size,
+                                coverage=header.coverage if header is not None else None)
         mapping = TopicMapping.model_validate(plain)
         written = write_bag(read_stream(source, strict=True, channels=channels, period=period),
-                            args.out, mapping, args.storage)  # fmt: skip
+                            args.out, mapping, args.storage, compress=args.compress)  # fmt: skip
         saved = args.out.with_name(args.out.name + ".topics.yaml")
         saved.write_text("# written by casewatch convert: which topics are which channel\n"
                          + yaml.safe_dump(plain, sort_keys=False), encoding="utf-8")
@@ -171,9 +175,11 @@ def _stream_to_bag(args) -> int:
 
 
 def _peek(source: str, channels: list[str] | None):
-    for frame in read_stream(source, strict=True, channels=channels):
-        return frame
-    return None
+    """The first frame and the header of a stream."""
+    reader = read_stream(source, strict=True, channels=channels)
+    for frame in reader:
+        return frame, reader.header
+    return None, reader.header
 
 
 def _ego_box(frame) -> tuple[float, float]:

@@ -25,6 +25,9 @@ from monitor.bags.decode import (
 )
 from monitor.frames import Ego, Objects, box_footprint, is_convex
 
+#: Corner signs of a box footprint, in `box_footprint`'s order.
+_BOX_SIGNS = np.sign(box_footprint(2.0, 2.0))
+
 #: Below this speed (m/s) a plan segment timed from velocities is a stop: the plan ends there.
 STOP_SPEED = 0.05
 
@@ -123,7 +126,39 @@ def objects_state(rec: ObjectsRecord, tick_ns: int) -> Objects:
     yaw = yaw_of(rec.pose[:, 3:7])
     vel = to_world(rec.twist, yaw)
     footprints, half, convex = _footprints(rec)
-    shift = (rec.stamp - tick_ns) / 1e9
+    pred, lens = _predictions(rec, (rec.stamp - tick_ns) / 1e9)
+    return Objects(
+        ids=[u.hex() for u in rec.uuids],
+        cls=[CLASS_NAMES.get(int(c), "unknown") for c in rec.label],
+        pos=rec.pose[:, :2].copy(),
+        yaw=yaw,
+        vel=vel,
+        footprints=footprints,
+        pred=pred,
+        pred_len=lens,
+        convex=convex,
+        half=half,
+    )
+
+
+def _predictions(rec: ObjectsRecord, shift: float) -> tuple[np.ndarray, np.ndarray]:
+    """Predictions (K, P, 3) `[dt, x, y]` from the tick, padded by their last point, and their
+    lengths. Pose i of a path is at i * time_step after the stamp; the points before the tick
+    are dropped. One array operation when every path has the same length and step (a stack's
+    predictor usually makes them so), else object by object."""
+    k = len(rec.paths)
+    lengths = np.fromiter((len(p) for p in rec.paths), dtype=np.int64, count=k)
+    if (lengths[0] > 1 and (lengths == lengths[0]).all()
+            and (rec.steps == rec.steps[0]).all() and rec.steps[0] > 0):  # fmt: skip
+        n = int(lengths[0])
+        times = (np.arange(n, dtype=np.int64) * int(rec.steps[0])) / 1e9
+        keep = _from_tick(times, shift)
+        paths = np.stack(rec.paths)[:, keep, :2]
+        pred = np.empty((k, paths.shape[1], 3))
+        pred[:, :, 0] = times[keep] + shift
+        pred[:, :, 1:] = paths
+        _finite(pred, "objects prediction")
+        return pred, np.full(k, paths.shape[1], dtype=np.int64)
     preds = []
     for i in range(k):
         path = rec.paths[i]
@@ -142,24 +177,12 @@ def objects_state(rec: ObjectsRecord, tick_ns: int) -> Objects:
         _finite(p, f"objects[{i}] prediction")
         preds.append(p)
     lens = np.fromiter((len(p) for p in preds), dtype=np.int64, count=k)
-    width = int(lens.max())
-    pred = np.zeros((k, width, 3))
+    pred = np.zeros((k, int(lens.max()), 3))
     for i, p in enumerate(preds):
         if len(p):
             pred[i, : len(p)] = p
             pred[i, len(p) :] = p[-1]
-    return Objects(
-        ids=[u.hex() for u in rec.uuids],
-        cls=[CLASS_NAMES.get(int(c), "unknown") for c in rec.label],
-        pos=rec.pose[:, :2].copy(),
-        yaw=yaw,
-        vel=vel,
-        footprints=footprints,
-        pred=pred,
-        pred_len=lens,
-        convex=convex,
-        half=half,
-    )
+    return pred, lens
 
 
 def _footprints(rec: ObjectsRecord) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -168,6 +191,16 @@ def _footprints(rec: ObjectsRecord) -> tuple[np.ndarray, np.ndarray, np.ndarray]
     A box takes `dimensions` x and y; a cylinder the square around its circle (diameter
     `dimensions.x`), which never understates its extent; a polygon its footprint points."""
     k = len(rec.uuids)
+    if (rec.shape == BOUNDING_BOX).all():  # the usual case, in one array operation
+        half = 0.5 * rec.dims[:, :2]
+        if not (half > 0).all():
+            i = int(np.argmin((half > 0).all(axis=1)))
+            raise RecordDefect("bad-footprint", f"objects[{i}]: shape dimensions "
+                               f"{rec.dims[i, 0]:g} x {rec.dims[i, 1]:g} m are not positive")
+        fp = np.empty((k, 4, 2))
+        fp[:, :, 0] = half[:, :1] * _BOX_SIGNS[:, 0]
+        fp[:, :, 1] = half[:, 1:] * _BOX_SIGNS[:, 1]
+        return fp, half.copy(), np.ones(k, dtype=bool)
     half = np.full((k, 2), np.nan)
     convex = np.ones(k, dtype=bool)
     polys: list[np.ndarray] = []

@@ -14,6 +14,7 @@ Both return the same records; `DecodeError` names what is wrong with one message
 
 from __future__ import annotations
 
+import math
 import struct
 from dataclasses import dataclass
 
@@ -80,13 +81,23 @@ class TrajectoryRecord:
 
 Record = OdometryRecord | ObjectsRecord | TrajectoryRecord
 
-_CDR_LE = (b"\x00\x01", b"\x00\x03")  # plain CDR and XCDR2, little endian: same layout here
+_CDR_LE = b"\x00\x01"  # plain CDR, little endian: what ROS 2 writes (rosbags reads no other)
 _BASE = 4  # alignment counts from the end of the encapsulation header
 _STAMP = struct.Struct("<iI")
 _U32 = struct.Struct("<I")
 _F32 = struct.Struct("<f")
 _TRAJ_POINT = np.dtype([("sec", "<i4"), ("nsec", "<u4"), ("pose", "<f8", (7,)),
                         ("speed", "<f4"), ("rest", "<f4", (5,))])  # fmt: skip
+
+
+def _rank(value: float) -> float:
+    """A confidence or probability as it ranks: NaN ranks lowest, like -inf."""
+    return -math.inf if math.isnan(value) else value
+
+
+def _first_best(values: np.ndarray) -> int:
+    """Index of the greatest value, the first on ties, NaN ranking lowest."""
+    return int(np.argmax(np.where(np.isnan(values), -np.inf, values)))
 
 
 def header_stamp(raw: bytes | memoryview) -> int:
@@ -125,7 +136,7 @@ def fast_objects(raw) -> ObjectsRecord:
     o = _align(_skip_string(raw, _BASE + 8), 4)
     (k,) = _U32.unpack_from(raw, o)
     o += 4
-    if k * 1100 > len(raw):  # an object takes over a kilobyte (its covariances alone)
+    if k * 1080 > len(raw):  # an object takes at least 1080 bytes (its covariances alone 1016)
         raise DecodeError(f"claims {k} objects in {len(raw)} bytes")
     uuids: list[bytes] = []
     pose = np.empty((k, 7))
@@ -145,7 +156,7 @@ def fast_objects(raw) -> ObjectsRecord:
         if ncls:
             items = np.frombuffer(raw, np.dtype([("label", "u1"), ("pad", "V3"), ("p", "<f4")]),
                                   ncls, o)  # fmt: skip
-            label[i] = items["label"][int(np.argmax(items["p"]))]
+            label[i] = items["label"][_first_best(items["p"])]
             o += 8 * ncls
         o = _align(o, 8)
         kin = _doubles(raw, o, 127)
@@ -167,7 +178,8 @@ def fast_objects(raw) -> ObjectsRecord:
             sec, nsec = _STAMP.unpack_from(raw, o)
             (conf,) = _F32.unpack_from(raw, o + 8)
             o += 12
-            if poses is not None and conf > best_conf:
+            conf = _rank(conf)
+            if poses is not None and (best is None or conf > best_conf):
                 best, best_conf, best_step = poses, conf, sec * 1_000_000_000 + nsec
         paths.append(np.zeros((0, 7)) if best is None else best)
         steps[i] = best_step
@@ -213,7 +225,7 @@ FAST = {ODOMETRY: fast_odometry, OBJECTS: fast_objects, TRAJECTORY: fast_traject
 
 def decode_fast(raw, msgtype: str) -> Record:
     """Decode with the layout-specific reader; any inconsistency is a `DecodeError`."""
-    if bytes(raw[:2]) not in _CDR_LE:
+    if bytes(raw[:2]) != _CDR_LE:
         raise DecodeError(f"not little-endian CDR (encapsulation {bytes(raw[:4]).hex()})")
     try:
         return FAST[msgtype](raw)
@@ -258,15 +270,15 @@ def generic_record(msg, msgtype: str) -> Record:
     for i, ob in enumerate(objs):
         rec.uuids.append(bytes(np.asarray(ob.object_id.uuid, dtype=np.uint8)))
         if len(ob.classification):
-            best = max(ob.classification, key=lambda c: c.probability)
-            rec.label[i] = best.label
+            rec.label[i] = ob.classification[_first_best(np.array(
+                [c.probability for c in ob.classification], dtype=float))].label
         kin = ob.kinematics
         rec.pose[i] = _pose(kin.initial_pose_with_covariance.pose)
         lin = kin.initial_twist_with_covariance.twist.linear
         rec.twist[i] = (lin.x, lin.y)
         paths = [p for p in kin.predicted_paths if len(p.path)]
         if paths:
-            top = max(range(len(paths)), key=lambda j: paths[j].confidence)
+            top = max(range(len(paths)), key=lambda j: _rank(paths[j].confidence))
             rec.paths.append(np.array([_pose(p) for p in paths[top].path], dtype=float))
             rec.steps[i] = _ns(paths[top].time_step)
         else:

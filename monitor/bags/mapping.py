@@ -10,7 +10,14 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError
+from pydantic import (
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    ValidationError,
+    model_validator,
+)
 
 from safety_case.schema import parse_duration
 from safety_case.yamltree import YNode, compose, to_plain
@@ -57,6 +64,15 @@ class EgoSize(BaseModel):
     width: float = Field(gt=0, le=100)
 
 
+class ChannelSight(BaseModel):
+    """What a channel's sensors can see (the stream header's `coverage`; the case's
+    `monitor.coverage` wins for the channels it names)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    fov_deg: float = Field(360.0, gt=0, le=360)
+    range_m: float | None = Field(None, gt=0)
+
+
 class SignalTopic(TopicRef):
     """A scalar stream signal: the `data` field of a std_msgs number (or Bool) message."""
 
@@ -74,7 +90,16 @@ class TopicMapping(BaseModel):
     max_age: Seconds | None = None  # default: one period
     max_delay: Seconds = 1.0
     plan_time: Literal["auto", "stamps", "velocity"] = "auto"
+    coverage: dict[str, ChannelSight] = {}
     meta: dict[str, str | int | float] = {}
+
+    @model_validator(mode="after")
+    def _coverage_of_mapped_channels(self) -> TopicMapping:
+        extra = [c for c in self.coverage if c not in self.channels]
+        if extra:
+            raise ValueError(f"coverage names channel(s) {', '.join(extra)} that channels: "
+                             "does not map")  # fmt: skip
+        return self
 
     def age_limit(self, ref: TopicRef, period: float) -> float:
         """Seconds a message of `ref` stays usable: its own limit, the mapping's, or one
@@ -156,7 +181,7 @@ def _explain(err: dict) -> str:
         return "required here and missing"
     if kind == "extra_forbidden":
         return ("unknown key (allowed: ego, channels, signals, time, max_age, max_delay, "
-                "plan_time, meta; per channel: odometry, objects, plan)")  # fmt: skip
+                "plan_time, coverage, meta; per channel: odometry, objects, plan)")  # fmt: skip
     return str(err["msg"])
 
 

@@ -13,6 +13,7 @@ The reader has `StreamReader`'s surface (`header`, `defects`, `dropouts`, `frame
 from __future__ import annotations
 
 import bisect
+import math
 import struct
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -37,7 +38,7 @@ from monitor.bags.storage import (
     open_storage,
 )
 from monitor.bags.types import ROLE_TYPES, base_typestore, field_layout
-from monitor.frames import ChannelState, Frame, Header, box_footprint
+from monitor.frames import ChannelState, Coverage, Frame, Header, box_footprint
 from monitor.reader import StreamDefect, StreamError
 
 #: The plan of a channel whose plan topic had nothing fresh: plan metrics then have no value.
@@ -126,7 +127,9 @@ class BagReader:
         self.frames_read = 0
         self.origin_ns: int | None = None
         self.header = Header(channels=list(self.channels), period=period,
-                             meta={"source": "rosbag2", **self.mapping.meta})  # fmt: skip
+                             meta={"source": "rosbag2", **self.mapping.meta},
+                             coverage={c: Coverage(v.fov_deg, v.range_m or math.inf)
+                                       for c, v in self.mapping.coverage.items()})  # fmt: skip
         self._started = False
         self._footprint = box_footprint(self.mapping.ego.length, self.mapping.ego.width)
         self._bag = self._open()

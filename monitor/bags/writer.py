@@ -16,16 +16,17 @@ pose, as the metrics read it anyway. Object ids become UUIDs holding the id's UT
 from __future__ import annotations
 
 import hashlib
+import math
 from collections.abc import Iterable
 from pathlib import Path
 
 import numpy as np
-from rosbags.rosbag2 import StoragePlugin, Writer, WriterError
+from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer, WriterError
 
 from monitor.bags.decode import CLASS_NAMES
 from monitor.bags.mapping import TopicMapping
 from monitor.bags.types import OBJECTS, ODOMETRY, TRAJECTORY, base_typestore
-from monitor.frames import ChannelState, Frame, Objects
+from monitor.frames import ChannelState, Coverage, Frame, Objects
 
 #: Class name -> Autoware label.
 LABELS = {name: label for label, name in CLASS_NAMES.items()}
@@ -39,10 +40,13 @@ class BagWriteError(ValueError):
     """The bag cannot be written (the target exists, a signal is not mapped...)."""
 
 
-def default_mapping(channels: list[str], signals: list[str], length: float,
-                    width: float) -> dict:  # fmt: skip
+def default_mapping(channels: list[str], signals: list[str], length: float, width: float,
+                    coverage: dict[str, Coverage] | None = None) -> dict:  # fmt: skip
     """Autoware-style topic names for each channel (`/<channel>/localization/kinematic_state`
-    ...), as the plain mapping `casewatch convert` writes beside a bag it makes."""
+    ...), as the plain mapping `casewatch convert` writes beside a bag it makes; `coverage`
+    (a stream header's) is carried over, since a bag has no place for it."""
+    sight = {c: {"fov_deg": v.fov_deg, **({} if math.isinf(v.range_m) else {"range_m": v.range_m})}
+             for c, v in (coverage or {}).items()}  # fmt: skip
     return {
         "ego": {"length": length, "width": width},
         "channels": {
@@ -54,6 +58,7 @@ def default_mapping(channels: list[str], signals: list[str], length: float,
             for c in channels
         },
         "signals": {s: f"/casewatch/signals/{s}" for s in signals},
+        **({"coverage": sight} if sight else {}),
     }
 
 
@@ -219,14 +224,20 @@ def write_bag(
     mapping: TopicMapping,
     storage: str = "mcap",
     t0_ns: int = DEFAULT_T0_NS,
+    compress: bool = False,
 ) -> int:
     """Write `frames` as a rosbag2 folder `out` (created; it must not exist). Returns the
-    number of frames written. `storage` is `mcap` or `sqlite3`."""
+    number of frames written. `storage` is `mcap` or `sqlite3`; `compress` zstd-compresses
+    the chunks of an MCAP file (as `ros2 bag record --compression-mode storage` does)."""
     plugin = {"mcap": StoragePlugin.MCAP, "sqlite3": StoragePlugin.SQLITE3}[storage]
+    if compress and storage != "mcap":
+        raise BagWriteError("compression is written for MCAP storage only")
     build = MessageBuilder()
     store = build.store
     try:
         writer = Writer(Path(out), version=9, storage_plugin=plugin)
+        if compress:
+            writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
         writer.open()
     except WriterError as exc:
         raise BagWriteError(f"{out}: {exc}") from None
