@@ -12,6 +12,9 @@
    run) and loading them from the cache (every later process).
 3b. The same replay on a Dask LocalCluster (`--engine dask`) of 1 and 2 workers: the speed-up
    (goal >= 1.8x) and the overhead against `--jobs 2` (goal <= 10 %), when dask is installed.
+7. ROS 2 bags: every bundled drive as an MCAP bag (plain and zstd), frames per second of
+   reading it against the evaluator's own speed on the same drive (`monitor/bags/bench.py`;
+   target: reading >= judging).
 6. Threshold tuning (`casewatch tune`) on 1 hour of saved signals, 17 formulas x 50 candidate
    thresholds (and durations): `python -m evaluator.tuning_bench`; target <= 60 s.
 
@@ -293,8 +296,16 @@ def main(argv: list[str] | None = None) -> int:
     print("5. kernel start-up ...", flush=True)
     results["kernels"] = kernel_start_up()
 
+    print("7. ROS 2 bags: reading against judging ...", flush=True)
+    from monitor.bags.bench import measure as bag_bench
+
+    results["bags"] = bag_bench(BENCH / "bags", 200 if args.quick else None)
+
     (BENCH / "results.json").write_text(json.dumps(results, indent=1))
     print_table(results)
+    from monitor.bags.bench import print_rows as print_bag_rows
+
+    print_bag_rows(results["bags"])
     print(f"\nwritten: {BENCH / 'results.json'}")
     dask = results.get("dask_replay") or []
     if len(dask) == 2:

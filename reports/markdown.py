@@ -214,6 +214,10 @@ def render_markdown(result: RunResult) -> str:
             out += ["", f"… and {view.defects.omitted} more defects."]
     else:
         out.append("No stream defects.")
+    if h.topic_gaps:
+        out += ["", "Bag topics missing or stale: " + "; ".join(
+            f"{md_code(t)} {n} ticks" + (f", {late} late" if late else "")
+            for t, n, late in h.topic_gaps)]  # fmt: skip
     if h.meta:
         out += ["", "Stream meta: " + "; ".join(f"{md_code(k)} = {md_code(v)}" for k, v in h.meta)]
     out.append("")

@@ -138,6 +138,8 @@ class Headline:
     channels: str
     period: float
     dropouts: list[tuple[str, int]]
+    # a ROS 2 bag's topics that were missing or stale at some ticks: (topic, ticks, late)
+    topic_gaps: list[tuple[str, int, int]] = field(default_factory=list)
 
 
 @dataclass(frozen=True)
@@ -361,6 +363,9 @@ def build_view(result: RunResult) -> ReportView:
         channels=", ".join(case.channels),
         period=case.period,
         dropouts=sorted(stream.dropouts.items()),
+        topic_gaps=[(topic, r.get("missing_ticks", 0), r.get("late_messages", 0))
+                    for topic, r in sorted(stream.topics.items())
+                    if r.get("missing_ticks") or r.get("late_messages")],  # fmt: skip
     )
 
     spi_rows = [

@@ -106,6 +106,10 @@ class BagReader:
     """Iterate to get frames (see the module docstring). Opening checks the mapping against
     the bag and raises `BagError`; problems with single messages become defects."""
 
+    #: The defect kinds a bag can have (docs/bags.md documents each).
+    DEFECT_KINDS = ("bad-message", "bad-stamp", "late-message", "truncated-bag", "non-finite",
+                    "bad-trajectory", "bad-footprint")  # fmt: skip
+
     def __init__(
         self,
         path: str | Path,

@@ -11,6 +11,8 @@ import pytest
 
 from casewatch.cli import main
 from monitor.encode import frame_to_dict, header_to_dict
+from monitor.bags.mapping import TopicMapping
+from monitor.bags.writer import default_mapping, write_bag
 from monitor.reader import read_stream
 
 REPO = Path(__file__).resolve().parents[2]
@@ -159,3 +161,27 @@ def test_a_folder_of_bags_and_streams_is_a_fleet(bag: Path, short_drive: Path,
     # --resume recognises the bag folder by its digest
     assert main(["run", str(CASE), str(fleet), "--topics", str(topics), "-o",
                  str(tmp_path / "out"), "--format", "none", "--quiet", "--resume"]) == 1
+
+
+def test_reports_name_the_topics_behind_dropouts(tmp_path: Path) -> None:
+    """tfuse's objects lost for 5 frames: a dropout of tfuse, traced to its topic."""
+    reader = read_stream(DRIVE)
+    frames = list(itertools.islice(reader, 400))
+    for f in frames[50:55]:
+        del f.channels["tfuse"]
+    mapping = TopicMapping.model_validate(default_mapping(["lav", "tfuse"], [], 4.6, 1.9,
+                                                          reader.header.coverage))  # fmt: skip
+    write_bag(frames, tmp_path / "bag", mapping, "mcap")
+    topics = tmp_path / "topics.json"
+    topics.write_text(mapping.model_dump_json(exclude_none=True))
+    code = main(["run", str(CASE), str(tmp_path / "bag"), "--topics", str(topics), "-o",
+                 str(tmp_path / "out"), "--format", "md,html", "--quiet"])  # fmt: skip
+    assert code in (0, 1)
+    result = json.loads((tmp_path / "out" / "result.json").read_text())
+    assert result["stream"]["dropouts"] == {"lav": 0, "tfuse": 5}
+    assert result["stream"]["topics"]["/tfuse/perception/object_recognition/objects"] == {
+        "missing_ticks": 5, "late_messages": 0}
+    md = (tmp_path / "out" / "report.md").read_text()
+    assert "Bag topics missing or stale: `/tfuse/localization/kinematic_state` 5 ticks;" in md
+    html = (tmp_path / "out" / "report.html").read_text()
+    assert "<code>/tfuse/perception/object_recognition/objects</code> 5" in html
