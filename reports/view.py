@@ -365,7 +365,7 @@ def build_view(result: RunResult) -> ReportView:
         dropouts=sorted(stream.dropouts.items()),
         topic_gaps=[(topic, r.get("missing_ticks", 0), r.get("late_messages", 0))
                     for topic, r in sorted(stream.topics.items())
-                    if r.get("missing_ticks") or r.get("late_messages")],  # fmt: skip
+                    if r.get("missing_ticks") or r.get("late_messages")],
     )
 
     spi_rows = [
