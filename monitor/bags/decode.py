@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from monitor.bags.types import OBJECTS, ODOMETRY, TRAJECTORY
+from monitor.jit import kernel
 
 #: Autoware `ObjectClassification.label` -> casewatch object class.
 CLASS_NAMES: dict[int, str] = {
@@ -131,68 +132,198 @@ def fast_odometry(raw) -> OdometryRecord:
     return OdometryRecord(stamp, values[:7].copy(), values[43:45].copy())
 
 
-def fast_objects(raw) -> ObjectsRecord:
-    stamp = header_stamp(raw)
-    o = _align(_skip_string(raw, _BASE + 8), 4)
-    (k,) = _U32.unpack_from(raw, o)
+@kernel
+def _at(o, size):  # pragma: no cover - compiled
+    """`o` aligned to `size` bytes, counted from the end of the encapsulation header."""
+    r = (o - 4) % size
+    return o if r == 0 else o + size - r
+
+
+@kernel
+def _u32(buf, o):  # pragma: no cover - compiled
+    return np.int64(buf[o : o + 4].view(np.uint32)[0])
+
+
+@kernel
+def _f32(buf, o):  # pragma: no cover - compiled
+    v = np.float64(buf[o : o + 4].view(np.float32)[0])
+    return -np.inf if v != v else v  # NaN ranks lowest
+
+
+@kernel
+def _walk_objects(buf, fill, uuid_at, pose, twist, label, shape, dims, path_len, steps,
+                  paths, poly_len, poly):  # fmt: skip  # pragma: no cover - compiled
+    """One pass over the CDR bytes of a PredictedObjects message.
+
+    With `fill` False it only checks the bytes and counts (objects, path poses, polygon
+    points), so the caller can size the outputs; with `fill` True it writes them. Returns
+    (status, objects, poses, points): status 0 fine, -1 the bytes end inside the message, -2
+    more objects claimed than the bytes can hold. Per object it keeps the most probable class
+    and the most confident non-empty path, the first on ties, NaN ranking lowest."""
+    n = buf.shape[0]
+    if n < 16:
+        return -1, 0, 0, 0
+    o = 12 + 4 + _u32(buf, 12)  # header.frame_id
+    o = _at(o, 4)
+    if o + 4 > n:
+        return -1, 0, 0, 0
+    k = _u32(buf, o)
     o += 4
-    if k * 1080 > len(raw):  # an object takes at least 1080 bytes (its covariances alone 1016)
-        raise DecodeError(f"claims {k} objects in {len(raw)} bytes")
-    uuids: list[bytes] = []
-    pose = np.empty((k, 7))
-    twist = np.empty((k, 2))
-    label = np.zeros(k, dtype=np.int64)
-    shape = np.empty(k, dtype=np.int64)
-    dims = np.empty((k, 3))
-    footprints: list[np.ndarray] = []
-    paths: list[np.ndarray] = []
-    steps = np.zeros(k, dtype=np.int64)
-    buf = memoryview(raw)
+    if k * 1080 > n:  # an object takes at least 1080 bytes (its covariances alone 1016)
+        return -2, k, 0, 0
+    total_poses = 0
+    total_points = 0
     for i in range(k):
-        uuids.append(bytes(buf[o : o + 16]))
-        o = _align(o + 16, 4) + 4  # existence_probability
-        (ncls,) = _U32.unpack_from(raw, o)
+        if o + 16 > n:
+            return -1, 0, 0, 0
+        if fill:
+            uuid_at[i] = o
+        o = _at(o + 16, 4) + 4  # uuid, existence_probability
+        if o + 4 > n:
+            return -1, 0, 0, 0
+        ncls = _u32(buf, o)
         o += 4
-        if ncls:
-            items = np.frombuffer(raw, np.dtype([("label", "u1"), ("pad", "V3"), ("p", "<f4")]),
-                                  ncls, o)  # fmt: skip
-            label[i] = items["label"][_first_best(items["p"])]
-            o += 8 * ncls
-        o = _align(o, 8)
-        kin = _doubles(raw, o, 127)
-        pose[i] = kin[:7]
-        twist[i] = kin[43:45]
-        o = _align(o + 127 * 8, 4)
-        (npaths,) = _U32.unpack_from(raw, o)
+        if o + 8 * ncls > n:
+            return -1, 0, 0, 0
+        best_l = 0
+        best_p = -np.inf
+        for c in range(ncls):
+            p = _f32(buf, o + 8 * c + 4)
+            if c == 0 or p > best_p:
+                best_p = p
+                best_l = buf[o + 8 * c]
+        if fill:
+            label[i] = best_l
+        o = _at(o + 8 * ncls, 8)
+        if o + 1016 > n:
+            return -1, 0, 0, 0
+        if fill:
+            kin = buf[o : o + 1016].view(np.float64)
+            for j in range(7):
+                pose[i, j] = kin[j]
+            twist[i, 0] = kin[43]
+            twist[i, 1] = kin[44]
+        o = _at(o + 1016, 4)
+        if o + 4 > n:
+            return -1, 0, 0, 0
+        npaths = _u32(buf, o)
         o += 4
-        best, best_conf, best_step = None, -np.inf, 0
+        best_at = -1
+        best_n = 0
+        best_step = 0
+        best_c = -np.inf
         for _ in range(npaths):
-            (n,) = _U32.unpack_from(raw, _align(o, 4))
-            o = _align(o, 4) + 4
-            poses = None
-            if n:
-                o = _align(o, 8)
-                poses = _doubles(raw, o, 7 * n).reshape(n, 7)
-                o += 56 * n
-            o = _align(o, 4)
-            sec, nsec = _STAMP.unpack_from(raw, o)
-            (conf,) = _F32.unpack_from(raw, o + 8)
+            o = _at(o, 4)
+            if o + 4 > n:
+                return -1, 0, 0, 0
+            m = _u32(buf, o)
+            o += 4
+            at = -1
+            if m > 0:
+                o = _at(o, 8)
+                if o + 56 * m > n:
+                    return -1, 0, 0, 0
+                at = o
+                o += 56 * m
+            o = _at(o, 4)
+            if o + 12 > n:
+                return -1, 0, 0, 0
+            sec = np.int64(buf[o : o + 4].view(np.int32)[0])
+            nsec = _u32(buf, o + 4)
+            conf = _f32(buf, o + 8)
             o += 12
-            conf = _rank(conf)
-            if poses is not None and (best is None or conf > best_conf):
-                best, best_conf, best_step = poses, conf, sec * 1_000_000_000 + nsec
-        paths.append(np.zeros((0, 7)) if best is None else best)
-        steps[i] = best_step
-        shape[i] = raw[o]
-        o = _align(o + 1, 4)
-        (npts,) = _U32.unpack_from(raw, o)
+            if m > 0 and (best_at < 0 or conf > best_c):
+                best_at = at
+                best_n = m
+                best_c = conf
+                best_step = sec * 1_000_000_000 + nsec
+        if fill:
+            path_len[i] = best_n
+            steps[i] = best_step
+            if best_n > 0:
+                flat = buf[best_at : best_at + 56 * best_n].view(np.float64)
+                for r in range(best_n):
+                    for j in range(7):
+                        paths[total_poses + r, j] = flat[7 * r + j]
+        total_poses += best_n
+        if o + 1 > n:
+            return -1, 0, 0, 0
+        if fill:
+            shape[i] = buf[o]
+        o = _at(o + 1, 4)
+        if o + 4 > n:
+            return -1, 0, 0, 0
+        q = _u32(buf, o)
         o += 4
-        footprints.append(np.frombuffer(raw, "<f4", 3 * npts, o).reshape(npts, 3)[:, :2]
-                          .astype(float))  # fmt: skip
-        o = _align(o + 12 * npts, 8)
-        dims[i] = _doubles(raw, o, 3)
+        if o + 12 * q > n:
+            return -1, 0, 0, 0
+        if fill:
+            poly_len[i] = q
+            if q > 0:
+                pts = buf[o : o + 12 * q].view(np.float32)
+                for r in range(q):
+                    poly[total_points + r, 0] = pts[3 * r]
+                    poly[total_points + r, 1] = pts[3 * r + 1]
+        total_points += q
+        o = _at(o + 12 * q, 8)
+        if o + 24 > n:
+            return -1, 0, 0, 0
+        if fill:
+            d = buf[o : o + 24].view(np.float64)
+            dims[i, 0] = d[0]
+            dims[i, 1] = d[1]
+            dims[i, 2] = d[2]
         o += 24
-    return ObjectsRecord(stamp, uuids, pose, twist, label, shape, dims, footprints, paths, steps)
+    return 0, k, total_poses, total_points
+
+
+_NONE_I = np.zeros(0, dtype=np.int64)
+_NONE_2 = np.zeros((0, 2))
+_NONE_3 = np.zeros((0, 3))
+_NONE_7 = np.zeros((0, 7))
+
+
+def fast_objects(raw) -> ObjectsRecord:
+    """PredictedObjects from its bytes: one compiled pass to check and count, one to fill."""
+    stamp = header_stamp(raw)
+    buf = np.frombuffer(raw, np.uint8)
+    status, k, n_poses, n_points = _walk_objects(
+        buf, False, _NONE_I, _NONE_7, _NONE_2, _NONE_I, _NONE_I, _NONE_3, _NONE_I, _NONE_I,
+        _NONE_7, _NONE_I, _NONE_2)  # fmt: skip
+    if status == -2:
+        raise DecodeError(f"claims {k} objects in {len(raw)} bytes")
+    if status < 0:
+        raise DecodeError("the bytes end inside the message")
+    uuid_at = np.empty(k, dtype=np.int64)
+    pose, twist, dims = np.empty((k, 7)), np.empty((k, 2)), np.empty((k, 3))
+    label, shape = np.zeros(k, dtype=np.int64), np.empty(k, dtype=np.int64)
+    path_len, steps, poly_len = (np.zeros(k, dtype=np.int64) for _ in range(3))
+    paths, poly = np.empty((n_poses, 7)), np.empty((n_points, 2))
+    _walk_objects(buf, True, uuid_at, pose, twist, label, shape, dims, path_len, steps, paths,
+                  poly_len, poly)  # fmt: skip
+    path_ends = np.cumsum(path_len).tolist()
+    poly_ends = np.cumsum(poly_len).tolist()
+    path_starts = [0, *path_ends[:-1]] if k else []
+    poly_starts = [0, *poly_ends[:-1]] if k else []
+    return ObjectsRecord(
+        stamp,
+        [bytes(raw[a : a + 16]) for a in uuid_at.tolist()],
+        pose,
+        twist,
+        label,
+        shape,
+        dims,
+        [poly[a:b] for a, b in zip(poly_starts, poly_ends, strict=True)],
+        [paths[a:b] for a, b in zip(path_starts, path_ends, strict=True)],
+        steps,
+    )
+
+
+def warm_up() -> None:
+    """Compile (or load from the cache) the objects walker before a bag's first message: an
+    empty PredictedObjects message (stamp 0, frame_id "", no objects)."""
+    fast_objects(b"\x00\x01\x00\x00" + bytes(8) + b"\x01\x00\x00\x00\x00" + bytes(3)
+                 + bytes(4))  # fmt: skip
 
 
 def fast_trajectory(raw) -> TrajectoryRecord:

@@ -18,6 +18,7 @@ import struct
 from collections.abc import Iterator
 from dataclasses import dataclass
 from dataclasses import field as _field
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -27,7 +28,14 @@ from rosbags.typesys.base import TypesysError
 from rosbags.typesys.store import Typestore
 
 from monitor.bags.assemble import RecordDefect, ego_state, objects_state, plan_state
-from monitor.bags.decode import DecodeError, Record, decode_fast, generic_record, header_stamp
+from monitor.bags.decode import (
+    DecodeError,
+    Record,
+    decode_fast,
+    generic_record,
+    header_stamp,
+)
+from monitor.bags.decode import warm_up as warm_up_decoder
 from monitor.bags.mapping import LoadedMapping, TopicMapping
 from monitor.bags.storage import (
     BagTopic,
@@ -138,6 +146,7 @@ class BagReader:
         self._footprint = box_footprint(self.mapping.ego.length, self.mapping.ego.width)
         self._bag = self._open()
         self._topics = self._connect()
+        warm_up_decoder()  # compiled (or loaded from numba's cache) before the first message
 
     # -- opening --------------------------------------------------------------------------
 
@@ -202,28 +211,22 @@ class BagReader:
 
     def _typestore(self, conns: list[BagTopic]) -> Typestore:
         """The shipped types, overridden by the definitions the bag carries for its topics."""
-        types = dict(base_typestore().fielddefs)
+        try:
+            store = typestore_for(tuple((c.msgtype, c.definition_format, c.definition)
+                                        for c in conns))  # fmt: skip
+        except (TypesysError, ValueError, IndexError) as exc:
+            self._bag.close()
+            named = ", ".join(sorted({f"{c.msgtype} (topic {c.topic})" for c in conns
+                                      if c.definition}))  # fmt: skip
+            raise BagError(f"{self.name}: the bag's message definitions cannot be parsed "
+                           f"({exc}); defined in the bag: {named}") from None
         for c in conns:
-            try:
-                if c.definition_format == "msg" and c.definition:
-                    types.update(get_types_from_msg(c.definition, c.msgtype))
-                elif c.definition_format == "idl" and c.definition:
-                    for part in c.definition.split("=" * 80 + "\n"):
-                        body = part.split("\n", 1)[1] if part.startswith("IDL: ") else part
-                        if body.strip():
-                            types.update(get_types_from_idl(body))
-            except (TypesysError, ValueError, IndexError) as exc:
-                self._bag.close()
-                raise BagError(f"{self.name}: the bag's definition of {c.msgtype} (topic "
-                               f"{c.topic}) cannot be parsed: {exc}") from None
-            if c.msgtype not in types:
+            if c.msgtype not in store.fielddefs:
                 self._bag.close()
                 raise BagError(f"{self.name}: topic {c.topic} carries {c.msgtype}, an unknown "
                                "message type: the bag has no definition of it and casewatch "
                                "ships none (it reads nav_msgs/Odometry, autoware_perception_msgs"
                                "/PredictedObjects and autoware_planning_msgs/Trajectory)")
-        store = get_typestore(Stores.EMPTY)
-        store.register(types)
         return store
 
     # -- reading --------------------------------------------------------------------------
@@ -372,6 +375,24 @@ class BagReader:
         """Per mapped topic: ticks it was missing or stale for, and late messages."""
         return {t.name: {"missing_ticks": t.missing, "late_messages": t.late}
                 for t in self._topics.values()}  # fmt: skip
+
+
+@lru_cache(maxsize=16)
+def typestore_for(definitions: tuple[tuple[str, str, str], ...]) -> Typestore:
+    """The shipped types overridden by a bag's own (message type, 'msg'/'idl'/'', text)
+    definitions; built once per set of definitions (a fleet of one stack's bags shares it)."""
+    types = dict(base_typestore().fielddefs)
+    for msgtype, fmt, text in definitions:
+        if fmt == "msg" and text:
+            types.update(get_types_from_msg(text, msgtype))
+        elif fmt == "idl" and text:
+            for part in text.split("=" * 80 + "\n"):
+                body = part.split("\n", 1)[1] if part.startswith("IDL: ") else part
+                if body.strip():
+                    types.update(get_types_from_idl(body))
+    store = get_typestore(Stores.EMPTY)
+    store.register(types)
+    return store
 
 
 def _ns(seconds: float) -> int:
