@@ -159,7 +159,8 @@ def _stream_to_bag(args) -> int:
         size = args.ego_size or _ego_box(first)
         names = header.channels if header is not None and header.channels else list(first.channels)
         plain = default_mapping(names, sorted(first.signals), *size,
-                                coverage=header.coverage if header is not None else None)
+                                coverage=header.coverage if header is not None else None,
+                                period=period)
         mapping = TopicMapping.model_validate(plain)
         written = write_bag(read_stream(source, strict=True, channels=channels, period=period),
                             args.out, mapping, args.storage, compress=args.compress)  # fmt: skip

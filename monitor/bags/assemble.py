@@ -8,7 +8,10 @@ Conventions (docs/bags.md, "How messages become frames"):
 - trajectories count from the tick: a point `tau` seconds after the message stamp `s` is
   `s + tau - T` after the tick `T`; points already in the past are dropped, nothing is
   interpolated or extrapolated;
-- the ego and object poses are the ones reported at their stamps (at most `max_age` old).
+- the ego and object poses are brought from their stamps to the tick with their own
+  velocities and yaw rates (constant over at most `max_age`), so that two stacks sampled at
+  different instants are compared at the same one (mapping `poses_at_tick: false` keeps them
+  as stamped).
 """
 
 from __future__ import annotations
@@ -61,13 +64,19 @@ def _finite(values: np.ndarray, what: str) -> None:
         raise RecordDefect("non-finite", f"{what}: NaN or infinity in a pose or velocity")
 
 
-def ego_state(rec: OdometryRecord, footprint: np.ndarray) -> Ego:
+def ego_state(rec: OdometryRecord, footprint: np.ndarray, stamp_ns: int, tick_ns: int,
+              at_tick: bool = True) -> Ego:  # fmt: skip
+    """The ego at the tick (or as stamped when not `at_tick`); `stamp_ns` is the time the
+    message is taken to describe (its header stamp, or its recording time)."""
     _finite(rec.pose, "odometry")
     _finite(rec.twist, "odometry")
     yaw = float(yaw_of(rec.pose[3:7]))
-    vx, vy = to_world(rec.twist, np.float64(yaw))
-    return Ego(x=float(rec.pose[0]), y=float(rec.pose[1]), yaw=yaw, vx=float(vx), vy=float(vy),
-               footprint=footprint, convex=True,
+    vx, vy = to_world(rec.twist[:2], np.float64(yaw))
+    x, y = float(rec.pose[0]), float(rec.pose[1])
+    age = (tick_ns - stamp_ns) / 1e9 if at_tick else 0.0
+    if age:
+        x, y, yaw = x + float(vx) * age, y + float(vy) * age, yaw + float(rec.twist[2]) * age
+    return Ego(x=x, y=y, yaw=yaw, vx=float(vx), vy=float(vy), footprint=footprint, convex=True,
                half=(float(footprint[0, 0]), float(footprint[0, 1])))  # fmt: skip
 
 
@@ -76,7 +85,7 @@ def _from_tick(times: np.ndarray, shift: float) -> np.ndarray:
     return times + shift >= 0.0
 
 
-def plan_state(rec: TrajectoryRecord, tick_ns: int, plan_time: str) -> np.ndarray:
+def plan_state(rec: TrajectoryRecord, stamp_ns: int, tick_ns: int, plan_time: str) -> np.ndarray:
     """The plan as (N, 3) `[dt, x, y]` from the tick. `plan_time`: `stamps` uses
     `time_from_start`, `velocity` times the points from arc length and
     `longitudinal_velocity_mps` (up to the first stop), `auto` the stamps when they increase
@@ -92,7 +101,7 @@ def plan_state(rec: TrajectoryRecord, tick_ns: int, plan_time: str) -> np.ndarra
                            "(plan_time: auto times such plans from their velocities)")
     if len(tfs) and tfs[0] < 0:
         raise RecordDefect("bad-trajectory", f"plan time_from_start {tfs[0]:g} s is negative")
-    shift = (rec.stamp - tick_ns) / 1e9
+    shift = (stamp_ns - tick_ns) / 1e9
     keep = _from_tick(tfs, shift)
     out = np.empty((int(keep.sum()), 3))
     out[:, 0] = tfs[keep] + shift
@@ -117,20 +126,27 @@ def _timed_by_speed(xy: np.ndarray, speed: np.ndarray) -> tuple[np.ndarray, np.n
     return times[keep[:end]], xy[:end][keep[:end]]
 
 
-def objects_state(rec: ObjectsRecord, tick_ns: int) -> Objects:
+def objects_state(rec: ObjectsRecord, stamp_ns: int, tick_ns: int,
+                  at_tick: bool = True) -> Objects:  # fmt: skip
+    """The objects at the tick (or as stamped when not `at_tick`), predictions from the tick."""
     k = len(rec.uuids)
     if k == 0:
         return Objects.empty()
     _finite(rec.pose[:, :2], "objects")
     _finite(rec.twist, "objects")
     yaw = yaw_of(rec.pose[:, 3:7])
-    vel = to_world(rec.twist, yaw)
+    vel = to_world(rec.twist[:, :2], yaw)
+    pos = rec.pose[:, :2].copy()
+    age = (tick_ns - stamp_ns) / 1e9 if at_tick else 0.0
+    if age:
+        pos += vel * age
+        yaw = yaw + rec.twist[:, 2] * age
     footprints, half, convex = _footprints(rec)
-    pred, lens = _predictions(rec, (rec.stamp - tick_ns) / 1e9)
+    pred, lens = _predictions(rec, (stamp_ns - tick_ns) / 1e9)
     return Objects(
         ids=[u.hex() for u in rec.uuids],
         cls=[CLASS_NAMES.get(int(c), "unknown") for c in rec.label],
-        pos=rec.pose[:, :2].copy(),
+        pos=pos,
         yaw=yaw,
         vel=vel,
         footprints=footprints,

@@ -40,7 +40,7 @@ class DecodeError(ValueError):
 @dataclass(slots=True)
 class OdometryRecord:
     """`nav_msgs/Odometry`: stamp (ns), pose (7: x, y, z, qx, qy, qz, qw) in the map frame,
-    twist (2: linear x, y) in the body frame (`child_frame_id`)."""
+    twist (3: linear x, y and angular z, the yaw rate) in the body frame (`child_frame_id`)."""
 
     stamp: int
     pose: np.ndarray
@@ -51,7 +51,8 @@ class OdometryRecord:
 class ObjectsRecord:
     """`PredictedObjects`, one row per object.
 
-    `pose` (K, 7) map frame; `twist` (K, 2) linear x, y in the object's frame; `label` (K,) the
+    `pose` (K, 7) map frame; `twist` (K, 3) linear x, y and yaw rate in the object's frame;
+    `label` (K,) the
     most probable class; `shape` (K,) Shape.type; `dims` (K, 3); `footprints` per object the
     polygon points (n, 2) in the object's frame; `paths` per object the most confident
     predicted path as (n, 7) poses, `steps` (K,) its time step in ns.
@@ -129,7 +130,7 @@ def fast_odometry(raw) -> OdometryRecord:
     o = _skip_string(raw, _BASE + 8)  # header.frame_id
     o = _align(_skip_string(raw, o), 8)  # child_frame_id
     values = _doubles(raw, o, 43 + 42)
-    return OdometryRecord(stamp, values[:7].copy(), values[43:45].copy())
+    return OdometryRecord(stamp, values[:7].copy(), values[[43, 44, 48]])
 
 
 @kernel
@@ -203,6 +204,7 @@ def _walk_objects(buf, fill, uuid_at, pose, twist, label, shape, dims, path_len,
                 pose[i, j] = kin[j]
             twist[i, 0] = kin[43]
             twist[i, 1] = kin[44]
+            twist[i, 2] = kin[48]
         o = _at(o + 1016, 4)
         if o + 4 > n:
             return -1, 0, 0, 0
@@ -288,14 +290,14 @@ def fast_objects(raw) -> ObjectsRecord:
     stamp = header_stamp(raw)
     buf = np.frombuffer(raw, np.uint8)
     status, k, n_poses, n_points = _walk_objects(
-        buf, False, _NONE_I, _NONE_7, _NONE_2, _NONE_I, _NONE_I, _NONE_3, _NONE_I, _NONE_I,
+        buf, False, _NONE_I, _NONE_7, _NONE_3, _NONE_I, _NONE_I, _NONE_3, _NONE_I, _NONE_I,
         _NONE_7, _NONE_I, _NONE_2)  # fmt: skip
     if status == -2:
         raise DecodeError(f"claims {k} objects in {len(raw)} bytes")
     if status < 0:
         raise DecodeError("the bytes end inside the message")
     uuid_at = np.empty(k, dtype=np.int64)
-    pose, twist, dims = np.empty((k, 7)), np.empty((k, 2)), np.empty((k, 3))
+    pose, twist, dims = np.empty((k, 7)), np.empty((k, 3)), np.empty((k, 3))
     label, shape = np.zeros(k, dtype=np.int64), np.empty(k, dtype=np.int64)
     path_len, steps, poly_len = (np.zeros(k, dtype=np.int64) for _ in range(3))
     paths, poly = np.empty((n_poses, 7)), np.empty((n_points, 2))
@@ -382,9 +384,9 @@ def generic_record(msg, msgtype: str) -> Record:
     """The record of an already deserialised rosbags message (AttributeError when a field the
     reader needs is missing from the bag's definition)."""
     if msgtype == ODOMETRY:
-        lin = msg.twist.twist.linear
+        lin, ang = msg.twist.twist.linear, msg.twist.twist.angular
         return OdometryRecord(_ns(msg.header.stamp), np.array(_pose(msg.pose.pose)),
-                              np.array([lin.x, lin.y]))  # fmt: skip
+                              np.array([lin.x, lin.y, ang.z]))  # fmt: skip
     if msgtype == TRAJECTORY:
         pts = msg.points
         return TrajectoryRecord(
@@ -395,7 +397,7 @@ def generic_record(msg, msgtype: str) -> Record:
         )
     objs = msg.objects
     k = len(objs)
-    rec = ObjectsRecord(_ns(msg.header.stamp), [], np.empty((k, 7)), np.empty((k, 2)),
+    rec = ObjectsRecord(_ns(msg.header.stamp), [], np.empty((k, 7)), np.empty((k, 3)),
                         np.zeros(k, dtype=np.int64), np.empty(k, dtype=np.int64),
                         np.empty((k, 3)), [], [], np.zeros(k, dtype=np.int64))  # fmt: skip
     for i, ob in enumerate(objs):
@@ -405,8 +407,8 @@ def generic_record(msg, msgtype: str) -> Record:
                 [c.probability for c in ob.classification], dtype=float))].label
         kin = ob.kinematics
         rec.pose[i] = _pose(kin.initial_pose_with_covariance.pose)
-        lin = kin.initial_twist_with_covariance.twist.linear
-        rec.twist[i] = (lin.x, lin.y)
+        twist = kin.initial_twist_with_covariance.twist
+        rec.twist[i] = (twist.linear.x, twist.linear.y, twist.angular.z)
         paths = [p for p in kin.predicted_paths if len(p.path)]
         if paths:
             top = max(range(len(paths)), key=lambda j: _rank(paths[j].confidence))

@@ -87,9 +87,10 @@ class TopicMapping(BaseModel):
     channels: dict[str, ChannelTopics] = Field(min_length=1)
     signals: dict[str, Annotated[SignalTopic, BeforeValidator(_topic)]] = {}
     time: Literal["header", "receive"] = "header"
-    max_age: Seconds | None = None  # default: one period
+    max_age: Seconds | None = None  # default: 1.5 periods
     max_delay: Seconds = 1.0
     plan_time: Literal["auto", "stamps", "velocity"] = "auto"
+    poses_at_tick: bool = True  # ego and object poses moved from their stamps to the tick
     coverage: dict[str, ChannelSight] = {}
     meta: dict[str, str | int | float] = {}
 
@@ -102,14 +103,17 @@ class TopicMapping(BaseModel):
         return self
 
     def age_limit(self, ref: TopicRef, period: float) -> float:
-        """Seconds a message of `ref` stays usable: its own limit, the mapping's, or one
-        period, so that a message serves one tick and a lost one is a dropout, never bridged
-        by its predecessor (raise it for topics slower than the ticks)."""
+        """Seconds a message of `ref` stays usable: its own limit, the mapping's, or 1.5
+        periods. A stack does not tick with the monitor: its stamps have their own phase
+        against the ticks and jitter, and with a limit of exactly one period a phase near a
+        tick plus a millisecond of jitter would leave every other tick without a message.
+        Half a period of slack absorbs that; a single lost message is then bridged by its
+        predecessor (at most 1.5 periods old), two in a row are a dropout (docs/bags.md)."""
         if ref.max_age is not None:
             return ref.max_age
         if self.max_age is not None:
             return self.max_age
-        return period
+        return 1.5 * period
 
     def topics(self) -> dict[str, str]:
         """topic name -> role (`odometry`, `objects`, `plan`, `signal`), for type checks."""
@@ -181,7 +185,8 @@ def _explain(err: dict) -> str:
         return "required here and missing"
     if kind == "extra_forbidden":
         return ("unknown key (allowed: ego, channels, signals, time, max_age, max_delay, "
-                "plan_time, coverage, meta; per channel: odometry, objects, plan)")  # fmt: skip
+                "plan_time, poses_at_tick, coverage, meta; per channel: odometry, objects, "
+                "plan)")
     return str(err["msg"])
 
 

@@ -316,9 +316,13 @@ class BagReader:
             state = None
             if odom is not None and objs is not None:
                 try:
-                    ego = ego_state(odom.record, footprint)  # type: ignore[arg-type]
-                    objects = objects_state(objs.record, tick)  # type: ignore[arg-type]
-                    planned = (plan_state(plan.record, tick, self.mapping.plan_time)  # type: ignore[arg-type]
+                    at_tick = self.mapping.poses_at_tick
+                    ego = ego_state(odom.record, footprint, odom.stamp, tick,  # type: ignore[arg-type]
+                                    at_tick)  # fmt: skip
+                    objects = objects_state(objs.record, objs.stamp, tick,  # type: ignore[arg-type]
+                                            at_tick)  # fmt: skip
+                    planned = (plan_state(plan.record, plan.stamp, tick,  # type: ignore[arg-type]
+                                          self.mapping.plan_time)
                                if plan is not None else _NO_PLAN)  # fmt: skip
                     state = ChannelState(ego=ego, plan=planned, objects=objects)
                 except RecordDefect as d:

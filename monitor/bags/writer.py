@@ -41,10 +41,13 @@ class BagWriteError(ValueError):
 
 
 def default_mapping(channels: list[str], signals: list[str], length: float, width: float,
-                    coverage: dict[str, Coverage] | None = None) -> dict:  # fmt: skip
+                    coverage: dict[str, Coverage] | None = None,
+                    period: float | None = None) -> dict:  # fmt: skip
     """Autoware-style topic names for each channel (`/<channel>/localization/kinematic_state`
     ...), as the plain mapping `casewatch convert` writes beside a bag it makes; `coverage`
-    (a stream header's) is carried over, since a bag has no place for it."""
+    (a stream header's) is carried over, since a bag has no place for it. With `period`, the
+    mapping's `max_age` is that period: a bag stamped exactly on its frames' ticks (as
+    `write_bag` stamps) then reads back with the stream's dropouts, none bridged."""
     sight = {c: {"fov_deg": v.fov_deg, **({} if math.isinf(v.range_m) else {"range_m": v.range_m})}
              for c, v in (coverage or {}).items()}  # fmt: skip
     return {
@@ -59,6 +62,7 @@ def default_mapping(channels: list[str], signals: list[str], length: float, widt
         },
         "signals": {s: f"/casewatch/signals/{s}" for s in signals},
         **({"coverage": sight} if sight else {}),
+        **({"max_age": period} if period is not None else {}),
     }
 
 

@@ -29,8 +29,8 @@ def mapping(with_plan: bool = False, **extra) -> LoadedMapping:
     return LoadedMapping(TopicMapping.model_validate(plain), "test-mapping")
 
 
-def ego_state(x: float, vx: float = 10.0, yaw: float = 0.0) -> ChannelState:
-    ego = Ego(x=x, y=0.0, yaw=yaw, vx=vx, vy=0.0, footprint=box_footprint(4.0, 2.0))
+def ego_state(x: float, vx: float = 10.0, yaw: float = 0.0, vy: float = 0.0) -> ChannelState:
+    ego = Ego(x=x, y=0.0, yaw=yaw, vx=vx, vy=vy, footprint=box_footprint(4.0, 2.0))
     return ChannelState(ego=ego, plan=np.zeros((0, 3)), objects=Objects.empty())
 
 

@@ -254,7 +254,7 @@ def test_odometry_by_hand():
     assert isinstance(rec, OdometryRecord)
     assert rec.stamp == 12_000_000_345
     assert rec.pose.tolist() == [1.5, -2.25, 0.125, 0.0, 0.0, 0.6, 0.8]
-    assert rec.twist.tolist() == [3.5, -0.5]
+    assert rec.twist.tolist() == [3.5, -0.5, 0.03]  # linear x, y; angular z (yaw rate)
 
 
 def _plan(frame_id: str):
@@ -309,7 +309,7 @@ def test_trajectory_padding_cases_both_occur():
 
 def _simple_object(label_probs, paths, pose7=(1.0, 2.0, 0.0, 0.0, 0.0, 0.0, 1.0), shape_type=0,
                    points=(), uuid=bytes(range(16))):
-    return _object(uuid, 1.0, label_probs, pose7, [ZERO36] * 3, [4.0, -1.0, 0, 0, 0, 0],
+    return _object(uuid, 1.0, label_probs, pose7, [ZERO36] * 3, [4.0, -1.0, 0, 0, 0, 0.5],
                    [0.0] * 6, paths, shape_type, np.asarray(points, np.float32).reshape(-1, 3),
                    (4.5, 1.8, 1.5))
 
@@ -335,7 +335,7 @@ def test_objects_by_hand():
     assert rec.uuids == [bytes(range(16)), b"\xff" * 16]
     assert rec.label.tolist() == [7, 0]  # no classification: 0 (unknown)
     assert rec.pose.tolist() == [[1.0, 2.0, 0.0, 0.0, 0.0, 0.0, 1.0]] * 2
-    assert rec.twist.tolist() == [[4.0, -1.0]] * 2
+    assert rec.twist.tolist() == [[4.0, -1.0, 0.5]] * 2
     assert rec.shape.tolist() == [0, 2]
     assert rec.dims.tolist() == [[4.5, 1.8, 1.5]] * 2
     assert rec.footprints[0].shape == (0, 2)

@@ -2,7 +2,7 @@
 
 The small bags here are written with hand-chosen stamps (tests/monitor/bagkit.py), so every
 expectation is computed by hand from the alignment rule of docs/bags.md: tick T takes the
-latest message stamped in (T - max_age, T]; max_age defaults to one period.
+latest message stamped in (T - max_age, T]; max_age defaults to 1.5 periods.
 """
 
 from __future__ import annotations
@@ -63,16 +63,18 @@ def test_ticks_take_the_latest_message_of_the_last_period(phased_bag: Path) -> N
     # ticks on the absolute 100 ms grid from the first stamp (0 ms) to the last (1000 ms)
     assert [f.t for f in frames] == [round(0.1 * k, 10) for k in range(11)]
     present = [("lav" in f.channels) for f in frames]
-    # 0 ms: no objects yet; 500 ms: the latest objects are from 350 ms, 150 ms old: a dropout,
-    # never the old message again
+    # 0 ms: no objects yet; 500 ms: the latest objects are from 350 ms, 150 ms old, not
+    # younger than max_age (1.5 periods): a dropout, not the old message again
     assert present == [False, True, True, True, True, False, True, True, True, True, True]
     assert reader.dropouts == {"lav": 2}
     by_t = {f.t: f for f in frames}
     # ego: the odometry stamped exactly at the tick (x = stamp / 100); objects: the 50 ms
-    # older message (x = 50 + stamp / 100)
+    # older message (x = 50 + stamp / 100), moved to the tick at its 5 m/s: + 0.25 m
     assert by_t[0.3].channels["lav"].ego.x == pytest.approx(3.0)
-    assert by_t[0.3].channels["lav"].objects.pos[0, 0] == pytest.approx(50 + 2.5)
-    assert by_t[1.0].channels["lav"].objects.pos[0, 0] == pytest.approx(50 + 9.5)
+    assert by_t[0.3].channels["lav"].objects.pos[0, 0] == pytest.approx(50 + 2.5 + 0.25)
+    assert by_t[1.0].channels["lav"].objects.pos[0, 0] == pytest.approx(50 + 9.5 + 0.25)
+    _, as_stamped = frames_of(phased_bag, mapping(poses_at_tick=False))
+    assert as_stamped[3].channels["lav"].objects.pos[0, 0] == pytest.approx(50 + 2.5)
     report = reader.topic_report()
     assert report[TOPICS["objects"]] == {"missing_ticks": 2, "late_messages": 0}
     assert report[TOPICS["odometry"]]["missing_ticks"] == 0
@@ -85,8 +87,51 @@ def test_a_longer_max_age_bridges_the_lost_message_by_choice(phased_bag: Path) -
                                   "objects": {"topic": TOPICS["objects"], "max_age": "200ms"}}})
     reader, frames = frames_of(phased_bag, m)
     by_t = {f.t: f for f in frames}
-    assert by_t[0.5].channels["lav"].objects.pos[0, 0] == pytest.approx(50 + 3.5)
+    assert by_t[0.5].channels["lav"].objects.pos[0, 0] == pytest.approx(50 + 3.5 + 5 * 0.15)
     assert reader.dropouts == {"lav": 1}  # only the first tick, before any objects
+
+
+def test_poses_move_to_the_tick_with_their_own_velocity_and_yaw_rate(tmp_path: Path) -> None:
+    """Odometry stamped 40 ms before the tick at 10 m/s along a 30 degree heading, turning at
+    0.5 rad/s: at the tick it is 0.4 m further along that heading, turned by 0.02 rad."""
+    kit = BagKit(tmp_path / "motion")
+    build, store = kit.build, kit.store
+    T = build.T
+    heading = np.pi / 6
+    msg = build.odometry(T0 + 60 * MS, ego_state(2.0, vx=10 * np.cos(heading), yaw=heading,
+                                                 vy=10 * np.sin(heading)))
+    msg.twist.twist.angular = T["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.5)
+    kit.raw(TOPICS["odometry"], "nav_msgs/msg/Odometry",
+            store.serialize_cdr(msg, "nav_msgs/msg/Odometry"), T0 + 60 * MS)
+    kit.objects(100, x=50.0)
+    kit.close()
+    _, frames = frames_of(tmp_path / "motion")
+    ego = frames[0].channels["lav"].ego  # the tick at 100 ms
+    assert frames[0].t == 0.0
+    assert ego.x == pytest.approx(2.0 + 0.4 * np.cos(heading))
+    assert ego.y == pytest.approx(0.4 * np.sin(heading))
+    assert ego.yaw == pytest.approx(heading + 0.02)
+    assert (ego.vx, ego.vy) == pytest.approx((10 * np.cos(heading), 10 * np.sin(heading)))
+
+
+def test_stamps_jittering_around_the_ticks_leave_no_tick_empty(tmp_path: Path) -> None:
+    """A stack whose stamps fall 2 ms either side of the ticks (98, 202, 298, 402 ms ...):
+    tick 200 ms has only the 98 ms message, 102 ms old. The default max_age (150 ms) takes
+    it; a limit of exactly one period would leave every other tick empty."""
+    kit = BagKit(tmp_path / "jitter")
+    for k in range(1, 21):
+        s = 100 * k + (2 if k % 2 == 0 else -2)
+        kit.odometry(s, x=float(k))
+        kit.objects(s, x=50.0 + k)
+    kit.close()
+    reader, frames = frames_of(tmp_path / "jitter")
+    assert [f.t for f in frames][:3] == [0.0, 0.1, 0.2]  # first tick: 100 ms, the grid after 98
+    assert reader.dropouts == {"lav": 0}
+    # the 98 ms odometry serves ticks 100 and 200 ms, moved on at its 10 m/s each time
+    assert [f.channels["lav"].ego.x for f in frames[:4]] == pytest.approx([1.02, 2.02, 3.02, 4.02])
+    strict = mapping(max_age="100ms")
+    reader, frames = frames_of(tmp_path / "jitter", strict)
+    assert reader.dropouts == {"lav": 10}
 
 
 def test_trajectories_count_from_the_tick(tmp_path: Path) -> None:
@@ -111,15 +156,19 @@ def test_trajectories_count_from_the_tick(tmp_path: Path) -> None:
 
 
 def test_missing_plan_leaves_the_channel_without_a_plan_not_absent(tmp_path: Path) -> None:
+    """One plan, stamped 0 ms: tick 100 ms still takes it (100 ms old, under the 150 ms
+    default), without its point now in the past; tick 200 ms has none, yet keeps the channel."""
     kit = BagKit(tmp_path / "noplan")
     kit.odometry(0, x=0.0)
     kit.objects(0, x=50.0)
     kit.plan(0, np.array([[0.0, 0.0, 0.0], [1.0, 10.0, 0.0]]))
-    kit.odometry(100, x=1.0)
-    kit.objects(100, x=51.0)
+    for s in (100, 200):
+        kit.odometry(s, x=s / 100)
+        kit.objects(s, x=50.0 + s / 100)
     kit.close()
     reader, frames = frames_of(tmp_path / "noplan", mapping(with_plan=True))
-    assert [len(f.channels["lav"].plan) for f in frames] == [2, 0]
+    assert [f.channels["lav"].plan.tolist() for f in frames] == [
+        [[0.0, 0.0, 0.0], [1.0, 10.0, 0.0]], [[0.9, 10.0, 0.0]], []]
     assert reader.dropouts == {"lav": 0}
     assert reader.topic_report()[TOPICS["plan"]]["missing_ticks"] == 1
 
@@ -152,7 +201,8 @@ def test_plans_without_times_are_timed_from_their_velocities(tmp_path: Path) -> 
 
 def test_late_messages_are_counted_and_their_ticks_go_without(tmp_path: Path) -> None:
     """The objects stamped 200 ms arrive at 1600 ms, after max_delay (1 s) had let ticks up to
-    400 ms be built: tick 200 ms is a dropout and a late-message defect says why."""
+    400 ms be built: tick 200 ms went with the 100 ms objects, and a late-message defect says
+    so."""
     kit = BagKit(tmp_path / "late")
     events = [(s, "odometry", s) for s in stamps_every(100, 0, 2000)]
     events += [(s, "objects", s) for s in stamps_every(100, 0, 2000) if s != 200]
@@ -160,8 +210,9 @@ def test_late_messages_are_counted_and_their_ticks_go_without(tmp_path: Path) ->
     write_timeline(kit, events)
     kit.close()
     reader, frames = frames_of(tmp_path / "late")
-    missing = [f.t for f in frames if "lav" not in f.channels]
-    assert missing == [0.2]
+    assert reader.dropouts == {"lav": 0}
+    # the 100 ms objects (x = 51 m), moved on at their 5 m/s for 100 ms
+    assert frames[2].t == 0.2 and frames[2].channels["lav"].objects.pos[0, 0] == 51.5
     assert [d.kind for d in reader.defects] == ["late-message"]
     assert reader.topic_report()[TOPICS["objects"]]["late_messages"] == 1
 
@@ -217,7 +268,8 @@ def test_a_bundled_drive_as_a_bag_gives_the_same_metrics(tmp_path: Path, storage
     for f in frames[100:105]:
         del f.channels["tfuse"]
     signals = sorted({k for f in frames for k in f.signals})
-    m = TopicMapping.model_validate(default_mapping(["lav", "tfuse"], signals, 4.6, 1.9))
+    m = TopicMapping.model_validate(default_mapping(["lav", "tfuse"], signals, 4.6, 1.9,
+                                                    period=0.1))  # fmt: skip
     write_bag(frames, tmp_path / "drive", m, storage)
     reader = read_bag(tmp_path / "drive", LoadedMapping(m, "m"), ["lav", "tfuse"], 0.1)
     back = list(reader)
@@ -395,5 +447,5 @@ def test_mapping_defaults_and_durations(tmp_path: Path) -> None:
     assert m.age_limit(lav.odometry, 0.1) == pytest.approx(0.15)
     bare = TopicMapping.model_validate({"ego": {"length": 4, "width": 2},
                                         "channels": {"lav": {"odometry": "/o", "objects": "/b"}}})
-    assert bare.age_limit(bare.channels["lav"].odometry, 0.1) == pytest.approx(0.1)
+    assert bare.age_limit(bare.channels["lav"].odometry, 0.1) == pytest.approx(0.15)
     assert bare.time == "header" and bare.max_delay == 1.0 and bare.plan_time == "auto"
