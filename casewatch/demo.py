@@ -7,6 +7,8 @@ Runs exactly what a user would type:
     casewatch run examples/study-case.yaml examples/data --labels auto --jobs 2 \
         --format none -o out/demo-study       # the study's own hazard rules, for comparison
     python -m casewatch.nominal out/demo      # each SPI's false alarms on nominal driving
+    python -m examples.sim.stack_timing examples/data/highway-tailgating.jsonl.gz \
+        --out out/demo-bags                   # as a ROS 2 bag with a real stack's timing
     python -m examples.sim.heldout            # the same on fresh generator seeds (needs SUMO)
 
 The last step runs only when the simulator extra is installed (`pip install -e .[sim]`, which
@@ -29,6 +31,7 @@ DATA = REPO / "examples" / "data"
 STUDY = REPO / "examples" / "study-case.yaml"
 OUT = Path("out") / "demo"
 OUT_STUDY = Path("out") / "demo-study"
+OUT_BAGS = Path("out") / "demo-bags"
 
 
 def score_text(row: dict) -> str:
@@ -73,6 +76,13 @@ def main() -> int:
     print(f"Fleet summary: {(OUT / 'summary.json').resolve()}")
     print(f"\n$ python -m casewatch.nominal {OUT}")
     nominal([str(OUT)])
+    drive = DATA / "highway-tailgating.jsonl.gz"
+    print(f"\n$ python -m examples.sim.stack_timing {drive.relative_to(REPO)} --out {OUT_BAGS}")
+    print("  (the drive as an MCAP bag of Autoware messages, stamped with a real stack's phase, "
+          "skew, jitter and delays; docs/bags.md)")
+    from examples.sim.stack_timing import main as stack_timing  # the repository's examples
+
+    stack_timing([str(drive), "--out", str(OUT_BAGS)])
     return heldout()
 
 
