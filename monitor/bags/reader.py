@@ -49,6 +49,11 @@ from monitor.bags.types import ROLE_TYPES, base_typestore, field_layout
 from monitor.frames import ChannelState, Coverage, Frame, Header, box_footprint
 from monitor.reader import StreamDefect, StreamError
 
+#: A message stamped this much later than every channel message before it is a `bad-stamp`
+#: defect, not a tick an hour ahead (ticks in between would all be built): a stack on another
+#: clock (simulation time against wall time) would otherwise make billions of empty ticks.
+MAX_JUMP_NS = 3600 * 1_000_000_000
+
 #: The plan of a channel whose plan topic had nothing fresh: plan metrics then have no value.
 _NO_PLAN = np.zeros((0, 3))
 
@@ -281,6 +286,11 @@ class BagReader:
                 if stamp <= 0:
                     self._defect(number, "bad-stamp", f"{name}: header stamp {stamp} ns "
                                  "is not a time (time: receive uses the recording time)")
+                    continue
+                if newest is not None and stamp - newest > MAX_JUMP_NS:
+                    self._defect(number, "bad-stamp", f"{name}: stamped {(stamp - newest) / 1e9:g}"
+                                 " s after every message before it: a stack on another clock? "
+                                 "(time: receive aligns on the recording time)")  # fmt: skip
                     continue
             if tick is not None and tick > (self.origin_ns or 0) and stamp <= tick - period:
                 topic.late += 1  # a tick it belonged to was built without it

@@ -244,6 +244,19 @@ def test_header_stamps_of_zero_are_defects_and_receive_time_reads_them(tmp_path:
     assert [f.channels["lav"].ego.x for f in frames] == [0.0, 1.0, 2.0]
 
 
+def test_a_stamp_from_another_clock_is_a_defect_not_hours_of_ticks(tmp_path: Path) -> None:
+    kit = BagKit(tmp_path / "clock")
+    for s in stamps_every(100, 0, 300):
+        kit.odometry(s, x=s / 100)
+        kit.objects(s, x=50.0)
+    kit.odometry(2 * 3600 * 1000, x=9.0, log_ms=350)  # two hours ahead, recorded in line
+    kit.close()
+    reader, frames = frames_of(tmp_path / "clock")
+    assert [f.t for f in frames] == [0.0, 0.1, 0.2, 0.3]
+    assert [d.kind for d in reader.defects] == ["bad-stamp"]
+    assert "stamped 7199.7 s after every message before it" in reader.defects[0].message
+
+
 def test_signals_take_their_own_age_limit(tmp_path: Path) -> None:
     kit = BagKit(tmp_path / "signals")
     for s in stamps_every(100, 0, 1500):
