@@ -54,6 +54,7 @@ def run(
     strict: bool = False,
     formats: Sequence[str] = ("html", "md", "junit"),
     max_no_data: float = DEFAULT_MAX_NO_DATA,
+    stl_engine: str = "rtamt",
 ) -> RunResult:
     """Judge one stream; with `out_dir`, write events.jsonl, result.json and the reports.
 
@@ -66,6 +67,7 @@ def run(
         labels=Path(labels) if labels is not None else None,
         events_path=out / "events.jsonl" if out is not None else None,
         max_no_data=max_no_data,
+        stl_engine=stl_engine,
     )
     result = evaluate_stream(case, spec, stream, options)
     if out is not None:

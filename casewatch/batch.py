@@ -20,6 +20,7 @@ from evaluator.ground_truth import LabelsError
 from evaluator.inputs import path_digest
 from evaluator.session import DEFAULT_MAX_NO_DATA, InputError, RunOptions, evaluate_stream
 from evaluator.signal_store import FILE_NAME as SIGNALS_FILE
+from evaluator.stl_engines import EngineMismatch
 from evaluator.summary import LogSummary, summarise, summarise_result
 from monitor.bags.reader import is_bag
 from monitor.warmup import warm_up
@@ -101,6 +102,7 @@ class Job:
     save_signals: bool = False
     fail_on: str = "any"
     topics: str | None = None  # a bag's topic mapping (`--topics`); None: the case's
+    stl_engine: str = "rtamt"  # rtamt, numpy or both (evaluator.stl_engines)
 
 
 def run_job(job: Job) -> LogSummary:
@@ -120,6 +122,7 @@ def run_job(job: Job) -> LogSummary:
             signals_path=out / SIGNALS_FILE if job.save_signals else None,
             fail_on=job.fail_on,
             topics=Path(job.topics) if job.topics else None,
+            stl_engine=job.stl_engine,
         )
         result = evaluate_stream(case, spec, job.stream, options)
         api.write_result(result, out)
@@ -128,6 +131,9 @@ def run_job(job: Job) -> LogSummary:
     except (InputError, LabelsError, CaseError, OSError) as exc:
         return LogSummary(stream=job.stream, out_dir=str(out), ok=False, error=str(exc),
                           seconds=round(time.perf_counter() - started, 3))
+    except EngineMismatch as exc:  # a bug in one of the STL engines, never a verdict
+        return LogSummary(stream=job.stream, out_dir=str(out), ok=False, crashed=True,
+                          error=str(exc), seconds=round(time.perf_counter() - started, 3))
     except Exception as exc:  # a bug: keep the other logs going, exit 3 at the end
         log = write_crash_log(exc, ["run", job.case_path, job.stream, "-o", job.out_dir], out)
         return LogSummary(stream=job.stream, out_dir=str(out), ok=False, crashed=True,
@@ -190,6 +196,7 @@ def run_many(
     fail_on: str = "any",
     *,
     topics: str | None = None,
+    stl_engine: str = "rtamt",
     engine: str = "processes",
     scheduler: str | None = None,
     resume: bool = False,
@@ -209,7 +216,7 @@ def run_many(
         work.append(Job(case_path, str(stream), str(out_dir / name),
                         labels_for(str(stream), labels),
                         strict, tuple(formats), max_no_data, save_signals, fail_on,
-                        topics))
+                        topics, stl_engine))
     done: dict[int, LogSummary] = {}
     if resume:
         for k, job in enumerate(work):

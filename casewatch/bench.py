@@ -15,6 +15,9 @@
 7. ROS 2 bags: every bundled drive as an MCAP bag (plain and zstd), frames per second of
    reading it against the evaluator's own speed on the same drive (`monitor/bags/bench.py`;
    target: reading >= judging).
+8. STL engines: rtamt tick by tick against numpy over the whole log, per formula of the
+   reference case on 1 hour of signals (target >= 50x, identical values), and `casewatch run`
+   on the bundled drives with each engine (`evaluator/stl_bench.py`).
 6. Threshold tuning (`casewatch tune`) on 1 hour of saved signals, 17 formulas x 50 candidate
    thresholds (and durations): `python -m evaluator.tuning_bench`; target <= 60 s.
 
@@ -301,11 +304,19 @@ def main(argv: list[str] | None = None) -> int:
 
     results["bags"] = bag_bench(BENCH / "bags", 200 if args.quick else None)
 
+    print("8. STL engines: rtamt against numpy ...", flush=True)
+    from evaluator.stl_bench import measure as stl_bench
+
+    results["stl_engines"] = stl_bench(0.05 if args.quick else 1.0)
+
     (BENCH / "results.json").write_text(json.dumps(results, indent=1))
     print_table(results)
     from monitor.bags.bench import print_rows as print_bag_rows
 
     print_bag_rows(results["bags"])
+    from evaluator.stl_bench import print_results as print_stl
+
+    print_stl(results["stl_engines"])
     print(f"\nwritten: {BENCH / 'results.json'}")
     dask = results.get("dask_replay") or []
     if len(dask) == 2:

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from casewatch import __version__
-from evaluator.core import Evaluator
+from evaluator.core import Evaluator, rtamt_monitor
 from evaluator.eventlog import Event, EventLog
 from evaluator.ground_truth import read_labels, score_events
 from evaluator.inputs import open_hashed, path_digest
@@ -31,13 +31,23 @@ from evaluator.result import (
     Timings,
 )
 from evaluator.signal_store import SignalRecorder
+from evaluator.stl_engines import (
+    ENGINES,
+    CheckedMonitor,
+    Columns,
+    EngineMismatch,
+    Mismatch,
+    PrecomputedMonitor,
+    evaluate_whole_log,
+    input_names,
+)
 from monitor.bags.mapping import MappingError, resolve_mapping
 from monitor.bags.reader import BagError, BagReader, is_bag, read_bag
 from monitor.engine import MetricEngine
 from monitor.frames import Coverage, Header
 from monitor.reader import StreamError, read_stream
 from safety_case.model import Case, NodeType
-from spec.model import CompiledSpec
+from spec.model import CompiledFormula, CompiledSpec
 
 #: How many defects result.json lists in full (the count is always exact).
 MAX_LISTED_DEFECTS = 1000
@@ -66,6 +76,7 @@ class RunOptions:
     fail_on: str = "any"  # which episodes fail the run (evaluator.policy), recorded in the result
     # the topic mapping for a ROS 2 bag (`--topics`); None: the case's `monitor.topics`
     topics: Path | None = None
+    stl_engine: str = "rtamt"  # rtamt, numpy or both (evaluator.stl_engines)
 
 
 @dataclass
@@ -89,6 +100,12 @@ def evaluate_stream(
     a bad labels file fails fast.
     """
     options = options or RunOptions()
+    whole_log = options.stl_engine != "rtamt"
+    if options.stl_engine not in ENGINES:
+        raise InputError(f"unknown STL engine {options.stl_engine!r} (one of {', '.join(ENGINES)})")
+    if whole_log and str(source) == "-":
+        raise InputError(f"--stl-engine {options.stl_engine} judges whole logs; a live stream on "
+                         "standard input needs --stl-engine rtamt")  # fmt: skip
     labels = None
     if options.labels is not None:
         labels = read_labels(options.labels)
@@ -110,6 +127,7 @@ def evaluate_stream(
             options.on_event(event)
 
     evaluator = Evaluator(case, spec, on_event=emit, series_points=options.series_points)
+    columns = Columns(input_names(spec)) if whole_log else None
     engine = MetricEngine(case.monitor.metrics, list(case.monitor.channels))
     recorder = None
     if options.signals_path is not None:
@@ -139,7 +157,10 @@ def evaluate_stream(
                 if recorder is not None:
                     recorder.add(frame.t, values)
                 t2 = time.perf_counter()
-                evaluator.step(frame.t, values)
+                if columns is not None:
+                    columns.add(frame.t, values)  # judged once the whole log is read
+                else:
+                    evaluator.step(frame.t, values)
                 t3 = time.perf_counter()
                 arbitration.add(frame.t, engine.last_arbitration)
                 clock.metrics += t2 - t1
@@ -161,6 +182,8 @@ def evaluate_stream(
             if binary is not None:
                 binary.close()
                 hashing.close()
+        if columns is not None:
+            evaluator = _judge_whole_log(case, spec, columns, options, emit, clock)
         evaluator.finish()
     finally:
         if log is not None:
@@ -232,6 +255,34 @@ def evaluate_stream(
             exceeded=share > options.max_no_data,
         ),
     )
+
+
+def _judge_whole_log(case: Case, spec: CompiledSpec, columns: Columns, options: RunOptions,
+                     emit: Callable[[Event], None], clock: _Clock) -> Evaluator:  # fmt: skip
+    """Every formula over the whole log at once (numpy), then the ticks replayed through the
+    evaluator with those values; with `both`, rtamt runs too and must agree on every value."""
+    started = time.perf_counter()
+    whole = evaluate_whole_log(spec, columns, case.monitor.metrics.max_gap)
+    vector_s = time.perf_counter() - started
+    found: list[Mismatch] = []
+    counter = [0]
+
+    def factory(f: CompiledFormula, period: float) -> PrecomputedMonitor | CheckedMonitor:
+        if options.stl_engine == "numpy":
+            return PrecomputedMonitor(whole.values[f.id])
+        return CheckedMonitor(rtamt_monitor(f, period), f, whole, found, counter)
+
+    evaluator = Evaluator(case, spec, on_event=emit, monitor_factory=factory,
+                          series_points=options.series_points)  # fmt: skip
+    t = columns.t.tolist()
+    replay = time.perf_counter()
+    for i, ti in enumerate(t):
+        evaluator.step(ti, columns.row(i))
+    clock.judge += time.perf_counter() - replay + vector_s
+    evaluator.stl_seconds += vector_s
+    if counter[0]:
+        raise EngineMismatch(found, counter[0])
+    return evaluator
 
 
 def _open_bag(case: Case, source: str | Path, options: RunOptions) -> tuple[BagReader, str, str]:

@@ -1,9 +1,12 @@
-"""Whole-run robustness of a formula in numpy, from saved signals (for threshold tuning).
+"""The whole-log STL engine: robustness of a formula at every tick at once, in numpy.
 
-The online evaluator feeds rtamt tick by tick; tuning needs the same verdicts for hundreds of
-candidate thresholds over hours of saved signals, so it evaluates the formula over all ticks at
-once. The semantics are rtamt 0.4.10's, as `spec.reference_eval` writes them out (and a property
-test holds this module to it), applied the way `evaluator.core` applies them:
+The online evaluator feeds rtamt tick by tick, a Python call per formula and sample. A log is
+all there: this evaluates each formula over whole arrays instead (`casewatch run --stl-engine
+numpy`, and threshold tuning over hundreds of candidates). It lives in `evaluator/`, not in
+`spec/`, because what it must reproduce is the evaluator's judging, not only the formula
+semantics: which ticks are data gaps and where the monitor restarts. The semantics are rtamt
+0.4.10's, as `spec.reference_eval` writes them out; property tests hold this module to it and
+to rtamt itself, applied the way `evaluator.core` applies them:
 
 - a tick is evaluated when every input signal of the formula has a finite value; other ticks
   are data gaps (NaN robustness);
@@ -11,30 +14,35 @@ test holds this module to it), applied the way `evaluator.core` applies them:
   `max_gap`): past windows and `prev` never reach across one, and time inside a segment is
   counted in samples, as rtamt counts it.
 
-Supported: terms, comparisons, `not`, `and`, `or`, `implies`, `prev`, and the past windows
-`once` / `historically` (bounded or not). Future operators and `since` raise `Unsupported`:
-tuning is for the formulas an online monitor runs, and those it names.
+Every operator of the formula language: terms, comparisons, `not`, `and`, `or`, `implies`,
+`prev`, `once` / `historically` (bounded or not), `since`, and for offline formulas `next`,
+`eventually`, `always`, `until` (bounded), which read the end of a segment as missing samples,
+as `spec.reference_eval` does. The temporal operators are compiled loops
+(`evaluator.stl_kernels`): windows in O(n) with a monotonic deque, whatever their length.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from itertools import pairwise
 
 import numpy as np
 
+from evaluator import stl_kernels
 from spec.ast import (
     Abs,
     Arith,
     BoolOp,
     Compare,
     Formula,
+    Interval,
     Neg,
+    Next,
     Node,
     Not,
     Num,
     Prev,
     Signal,
+    Span,
     Term,
     Window,
     signals_of,
@@ -63,7 +71,11 @@ class Segments:
             restart[1:] = ~(consecutive & close)
         starts = np.flatnonzero(restart)
         self.starts = starts
-        self.position = np.arange(n) - np.repeat(starts, np.diff(np.append(starts, n)))
+        lengths = np.diff(np.append(starts, n))
+        self.position = np.arange(n) - np.repeat(starts, lengths)
+        #: per evaluated tick, its segment's first index and one past its last
+        self.start = np.repeat(starts, lengths).astype(np.int64)
+        self.end = np.repeat(starts + lengths, lengths).astype(np.int64)
 
 
 def evaluated_ticks(formula: Node, columns: Mapping[str, np.ndarray]) -> np.ndarray:
@@ -143,36 +155,45 @@ class _Evaluator:
             later = self.segments.position > 0
             out[later] = inner[np.flatnonzero(later) - 1]
             return out
-        if isinstance(node, Window) and node.op in ("once", "historically"):
+        if isinstance(node, Next):
+            inner = self.formula(node.operand)
+            out = np.full(self.n, -INF)
+            has_next = np.arange(self.n) + 1 < self.segments.end
+            out[has_next] = inner[np.flatnonzero(has_next) + 1]
+            return out
+        if isinstance(node, Window):
             return self._window(node)
-        raise Unsupported(f"operator {_name(node)} (tuning evaluates past-time formulas "
-                          "without `since`)")  # fmt: skip
+        if isinstance(node, Span):
+            return self._span(node)
+        raise Unsupported(f"operator {_name(node)}")
+
+    def _samples(self, interval: Interval | None) -> tuple[int, int]:
+        """An interval in samples; hi -1 for an unbounded one."""
+        if interval is None:
+            return 0, -1
+        return (round(float(interval.lo) / self.period), round(float(interval.hi) / self.period))
 
     def _window(self, node: Window) -> np.ndarray:
-        inner = self.formula(node.operand)
-        once = node.op == "once"
-        empty = -INF if once else INF
-        reduce = np.maximum if once else np.minimum
-        position = self.segments.position
-        if node.interval is None:
-            return self._running(inner, reduce)
-        lo = round(float(node.interval.lo) / self.period)
-        hi = round(float(node.interval.hi) / self.period)
-        out = np.full(self.n, empty)
-        for shift in range(lo, hi + 1):
-            reach = position >= shift  # the sample `shift` back lies inside the segment
-            if not reach.any():
-                break
-            rows = np.flatnonzero(reach)
-            out[rows] = reduce(out[rows], inner[rows - shift])
-        return out
+        inner = np.ascontiguousarray(self.formula(node.operand), dtype=float)
+        lo, hi = self._samples(node.interval)
+        take_max = node.op in ("once", "eventually")
+        if node.op in ("once", "historically"):
+            return stl_kernels.past_window(inner, self.segments.start, lo, hi, take_max)
+        if hi < 0:
+            raise Unsupported(f"unbounded {node.op}")
+        # a future window is a past window of the reversed ticks
+        rev_start = (self.n - self.segments.end)[::-1].copy()
+        return stl_kernels.past_window(inner[::-1].copy(), rev_start, lo, hi, take_max)[::-1]
 
-    def _running(self, inner: np.ndarray, reduce: Callable) -> np.ndarray:
-        out = np.empty(self.n)
-        bounds = [*self.segments.starts.tolist(), self.n]
-        for a, b in pairwise(bounds):
-            out[a:b] = reduce.accumulate(inner[a:b])
-        return out
+    def _span(self, node: Span) -> np.ndarray:
+        left = np.ascontiguousarray(self.formula(node.left), dtype=float)
+        right = np.ascontiguousarray(self.formula(node.right), dtype=float)
+        lo, hi = self._samples(node.interval)
+        if node.op == "since":
+            return stl_kernels.since(left, right, self.segments.start, lo, hi)
+        if hi < 0:
+            raise Unsupported("unbounded until")
+        return stl_kernels.until(left, right, self.segments.end, lo, hi)
 
 
 def _name(node: Node) -> str:

@@ -29,6 +29,7 @@ from evaluator.policy import FAIL_ON, gated
 from evaluator.result import DataGap, Episode, EpisodeOpen, NearMiss, RunResult
 from evaluator.session import DEFAULT_MAX_NO_DATA, InputError, RunOptions, evaluate_stream
 from evaluator.signal_store import FILE_NAME as SIGNALS_FILE
+from evaluator.stl_engines import ENGINES, EngineMismatch
 from evaluator.summary import LogSummary
 from monitor.bags.reader import is_bag
 from monitor.warmup import warm_up
@@ -46,6 +47,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="a JSON Lines stream (.jsonl or .jsonl.gz), a ROS 2 bag (.mcap, .db3 "
                         "or a bag folder), '-' for standard input, a folder of streams and "
                         "bags, or a glob such as 'logs/*.jsonl.gz'")
+    p.add_argument("--stl-engine", choices=ENGINES, default="rtamt",
+                   help="robustness by rtamt tick by tick (default; live streams), numpy over "
+                        "the whole log (logs only, same values), or both, every value compared "
+                        "(a disagreement exits 3 naming the formula and tick)")
     p.add_argument("--topics", type=Path, metavar="FILE",
                    help="for ROS 2 bags: the topic mapping (YAML; default: the case's "
                         "monitor.topics; docs/bags.md)")
@@ -166,6 +171,7 @@ def _run_single(args, case, spec, formats: tuple[str, ...]) -> int:
         signals_path=args.out / SIGNALS_FILE if args.save_signals else None,
         fail_on=args.fail_on,
         topics=args.topics,
+        stl_engine=args.stl_engine,
     )
     warm_up()  # compiled kernels ready before the first frame (matters for a live stream)
     try:
@@ -173,6 +179,9 @@ def _run_single(args, case, spec, formats: tuple[str, ...]) -> int:
     except (InputError, LabelsError) as exc:
         print(f"\ncasewatch run: {exc}", file=sys.stderr)
         return 2
+    except EngineMismatch as exc:
+        print(f"\ncasewatch run: {stream}: {exc}", file=sys.stderr)
+        return INTERNAL_ERROR
     if not live and not args.quiet:
         print("\r" + " " * 60 + "\r", end="", file=sys.stderr)
     path = api.write_result(result, args.out)
@@ -268,6 +277,7 @@ def _run_many(args, case, formats: tuple[str, ...]) -> int:
                                  args.labels, args.strict, formats, on_done, args.max_no_data,
                                  args.save_signals, args.fail_on,
                                  topics=str(args.topics) if args.topics else None,
+                                 stl_engine=args.stl_engine,
                                  engine=args.engine,
                                  scheduler=args.scheduler, resume=args.resume)  # fmt: skip
     except EngineError as exc:

@@ -11,10 +11,10 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from evaluator.vector_eval import Unsupported, robustness
-from spec.ast import Compare, Num, Signal, Span, Window, signals_of, walk
+from spec.ast import Compare, Num, Signal, Window, signals_of
 from spec.parser import parse_formula
 from spec.reference_eval import ReferenceEvaluator
-from tests.spec.strategies import PERIOD, SIGNALS, past_formulas
+from tests.spec.strategies import PERIOD, SIGNALS, mixed_formulas, past_formulas
 
 
 def reference(formula, trace, t, max_gap):
@@ -53,7 +53,6 @@ def gappy_traces(draw):
 @settings(max_examples=300, deadline=None)
 @given(past_formulas, gappy_traces())
 def test_vectorised_equals_the_reference_per_segment(formula, data):
-    assume(not any(isinstance(n, Span) for n in walk(formula)))
     assume(signals_of(formula))
     trace, t = data
     got = robustness(formula, trace, t, PERIOD, max_gap=0.5)
@@ -75,7 +74,34 @@ def test_for_window_and_restart_hand_computed():
     np.testing.assert_allclose(got, want, equal_nan=True)
 
 
-def test_future_operators_are_refused():
-    with pytest.raises(Unsupported, match="eventually"):
-        robustness(parse_formula("eventually[0:1] (x > 0)"), {"x": np.zeros(3)},
+@settings(max_examples=200, deadline=None)
+@given(mixed_formulas, gappy_traces())
+def test_offline_formulas_equal_the_reference_per_segment(formula, data):
+    """Future operators (offline formulas): each segment's end reads as missing samples."""
+    assume(signals_of(formula))
+    trace, t = data
+    got = robustness(formula, trace, t, PERIOD, max_gap=0.5)
+    want = reference(formula, trace, t, max_gap=0.5)
+    np.testing.assert_array_equal(np.isnan(got), np.isnan(want))
+    both = ~np.isnan(want)
+    np.testing.assert_allclose(got[both], want[both], rtol=1e-12, atol=1e-12)
+
+
+def test_future_and_since_hand_computed():
+    x = np.array([0.0, 2.0, 0.5, np.nan, 0.2, 3.0, 0.1])
+    t = np.round(np.arange(7) * 0.1, 6)
+    # eventually[0:0.2] (x >= 1): the best of this and the next two samples of the segment;
+    # segments: ticks 0-2 and 4-6 (x has no value at 3); past a segment's end: missing
+    got = robustness(parse_formula("eventually[0:0.2] (x >= 1)"), {"x": x}, t, 0.1, 0.5)
+    np.testing.assert_allclose(got, [1.0, 1.0, -0.5, np.nan, 2.0, 2.0, -0.9], equal_nan=True)
+    # (x >= 0) since (x >= 1), unbounded: S = max(x - 1, min(x, S before)), -inf at a restart
+    got = robustness(parse_formula("(x >= 0) since (x >= 1)"), {"x": x}, t, 0.1, 0.5)
+    np.testing.assert_allclose(got, [-1.0, 1.0, 0.5, np.nan, -0.8, 2.0, 0.1], equal_nan=True)
+
+
+def test_unbounded_future_is_refused():
+    from spec.ast import Window as W
+
+    with pytest.raises(Unsupported, match="unbounded eventually"):
+        robustness(W("eventually", None, parse_formula("x > 0")), {"x": np.zeros(3)},
                    np.arange(3) * 0.1, 0.1, 0.5)  # fmt: skip
