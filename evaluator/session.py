@@ -100,6 +100,10 @@ def evaluate_stream(
     a bad labels file fails fast.
     """
     options = options or RunOptions()
+    if not case.monitor.channels:
+        raise InputError(f"{case.path} has no `monitor` block: it is a pure argument (checked, "
+                         "nothing to judge); add monitor: {channels: [...], period: 0.1s} and "
+                         "bind evidence with spi: to monitor it")  # fmt: skip
     whole_log = options.stl_engine != "rtamt"
     if options.stl_engine not in ENGINES:
         raise InputError(f"unknown STL engine {options.stl_engine!r} (one of {', '.join(ENGINES)})")

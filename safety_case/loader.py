@@ -36,6 +36,8 @@ from safety_case.model import (
     SpiBinding,
 )
 from safety_case.schema import (
+    GSN_NODE_ATTRIBUTES,
+    GSN_NODE_TYPES,
     HAZARD_KEYS,
     METRIC_KEYS,
     MODULE_KEYS,
@@ -52,6 +54,8 @@ from safety_case.yamltree import YNode, compose, to_plain
 
 #: A node id is a type prefix followed by a digit, e.g. G1, Sn3, CSn2, G1.2 (gsn2x style).
 NODE_ID_RE = re.compile(r"^(CSn|CG|Sn|G|S|C|A|J)([0-9][A-Za-z0-9_.\-]*)$")
+#: gsn2x's other spelling: the prefix, `-` or `_`, then any name (`G-TopLevelGoal`)
+GSN2X_ID_RE = re.compile(r"^(CSn|CG|Sn|G|S|C|A|J)[-_]([A-Za-z0-9_.\-]+)$")
 RESERVED_KEYS: tuple[str, ...] = ("module", "monitor")
 RELATIONS: tuple[str, ...] = ("supportedBy", "inContextOf", "challenges")
 COUNTER_TYPES = frozenset({NodeType.COUNTER_GOAL, NodeType.COUNTER_SOLUTION})
@@ -113,7 +117,7 @@ class LoadResult:
 
 def node_type_of(node_id: str) -> NodeType | None:
     """The GSN type a node id's prefix names, or None when it names none."""
-    match = NODE_ID_RE.match(node_id)
+    match = NODE_ID_RE.match(node_id) or GSN2X_ID_RE.match(node_id)
     return NodeType(match.group(1)) if match else None
 
 
@@ -186,11 +190,18 @@ def load_bytes(data: bytes, path: str = "<input>") -> LoadResult:
     return load_text(text, path, hashlib.sha256(data).hexdigest())
 
 
-def load_text(text: str, path: str = "<input>", digest: str | None = None) -> LoadResult:
-    """Compose, validate and build the case from `text`."""
+def load_text(
+    text: str,
+    path: str = "<input>",
+    digest: str | None = None,
+    used_by: tuple[str, ...] = (),
+    loaded: set[str] | None = None,
+) -> LoadResult:
+    """Compose, validate and build the case from `text`. `used_by`: the chain of modules that
+    `uses` this one (empty for the case file itself), for cycles and file names in findings."""
     if digest is None:
         digest = hashlib.sha256(text.encode("utf-8", "surrogatepass")).hexdigest()
-    tree, findings = compose(text, path)
+    tree, findings = compose(text, path, marks_name_file=bool(used_by))
     if tree is None:
         if not findings:
             findings = [finding("CW004", "the file is empty; expected a safety case", path, _TOP)]
@@ -207,55 +218,122 @@ def load_text(text: str, path: str = "<input>", digest: str | None = None) -> Lo
             )
         )
         return LoadResult(None, None, findings)
-    return _Builder(path, digest, findings).build(tree)
+    return _Builder(path, digest, findings, used_by, loaded).build(tree)
 
 
 class _Builder:
-    def __init__(self, path: str, digest: str, findings: list[Finding]) -> None:
+    def __init__(
+        self,
+        path: str,
+        digest: str,
+        findings: list[Finding],
+        used_by: tuple[str, ...] = (),
+        loaded: set[str] | None = None,
+    ) -> None:
         self.path = path
         self.digest = digest
         self.findings = findings
         self.valid = True
         self.invalid: set[str] = set()  # ids of nodes that failed validation
+        self.used_by = used_by  # the modules that use this one (empty: the case file)
+        # every module file of the case loaded so far (a module used twice is loaded once)
+        self.loaded = loaded if loaded is not None else {str(Path(path).resolve())}
+        self.bindings: dict[str, dict] = {}  # node id -> spi/hazard entries kept for gsn2x
 
     def add(self, code: str, message: str, mark: Mark, hint: str = "") -> None:
         self.findings.append(finding(code, message, self.path, mark, hint))
 
     def build(self, tree: YNode) -> LoadResult:
         entries = tree.entries()
+        kept = _casewatch_info(entries.get("module"))
+        self.bindings = kept.get("bindings", {})
         module = self.module(entries.get("module"))
-        monitor = self.monitor(entries.get("monitor"))
+        monitor_entry = entries.get("monitor") or kept.get("monitor")
+        monitor = None if self.used_by and monitor_entry is None else self.monitor(monitor_entry)
         nodes: dict[str, Node] = {}
         skipped: dict[str, Mark] = {}
         for key, entry in entries.items():
             if key in RESERVED_KEYS:
                 continue
-            node_type = node_type_of(key)
+            node_type = node_type_of(key) or _gsn_node_type(entry.value)
             if node_type is None:
                 skipped[key] = entry.key_mark
                 self.add(
                     "CW020",
                     f"{key!r} is not a node id: ids start with a type prefix (G, S, Sn, C, A, J, "
-                    f"CG, CSn) followed by a digit{did_you_mean(key, RESERVED_KEYS)}",
+                    f"CG, CSn) followed by a digit, `-` or `_`, or give `nodeType: Goal` "
+                    f"(or Strategy, Solution, ...){did_you_mean(key, RESERVED_KEYS)}",
                     entry.key_mark,
                     "e.g. G1 (goal), S1 (strategy), Sn1 (solution), C1 (context), CSn1",
                 )
                 continue
             nodes[key] = self.node(key, node_type, entry.key_mark, entry.value)
+        digest = self.digest
+        if module is not None and module.uses:
+            digest = self.use_modules(module, nodes, skipped, entries["module"])
         partial = Case(
             path=self.path,
-            digest=self.digest,
+            digest=digest,
             module=module or Module(name=""),
             monitor=monitor or MonitorConfig(channels=[]),
             nodes=nodes,
         )
         errors = has_errors(self.findings)
-        case = partial if (not errors and module is not None and monitor is not None) else None
+        case = partial if (not errors and module is not None) else None
         return LoadResult(case, partial, self.findings, skipped, self.invalid)
+
+    def use_modules(self, module: Module, nodes: dict[str, Node], skipped: dict[str, Mark],
+                    entry: object) -> str:  # fmt: skip
+        """Load the modules `module` uses (gsn2x `uses:`, files relative to this one) into
+        `nodes`; their findings name their own files. Returns the digest of the whole case:
+        this file's and every used file's bytes."""
+        digest = hashlib.sha256(self.digest.encode())
+        uses_entry = entry.value.entries().get("uses")  # type: ignore[attr-defined]
+        items = uses_entry.value.items() if uses_entry and uses_entry.value.kind == "seq" else []
+        chain = (*self.used_by, str(Path(self.path).resolve()))
+        for k, name in enumerate(module.uses):
+            mark = items[k].mark if k < len(items) else entry.key_mark  # type: ignore[attr-defined]
+            target = Path(self.path).parent / name
+            if str(target.resolve()) in chain:
+                self.add("CW028", f"module `uses` {name}, which uses this module again (a cycle: "
+                         f"{' -> '.join(Path(c).name for c in chain)} -> {target.name})", mark)
+                continue
+            if str(target.resolve()) in self.loaded:
+                continue  # used by another module too (a diamond): its nodes are in already
+            self.loaded.add(str(target.resolve()))
+            try:
+                data = target.read_bytes()
+            except OSError as exc:
+                self.add("CW028", f"module `uses` {name}: cannot read {target}: "
+                         f"{exc.strerror or exc}", mark, "the path is relative to this file")
+                continue
+            used = load_text(data.decode("utf-8-sig", errors="replace"), str(target),
+                             hashlib.sha256(data).hexdigest(), chain, self.loaded)  # fmt: skip
+            self.findings.extend(used.findings)
+            digest.update(hashlib.sha256(data).digest())
+            if used.partial is None:
+                self.valid = False
+                continue
+            digest.update(used.partial.digest.encode())
+            self.invalid |= used.invalid
+            skipped.update(used.skipped)
+            for node_id, node in used.partial.nodes.items():
+                if node_id in nodes:
+                    first = nodes[node_id].mark
+                    where = f"{first.path or self.path}:{first.line}"
+                    self.findings.append(finding(
+                        "CW029", f"node {node_id} is defined in {target.name} and already in "
+                        f"{where}", str(target), node.mark,
+                        "node ids are shared by every module of a case: rename one"))  # fmt: skip
+                    continue
+                nodes[node_id] = node
+        return digest.hexdigest()
 
     # -- reserved blocks -------------------------------------------------------------------
 
     def module(self, entry: object) -> Module | None:
+        if entry is None and self.used_by:
+            return Module(name=Path(self.path).stem)  # a used gsn2x file may name no module
         if entry is None:
             self.add(
                 "CW010",
@@ -265,15 +343,20 @@ class _Builder:
             )
             return None
         raw = self.validate(RawModule, entry.value, entry.key_mark, "`module`", {(): MODULE_KEYS})
-        return Module(name=raw.name, brief=raw.brief) if isinstance(raw, RawModule) else None
+        if not isinstance(raw, RawModule):
+            return None
+        gsn = {k: v for k in ("extends", "additionalInformation", "horizontalIndex",
+                              "rankIncrement") if (v := getattr(raw, k)) is not None}  # fmt: skip
+        return Module(name=raw.name, brief=raw.brief, uses=raw.uses, gsn=gsn)
 
     def monitor(self, entry: object) -> MonitorConfig | None:
         if entry is None:
             self.add(
                 "CW011",
-                "missing `monitor` block",
+                "no `monitor` block: the case is checked as a pure argument, and there is "
+                "nothing to judge at run time",
                 Mark(line=1, col=1),
-                "add e.g. `monitor: {channels: [lav, tfuse], period: 0.1s}`",
+                "to monitor it, add e.g. `monitor: {channels: [lav, tfuse], period: 0.1s}`",
             )
             return None
         levels = {(): MONITOR_KEYS, ("metrics",): METRIC_KEYS}
@@ -296,6 +379,9 @@ class _Builder:
 
     def node(self, node_id: str, node_type: NodeType, mark: Mark, value: YNode) -> Node:
         where = f"node {node_id}"
+        kept = self.bindings.get(node_id)
+        if kept and value.kind == "map":  # spi/hazard kept for gsn2x in the module block
+            value = YNode("map", {**value.entries(), **kept}, value.mark, value.content_mark)
         plain = to_plain(value)
         entries = value.entries() if value.kind == "map" else {}
         if isinstance(plain, dict):
@@ -341,6 +427,7 @@ class _Builder:
                 url=raw.url,
                 spi=self.spi(raw, entries),
                 hazard=self.hazard(raw, entries),
+                gsn={k: v for k in GSN_NODE_ATTRIBUTES if (v := getattr(raw, k)) is not None},
                 mark=mark,
                 key_marks=key_marks,
                 ref_marks=ref_marks,
@@ -515,6 +602,39 @@ def _ref_marks(value: YNode) -> dict[str, Mark]:
         for item in value.items():
             if item.kind == "scalar" and isinstance(item.value, str):
                 out.setdefault(item.value, item.mark)
+    return out
+
+
+def _gsn_node_type(value: YNode) -> NodeType | None:
+    """The type gsn2x's `nodeType` names, for an id without a type prefix."""
+    if value.kind != "map" or "nodeType" not in value.entries():
+        return None
+    name = value.entries()["nodeType"].value.value
+    prefix = GSN_NODE_TYPES.get(name) if isinstance(name, str) else None
+    return NodeType(prefix) if prefix else None
+
+
+def _casewatch_info(entry: object) -> dict:
+    """What `casewatch export-gsn` keeps for itself in `module.additionalInformation.casewatch`
+    (gsn2x shows it in the legend and ignores it otherwise): the `monitor` entry and, per node,
+    its `spi`/`hazard` entries, as positioned YAML so findings point into the file."""
+    if entry is None or entry.value.kind != "map":  # type: ignore[attr-defined]
+        return {}
+    info = entry.value.entries().get("additionalInformation")  # type: ignore[attr-defined]
+    if info is None or info.value.kind != "map" or "casewatch" not in info.value.entries():
+        return {}
+    kept = info.value.entries()["casewatch"].value
+    if kept.kind != "map":
+        return {}
+    out: dict = {}
+    if "monitor" in kept.entries():
+        out["monitor"] = kept.entries()["monitor"]
+    bindings = kept.entries().get("bindings")
+    if bindings is not None and bindings.value.kind == "map":
+        out["bindings"] = {node_id: {k: e for k, e in b.value.entries().items()
+                                     if k in ("spi", "hazard")}
+                           for node_id, b in bindings.value.entries().items()
+                           if b.value.kind == "map"}  # fmt: skip
     return out
 
 

@@ -19,6 +19,8 @@ class Mark(BaseModel):
     model_config = ConfigDict(frozen=True)
     line: int = 0
     col: int = 0
+    #: the file, for a node written in a module the case `uses` (empty: the case file itself)
+    path: str = ""
 
 
 class NodeType(str, Enum):  # noqa: UP042 - keep str() and format() as they are
@@ -124,6 +126,9 @@ class Node(BaseModel):
     url: str | None = None
     spi: SpiBinding | None = None
     hazard: HazardBinding | None = None
+    #: gsn2x presentation attributes kept as written (classes, level, horizontalIndex,
+    #: rankIncrement, nodeType, acp, ...), for `casewatch export-gsn`
+    gsn: dict = {}
     mark: Mark = Mark()  # position of the node id key
     # YAML key (`supportedBy`, `undeveloped`, ...) -> position of that key in this node.
     key_marks: dict[str, Mark] = {}
@@ -136,6 +141,9 @@ class Module(BaseModel):
     model_config = ConfigDict(frozen=True)
     name: str
     brief: str = ""
+    uses: list[str] = []  # gsn2x: the module files this one uses (relative to it)
+    #: gsn2x: the module's other attributes as written (additionalInformation, ...)
+    gsn: dict = {}
 
 
 class ChannelCoverage(BaseModel):

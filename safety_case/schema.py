@@ -20,6 +20,7 @@ from pydantic import (
     ConfigDict,
     Field,
     StrictBool,
+    StrictInt,
     StrictStr,
     model_validator,
 )
@@ -237,12 +238,36 @@ class RawNode(BaseModel):
     url: StrictStr | None = None
     spi: RawSpi | None = None
     hazard: RawHazard | None = None
+    # gsn2x presentation attributes: kept as written for export-gsn, otherwise not read
+    classes: StrictStr | list[StrictStr] | None = None
+    level: StrictStr | None = None
+    horizontalIndex: object = None
+    rankIncrement: StrictInt | None = None
+    nodeType: StrictStr | None = None
+    acp: object = None
+    additionalInformation: object = None
+
+
+#: gsn2x's `nodeType` names -> our types (an id without a type prefix needs one).
+GSN_NODE_TYPES: dict[str, str] = {
+    "Goal": "G", "Strategy": "S", "Solution": "Sn", "Context": "C", "Assumption": "A",
+    "Justification": "J", "CounterGoal": "CG", "CounterSolution": "CSn",
+}  # fmt: skip
+
+#: The gsn2x attributes of a node kept as written (`Node.gsn`).
+GSN_NODE_ATTRIBUTES: tuple[str, ...] = ("classes", "level", "horizontalIndex", "rankIncrement",
+                                        "nodeType", "acp", "additionalInformation")  # fmt: skip
 
 
 class RawModule(BaseModel):
     model_config = ConfigDict(extra="forbid")
     name: Text
     brief: StrictStr = ""
+    uses: list[StrictStr] = []  # gsn2x: module files this one uses, relative to it
+    extends: object = None  # gsn2x modular extension, kept as written
+    additionalInformation: object = None
+    horizontalIndex: object = None
+    rankIncrement: StrictInt | None = None
 
 
 def channel_name_problem(name: str) -> str | None:

@@ -74,11 +74,15 @@ def to_plain(node: YNode) -> object:
     return {k: to_plain(e.value) for k, e in node.entries().items()}
 
 
+#: The file marks name while a used module is composed (empty: the case file; see `compose`).
+_mark_path = ""
+
+
 def mark_of(ymark: yaml.Mark | None) -> Mark:
     """pyyaml marks are 0-based; ours are 1-based."""
     if ymark is None:
-        return Mark()
-    return Mark(line=ymark.line + 1, col=ymark.column + 1)
+        return Mark(path=_mark_path)
+    return Mark(line=ymark.line + 1, col=ymark.column + 1, path=_mark_path)
 
 
 def yaml11_number_form(text: str) -> str | None:
@@ -125,12 +129,13 @@ class _Converter:
     def content_mark(self, node: yaml.ScalarNode) -> Mark:
         start = mark_of(node.start_mark)
         if node.style in ('"', "'"):
-            return Mark(line=start.line, col=start.col + 1)
+            return Mark(line=start.line, col=start.col + 1, path=_mark_path)
         if node.style in ("|", ">"):
             for number in range(start.line + 1, len(self.lines) + 1):
                 line = self.lines[number - 1]
                 if line.strip():
-                    return Mark(line=number, col=len(line) - len(line.lstrip()) + 1)
+                    return Mark(line=number, col=len(line) - len(line.lstrip()) + 1,
+                                path=_mark_path)
         return start
 
     def scalar(self, node: yaml.ScalarNode) -> object:
@@ -212,8 +217,21 @@ class _Converter:
         return YNode("map", entries, mark, mark)
 
 
-def compose(text: str, path: str = "<input>") -> tuple[YNode | None, list[Finding]]:
-    """Compose `text` into a positioned tree; syntax problems become findings (CW003/CW006)."""
+def compose(
+    text: str, path: str = "<input>", marks_name_file: bool = False
+) -> tuple[YNode | None, list[Finding]]:
+    """Compose `text` into a positioned tree; syntax problems become findings (CW003/CW006).
+    `marks_name_file`: every mark carries `path` (a module the case uses, whose nodes are
+    checked with the case's and must be reported in their own file)."""
+    global _mark_path
+    previous, _mark_path = _mark_path, (path if marks_name_file else "")
+    try:
+        return _compose(text, path)
+    finally:
+        _mark_path = previous
+
+
+def _compose(text: str, path: str) -> tuple[YNode | None, list[Finding]]:
     loader: _Composer | None = None
     try:
         loader = _Composer(text)

@@ -78,6 +78,13 @@ LOADER_FIXTURES: list[tuple[str, str, int, int | None]] = [
     ),
     ("CW020", case("G1: {text: t, undeveloped: true}\nGoal1: {text: x}\n"), 4, 1),
     (
+        "CW028",
+        "module:\n  name: t\n  uses: [no-such-module.gsn.yaml]\nmonitor: {channels: [a, b]}\n"
+        "G1: {text: t, undeveloped: true}\n",
+        3,
+        10,
+    ),
+    (
         "CW021",
         case("G1:\n  text: t\n  undeveloped: true\n  spi: {signal: els, threshold: '>1'}\n"),
         6,

@@ -12,7 +12,8 @@ DOCS = Path(__file__).resolve().parents[2] / "docs" / "checks.md"
 
 
 def test_every_code_has_a_failing_fixture() -> None:
-    covered = {f[0] for f in LOADER_FIXTURES + CHECK_FIXTURES} | {"CW001"}  # CW001: test_loader
+    # CW001: test_loader; CW029 (an id in two files): test_modules
+    covered = {f[0] for f in LOADER_FIXTURES + CHECK_FIXTURES} | {"CW001", "CW029"}
     assert covered == set(CODES)
 
 
