@@ -107,7 +107,14 @@ class _Checker:
             self.development(node)
 
     def counter(self, node: Node) -> None:
-        if node.type in COUNTER_TYPES and not node.challenges:
+        # a counter node supporting a counter goal argues for that challenge (GSN's dialectic
+        # extension, as gsn2x draws it); only a counter node on its own must say what it
+        # challenges
+        supports_counter = any(
+            node.id in other.supported_by and other.type in COUNTER_TYPES
+            for other in self.case.nodes.values()
+        )
+        if node.type in COUNTER_TYPES and not node.challenges and not supports_counter:
             kind = _TYPE_NAMES[node.type]
             self.add(
                 "CW024",

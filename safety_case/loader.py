@@ -347,6 +347,13 @@ class _Builder:
             return None
         gsn = {k: v for k in ("extends", "additionalInformation", "horizontalIndex",
                               "rankIncrement") if (v := getattr(raw, k)) is not None}  # fmt: skip
+        info = gsn.get("additionalInformation")
+        if isinstance(info, dict) and "casewatch" in info:  # read as monitor and bindings
+            rest = {k: v for k, v in info.items() if k != "casewatch"}
+            if rest:
+                gsn["additionalInformation"] = rest
+            else:
+                del gsn["additionalInformation"]
         return Module(name=raw.name, brief=raw.brief, uses=raw.uses, gsn=gsn)
 
     def monitor(self, entry: object) -> MonitorConfig | None:

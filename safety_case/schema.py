@@ -246,6 +246,8 @@ class RawNode(BaseModel):
     nodeType: StrictStr | None = None
     acp: object = None
     additionalInformation: object = None
+    defeated: StrictBool | None = None  # gsn2x dialectic extension
+    defeatedRelation: StrictStr | None = None
 
 
 #: gsn2x's `nodeType` names -> our types (an id without a type prefix needs one).
@@ -256,7 +258,8 @@ GSN_NODE_TYPES: dict[str, str] = {
 
 #: The gsn2x attributes of a node kept as written (`Node.gsn`).
 GSN_NODE_ATTRIBUTES: tuple[str, ...] = ("classes", "level", "horizontalIndex", "rankIncrement",
-                                        "nodeType", "acp", "additionalInformation")  # fmt: skip
+                                        "nodeType", "acp", "additionalInformation", "defeated",
+                                        "defeatedRelation")  # fmt: skip
 
 
 class RawModule(BaseModel):

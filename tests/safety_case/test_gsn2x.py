@@ -1,0 +1,116 @@
+"""gsn2x files load: its attributes, id spellings, pure arguments and modules over files.
+
+The examples are written out by hand from gsn2x's documentation (syntax, module information,
+stylesheets, layout, dialectic extension), not copied from its sources."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from safety_case.checks import check_file
+from safety_case.findings import has_errors
+from safety_case.model import NodeType
+
+SYNTAX = """\
+module:
+  name: MainModule
+  brief: This is a short description of the module
+  additionalInformation:
+    v1: Changed line 2
+    v2: Added line 4
+  horizontalIndex: 0
+G-TopLevelGoal:
+  text: This is a Goal
+  supportedBy: [S1]
+  inContextOf: [C_A_certain_context]
+  classes: [important, reviewed]
+  level: top
+S1:
+  text: This is a Strategy
+  supportedBy: [G2, Top]
+  horizontalIndex:
+    relative: -1
+  rankIncrement: 2
+C_A_certain_context:
+  text: This is a Context
+  url: https://example.org/context
+G2:
+  text: A sub-goal
+  undeveloped: true
+  acp:
+    ACP1: supportedBy
+Top:
+  nodeType: Goal
+  text: An element named freely, typed by nodeType
+  undeveloped: true
+CG1:
+  text: A counter goal
+  challenges: G2
+  defeated: true
+  supportedBy: [CSn1]
+CSn1:
+  text: A counter solution
+"""
+
+
+def write(folder: Path, name: str, text: str) -> Path:
+    path = folder / name
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def test_a_plain_gsn2x_file_checks_as_a_pure_argument(tmp_path: Path) -> None:
+    case, findings = check_file(write(tmp_path, "main.gsn.yaml", SYNTAX))
+    assert [f.code for f in findings] == ["CW011"]  # a warning: nothing to monitor
+    assert case is not None and not has_errors(findings)
+    assert case.nodes["G-TopLevelGoal"].type is NodeType.GOAL
+    assert case.nodes["C_A_certain_context"].type is NodeType.CONTEXT
+    assert case.nodes["Top"].type is NodeType.GOAL
+    assert case.nodes["G-TopLevelGoal"].gsn == {"classes": ["important", "reviewed"],
+                                                "level": "top"}  # fmt: skip
+    assert case.nodes["S1"].gsn == {"horizontalIndex": {"relative": -1}, "rankIncrement": 2}
+    assert case.nodes["CG1"].gsn == {"defeated": True}
+    assert case.module.gsn["additionalInformation"] == {"v1": "Changed line 2",
+                                                        "v2": "Added line 4"}  # fmt: skip
+    assert case.monitor.channels == []
+
+
+def test_modules_over_files(tmp_path: Path) -> None:
+    """main uses a and b; both use shared (loaded once); an error in a used file is reported
+    in that file, on its own line."""
+    write(tmp_path, "main.gsn.yaml", "module:\n  name: main\n  brief: top\n"
+          "  uses: [a.gsn.yaml, b.gsn.yaml]\nG1:\n  text: top\n  supportedBy: [S1]\n"
+          "S1:\n  text: over parts\n  supportedBy: [G-A, G-B]\n")  # fmt: skip
+    write(tmp_path, "a.gsn.yaml", "module: {name: a, brief: part a, uses: [shared.gsn.yaml]}\n"
+          "G-A:\n  text: part a\n  supportedBy: [G-Shared]\n")  # fmt: skip
+    write(tmp_path, "b.gsn.yaml", "module: {name: b, brief: part b, uses: [shared.gsn.yaml]}\n"
+          "G-B:\n  text: part b\n  supportedBy: [G-Shared]\n")  # fmt: skip
+    write(tmp_path, "shared.gsn.yaml", "G-Shared:\n  text: shared\n  undeveloped: true\n")
+    case, findings = check_file(tmp_path / "main.gsn.yaml")
+    assert [f.code for f in findings] == ["CW011"]
+    assert set(case.nodes) == {"G1", "S1", "G-A", "G-B", "G-Shared"}
+    assert case.nodes["G-Shared"].mark.path == str(tmp_path / "shared.gsn.yaml")
+    digest = case.digest
+    write(tmp_path, "shared.gsn.yaml", "G-Shared:\n  text: changed\n  undeveloped: true\n")
+    assert check_file(tmp_path / "main.gsn.yaml")[0].digest != digest  # every file counts
+    write(tmp_path, "shared.gsn.yaml", "G-Shared:\n  text: shared\n  supportedBy: [Sn9]\n")
+    _, findings = check_file(tmp_path / "main.gsn.yaml")
+    dangling = [f for f in findings if f.code == "CW030"]
+    assert [(Path(f.path).name, f.line) for f in dangling] == [("shared.gsn.yaml", 3)]
+
+
+def test_module_errors(tmp_path: Path) -> None:
+    write(tmp_path, "main.gsn.yaml", "module:\n  name: main\n  brief: top\n"
+          "  uses: [a.gsn.yaml, missing.gsn.yaml]\nG1:\n  text: top\n  supportedBy: [G2]\n"
+          "G2:\n  text: twice\n  undeveloped: true\n")  # fmt: skip
+    write(tmp_path, "a.gsn.yaml", "module: {name: a, brief: b, uses: [main.gsn.yaml]}\n"
+          "G2:\n  text: again\n  undeveloped: true\n")  # fmt: skip
+    case, findings = check_file(tmp_path / "main.gsn.yaml")
+    assert case is None
+    found = {(f.code, Path(f.path).name, f.line) for f in findings}
+    assert ("CW028", "main.gsn.yaml", 4) in found  # missing.gsn.yaml cannot be read
+    assert ("CW028", "a.gsn.yaml", 1) in found  # a uses main again: a cycle
+    assert ("CW029", "a.gsn.yaml", 2) in found  # G2 in both files
+    text = next(f.message for f in findings if f.code == "CW029")
+    assert text == "node G2 is defined in a.gsn.yaml and already in " \
+                   f"{tmp_path / 'main.gsn.yaml'}:8"  # fmt: skip
