@@ -20,14 +20,20 @@ event, node, trace, channel, window and stream digest.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from scenariogeneration import xosc
 
-from evaluator.inputs import file_digest
+from evaluator.inputs import path_digest
 from evaluator.result import Episode, RunResult
+from monitor.bags.mapping import MappingError, resolve_mapping
+from monitor.bags.reader import BagError, is_bag, read_bag
+from monitor.frames import Frame
 from monitor.reader import read_stream
+from safety_case.findings import CaseError
+from safety_case.loader import require_case
 
 #: OpenSCENARIO minor version written (1.2).
 OSC_MINOR = 2
@@ -73,10 +79,28 @@ def hazard_events(result: RunResult) -> list[Episode]:
     return [e for e in result.episodes if e.kind == "hazard"]
 
 
-def _collect(stream: Path, windows: list[_Window]) -> None:
+def _frames(result: RunResult, stream: Path, topics: Path | None) -> Iterable[Frame]:
+    """The frames of the judged stream: JSON Lines, or a ROS 2 bag read through its topic
+    mapping (`topics`, else the case's `monitor.topics`) as the run read it."""
+    if not is_bag(stream):
+        return read_stream(stream)
+    case_topics = None
+    if topics is None:
+        try:
+            case_topics = require_case(result.case.path).monitor.topics
+        except (CaseError, OSError):
+            case_topics = None
+    try:
+        mapping = resolve_mapping(topics, result.case.path, case_topics)
+        return read_bag(stream, mapping, channels=list(result.case.channels),
+                        period=result.case.period)  # fmt: skip
+    except (MappingError, BagError) as exc:
+        raise ExportError(str(exc)) from None
+
+
+def _collect(frames: Iterable[Frame], windows: list[_Window]) -> None:
     """One pass over the stream: every window's ego and object poses in its channel."""
-    reader = read_stream(stream)
-    for frame in reader:
+    for frame in frames:
         for w in windows:
             if not w.t0 - 1e-9 <= frame.t <= w.t1 + 1e-9:
                 continue
@@ -176,10 +200,11 @@ def export_scenarios(
     radius: float = 30.0,
     opendrive: Path | None = None,
     event: int | None = None,
+    topics: Path | None = None,
 ) -> list[dict]:
     """Write one `.xosc` per hazard event (or only event `event`, 1-based) into `out` and the
     catalogue `scenarios.json`'s entries, which it returns."""
-    if result.stream.digest and file_digest(stream) != result.stream.digest:
+    if result.stream.digest and path_digest(stream) != result.stream.digest:
         raise ExportError(f"{stream}: not the stream this run judged (sha256 differs from "
                           f"result.json's {result.stream.digest[:12]}...)")  # fmt: skip
     if channel is not None and channel not in result.case.channels:
@@ -193,7 +218,7 @@ def export_scenarios(
     windows = [_Window(n, e, channel or _channel_at(result, e.start),
                        max(e.start - lead_in, result.stream.t_start or 0.0), e.end + lead_out)
                for n, e in chosen]  # fmt: skip
-    _collect(stream, windows)
+    _collect(_frames(result, stream, topics), windows)
     texts = {n.id: n.text for n in result.case.nodes}
     out.mkdir(parents=True, exist_ok=True)
     entries = []

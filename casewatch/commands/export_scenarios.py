@@ -19,6 +19,7 @@ import math
 import sys
 from pathlib import Path
 
+from monitor.bags.reader import is_bag
 from reports.render import ResultError, load_result
 from reports.scenario_export import ExportError, export_scenarios
 
@@ -49,10 +50,14 @@ def add_options(p: argparse.ArgumentParser, prefix: str = "") -> None:
     if not prefix:
         p.add_argument("--event", type=int, default=None, metavar="N",
                        help="only the N-th hazard event (1-based)")
+        p.add_argument("--topics", type=Path, default=None, metavar="FILE",
+                       help="for a ROS 2 bag: its topic mapping (default: the case's "
+                            "monitor.topics; docs/bags.md)")
 
 
 def run_export(result, stream: Path, out: Path, channel, lead_in: float, lead_out: float,
-               radius: float, opendrive, event=None) -> int:  # fmt: skip
+               radius: float, opendrive, event=None,
+               topics: Path | None = None) -> int:  # fmt: skip
     """Export and write the catalogue; prints one line per file. Exit code."""
     for name, value in (("lead-in", lead_in), ("lead-out", lead_out), ("radius", radius)):
         if not (math.isfinite(value) and value >= 0):
@@ -63,7 +68,7 @@ def run_export(result, stream: Path, out: Path, channel, lead_in: float, lead_ou
         return 2
     try:
         entries = export_scenarios(result, Path(stream), out, channel, lead_in, lead_out, radius,
-                                   opendrive, event)  # fmt: skip
+                                   opendrive, event, topics)  # fmt: skip
     except (ExportError, OSError) as exc:
         print(f"casewatch export-scenarios: {exc}", file=sys.stderr)
         return 2
@@ -83,8 +88,10 @@ def main(args: argparse.Namespace) -> int:
     except ResultError as exc:
         print(f"casewatch export-scenarios: {exc}", file=sys.stderr)
         return 2
-    if not Path(args.stream).is_file():
-        print(f"casewatch export-scenarios: {args.stream}: no such stream", file=sys.stderr)
+    if not (Path(args.stream).is_file() or is_bag(args.stream)):
+        print(f"casewatch export-scenarios: {args.stream}: no such stream or bag",
+              file=sys.stderr)
         return 2
     return run_export(result, Path(args.stream), args.out, args.channel, args.lead_in,
-                      args.lead_out, args.radius, args.opendrive, args.event)  # fmt: skip
+                      args.lead_out, args.radius, args.opendrive, args.event,
+                      args.topics)  # fmt: skip

@@ -191,7 +191,7 @@ def _run_single(args, case, spec, formats: tuple[str, ...]) -> int:
     if args.scenarios and not live and any(e.kind == "hazard" for e in result.episodes):
         code = run_export(result, Path(stream), args.out / "scenarios", args.scenario_channel,
                           args.scenario_lead_in, args.scenario_lead_out, args.scenario_radius,
-                          args.scenario_opendrive)  # fmt: skip
+                          args.scenario_opendrive, topics=args.topics)  # fmt: skip
         if code:
             return code
     if result.stream.frames_read == 0:

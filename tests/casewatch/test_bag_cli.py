@@ -186,3 +186,19 @@ def test_reports_name_the_topics_behind_dropouts(tmp_path: Path) -> None:
     assert "Bag topics missing or stale: `/tfuse/localization/kinematic_state` 4 ticks;" in md
     html = (tmp_path / "out" / "report.html").read_text()
     assert "<code>/tfuse/perception/object_recognition/objects</code> 4" in html
+
+
+def test_hazard_events_of_a_bag_export_as_scenarios(bag: Path, short_drive: Path,
+                                                    tmp_path: Path) -> None:  # fmt: skip
+    """export-scenarios reads the bag through its mapping: the same events, windows and
+    objects as from the stream (object names are the bag's UUIDs)."""
+    topics = bag.with_name("short.topics.yaml")
+    catalogues = []
+    for source, extra in ((bag, ["--topics", str(topics)]), (short_drive, [])):
+        out = tmp_path / source.name
+        assert main(["run", str(CASE), str(source), *extra, "-o", str(out), "--format", "none",
+                     "--quiet", "--scenarios"]) == 1  # fmt: skip
+        data = json.loads((out / "scenarios" / "scenarios.json").read_text())["scenarios"]
+        catalogues.append([(e["node"], e["start"], e["end"], e["channel"], len(e["entities"]))
+                           for e in data])  # fmt: skip
+    assert catalogues[0] == catalogues[1] != []
