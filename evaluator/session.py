@@ -30,11 +30,10 @@ from evaluator.result import (
     StreamInfo,
     Timings,
 )
-from evaluator.signal_store import SignalRecorder
+from evaluator.signal_store import Columns, SignalRecorder
 from evaluator.stl_engines import (
     ENGINES,
     CheckedMonitor,
-    Columns,
     EngineMismatch,
     Mismatch,
     PrecomputedMonitor,

@@ -19,10 +19,13 @@ exactly as the evaluator did.
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 import zipfile
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -64,6 +67,70 @@ class SavedSignals:
         return ticks * self.period / 3600.0
 
 
+class Columns:
+    """Per-tick values of some signals, appended tick by tick into growing float arrays (NaN:
+    no value); memory grows by 8 bytes per signal and tick."""
+
+    def __init__(self, names: list[str]):
+        self.names = list(names)
+        self._index = {n: j for j, n in enumerate(self.names)}
+        self._t = np.empty(1024)
+        self._values = np.empty((1024, len(self.names)))
+        self.n = 0
+
+    def add(self, t: float, values: Mapping[str, float | None]) -> None:
+        if self.n == len(self._t):
+            self._t = np.concatenate([self._t, np.empty(len(self._t))])
+            self._values = np.concatenate([self._values, np.empty_like(self._values)])
+        self._t[self.n] = t
+        row = self._values[self.n]
+        for j, name in enumerate(self.names):
+            v = values.get(name)
+            row[j] = math.nan if v is None else v
+        self.n += 1
+
+    @property
+    def t(self) -> np.ndarray:
+        return self._t[: self.n]
+
+    def column(self, name: str) -> np.ndarray:
+        return self._values[: self.n, self._index[name]]
+
+    @property
+    def values(self) -> np.ndarray:
+        """(n, m): tick i, signal j (NaN: no value)."""
+        return self._values[: self.n]
+
+    def row(self, i: int) -> RowView:
+        return RowView(self, i)
+
+
+class RowView(Mapping[str, float | None]):
+    """One tick of `Columns` as the evaluator reads its values (`get`; NaN reads as None)."""
+
+    __slots__ = ("_columns", "_i")
+
+    def __init__(self, columns: Columns, i: int):
+        self._columns = columns
+        self._i = i
+
+    def __getitem__(self, name: str) -> float | None:
+        j = self._columns._index[name]
+        v = float(self._columns._values[self._i, j])
+        return None if math.isnan(v) else v
+
+    def get(self, name: str, default: Any = None) -> Any:  # type: ignore[override]
+        if name not in self._columns._index:
+            return default
+        return self[name]
+
+    def __iter__(self):
+        return iter(self._columns.names)
+
+    def __len__(self) -> int:
+        return len(self._columns.names)
+
+
 class SignalRecorder:
     """Collects the values of `names` tick by tick; `save` writes them (atomically)."""
 
@@ -71,22 +138,19 @@ class SignalRecorder:
         self.names = list(names)
         self.period = period
         self.max_gap = max_gap
-        self._t: list[float] = []
-        self._rows: list[list[float]] = []
+        self._columns = Columns(self.names)
 
-    def add(self, t: float, values: dict[str, float | None]) -> None:
-        nan = float("nan")
-        self._t.append(t)
-        self._rows.append([nan if (v := values.get(n)) is None else float(v) for n in self.names])
+    def add(self, t: float, values: Mapping[str, float | None]) -> None:
+        self._columns.add(t, values)
 
     def save(self, path: Path) -> Path:
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
-        values = np.array(self._rows, dtype=np.float64).reshape(len(self._rows), len(self.names))
+        values = self._columns.values
         tmp = path.with_name(path.name + ".tmp")
         with open(tmp, "wb") as fh:
             np.savez_compressed(
-                fh, t=np.array(self._t, dtype=np.float64), names=np.array(self.names, dtype=str),
+                fh, t=self._columns.t, names=np.array(self.names, dtype=str),
                 values=values, period=np.float64(self.period), max_gap=np.float64(self.max_gap),
                 version=np.int64(FORMAT_VERSION),
             )  # fmt: skip

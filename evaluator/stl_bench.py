@@ -25,7 +25,8 @@ import numpy as np
 
 from evaluator.core import rtamt_monitor
 from evaluator.session import RunOptions, evaluate_stream
-from evaluator.stl_engines import Columns, input_names
+from evaluator.signal_store import Columns
+from evaluator.stl_engines import input_names
 from evaluator.vector_eval import Segments, evaluated_ticks, robustness
 from monitor.engine import MetricEngine
 from monitor.reader import read_stream

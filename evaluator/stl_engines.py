@@ -15,12 +15,12 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from evaluator.signal_store import Columns
 from evaluator.vector_eval import Segments, evaluated_ticks, robustness
 from spec.model import CompiledFormula, CompiledSpec
 from spec.parser import parse_formula
@@ -29,65 +29,6 @@ ENGINES = ("rtamt", "numpy", "both")
 
 #: Largest difference between the engines' robustness that still counts as agreement.
 TOLERANCE = 1e-9
-
-
-class Columns:
-    """Per-tick values of some signals, appended tick by tick into growing float arrays (NaN:
-    no value); memory grows by 8 bytes per signal and tick."""
-
-    def __init__(self, names: list[str]):
-        self.names = list(names)
-        self._index = {n: j for j, n in enumerate(self.names)}
-        self._t = np.empty(1024)
-        self._values = np.empty((1024, len(self.names)))
-        self.n = 0
-
-    def add(self, t: float, values: Mapping[str, float | None]) -> None:
-        if self.n == len(self._t):
-            self._t = np.concatenate([self._t, np.empty(len(self._t))])
-            self._values = np.concatenate([self._values, np.empty_like(self._values)])
-        self._t[self.n] = t
-        row = self._values[self.n]
-        for j, name in enumerate(self.names):
-            v = values.get(name)
-            row[j] = math.nan if v is None else v
-        self.n += 1
-
-    @property
-    def t(self) -> np.ndarray:
-        return self._t[: self.n]
-
-    def column(self, name: str) -> np.ndarray:
-        return self._values[: self.n, self._index[name]]
-
-    def row(self, i: int) -> RowView:
-        return RowView(self, i)
-
-
-class RowView(Mapping[str, float | None]):
-    """One tick of `Columns` as the evaluator reads its values (`get`; NaN reads as None)."""
-
-    __slots__ = ("_columns", "_i")
-
-    def __init__(self, columns: Columns, i: int):
-        self._columns = columns
-        self._i = i
-
-    def __getitem__(self, name: str) -> float | None:
-        j = self._columns._index[name]
-        v = float(self._columns._values[self._i, j])
-        return None if math.isnan(v) else v
-
-    def get(self, name: str, default: Any = None) -> Any:  # type: ignore[override]
-        if name not in self._columns._index:
-            return default
-        return self[name]
-
-    def __iter__(self):
-        return iter(self._columns.names)
-
-    def __len__(self) -> int:
-        return len(self._columns.names)
 
 
 def input_names(spec: CompiledSpec) -> list[str]:

@@ -12,21 +12,21 @@ from typing import Any
 
 import numpy as np
 
-from monitor.frames import FORMAT_NAME, FORMAT_VERSION, ChannelState, Frame, Header, Objects
-
-
-def _distinct(poly: np.ndarray) -> np.ndarray:
-    """A padded polygon (last vertex repeated) without its padding."""
-    n = len(poly)
-    while n > 3 and np.array_equal(poly[n - 1], poly[n - 2]):
-        n -= 1
-    return poly[:n]
+from monitor.frames import (
+    FORMAT_NAME,
+    FORMAT_VERSION,
+    ChannelState,
+    Frame,
+    Header,
+    Objects,
+    unpadded,
+)
 
 
 def _footprint(half: Any, polygon: np.ndarray) -> dict[str, Any]:
     if half is not None and not np.isnan(half[0]):
         return {"length": 2.0 * float(half[0]), "width": 2.0 * float(half[1])}
-    return {"polygon": _distinct(polygon).tolist()}
+    return {"polygon": unpadded(polygon).tolist()}
 
 
 def _objects(objs: Objects) -> list[dict[str, Any]]:

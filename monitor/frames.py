@@ -22,6 +22,14 @@ def box_footprint(length: float, width: float) -> np.ndarray:
     return np.array([[hl, hw], [-hl, hw], [-hl, -hw], [hl, -hw]], dtype=float)
 
 
+def unpadded(poly: np.ndarray) -> np.ndarray:
+    """A (V, 2) footprint without its padding (its last vertex repeated; see `Objects`)."""
+    n = len(poly)
+    while n > 3 and np.array_equal(poly[n - 1], poly[n - 2]):
+        n -= 1
+    return poly[:n]
+
+
 def place(body: np.ndarray, pos: np.ndarray, yaw: np.ndarray) -> np.ndarray:
     """World coordinates of body-frame polygons.
 

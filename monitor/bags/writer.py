@@ -26,7 +26,7 @@ from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, W
 from monitor.bags.decode import CLASS_NAMES
 from monitor.bags.mapping import TopicMapping
 from monitor.bags.types import OBJECTS, ODOMETRY, TRAJECTORY, base_typestore
-from monitor.frames import ChannelState, Coverage, Frame, Objects
+from monitor.frames import ChannelState, Coverage, Frame, Objects, unpadded
 
 #: Class name -> Autoware label.
 LABELS = {name: label for label, name in CLASS_NAMES.items()}
@@ -143,11 +143,10 @@ class MessageBuilder:
             body = (c * vx + s * vy, -s * vx + c * vy)
             half = objs.half[i]
             if np.isnan(half[0]):
-                n_vert = _distinct_vertices(objs.footprints[i])
                 shape = T["autoware_perception_msgs/msg/Shape"](
                     type=2, footprint=T["geometry_msgs/msg/Polygon"](points=[
                         T["geometry_msgs/msg/Point32"](x=float(p[0]), y=float(p[1]), z=0.0)
-                        for p in objs.footprints[i][:n_vert]]),
+                        for p in unpadded(objs.footprints[i])]),
                     dimensions=self.vector())  # fmt: skip
             else:
                 size = T["geometry_msgs/msg/Vector3"](x=float(2 * half[0]), y=float(2 * half[1]),
@@ -183,14 +182,6 @@ class MessageBuilder:
 
     def scalar(self, value: float):
         return self.T["std_msgs/msg/Float64"](data=float(value))
-
-
-def _distinct_vertices(poly: np.ndarray) -> int:
-    """Vertices before the padding (the last vertex repeated) starts."""
-    n = len(poly)
-    while n > 3 and np.array_equal(poly[n - 1], poly[n - 2]):
-        n -= 1
-    return n
 
 
 def _uuid(object_id: str) -> np.ndarray:
