@@ -268,6 +268,12 @@ class _Builder:
                 )
                 continue
             nodes[key] = self.node(key, node_type, entry.key_mark, entry.value)
+        for node_id, kept_entries in self.bindings.items():
+            if node_id not in nodes and kept_entries:
+                first = next(iter(kept_entries.values()))
+                self.add("CW030", f"module.additionalInformation.casewatch.bindings names "
+                         f"{node_id!r}, which is not a node of this file", first.key_mark,
+                         "bind the spi/hazard to an existing node, or drop it")  # fmt: skip
         digest = self.digest
         if module is not None and module.uses:
             digest = self.use_modules(module, nodes, skipped, entries["module"])
@@ -307,14 +313,19 @@ class _Builder:
                 self.add("CW028", f"module `uses` {name}: cannot read {target}: "
                          f"{exc.strerror or exc}", mark, "the path is relative to this file")
                 continue
-            used = load_text(data.decode("utf-8-sig", errors="replace"), str(target),
-                             hashlib.sha256(data).hexdigest(), chain, self.loaded)  # fmt: skip
-            self.findings.extend(used.findings)
-            digest.update(hashlib.sha256(data).digest())
-            if used.partial is None:
-                self.valid = False
+            try:
+                text = data.decode("utf-8-sig")
+            except UnicodeDecodeError as exc:
+                self.add("CW028", f"module `uses` {name}: {target} is not UTF-8 text (byte "
+                         f"offset {exc.start})", mark, "save it as UTF-8")  # fmt: skip
                 continue
-            digest.update(used.partial.digest.encode())
+            used = load_text(text, str(target), hashlib.sha256(data).hexdigest(), chain,
+                             self.loaded)  # fmt: skip
+            self.findings.extend(used.findings)
+            if used.partial is None:
+                digest.update(hashlib.sha256(data).digest())
+                continue
+            digest.update(used.partial.digest.encode())  # its bytes and those of its uses
             self.invalid |= used.invalid
             skipped.update(used.skipped)
             for node_id, node in used.partial.nodes.items():

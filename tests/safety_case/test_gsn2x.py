@@ -114,3 +114,16 @@ def test_module_errors(tmp_path: Path) -> None:
     text = next(f.message for f in findings if f.code == "CW029")
     assert text == "node G2 is defined in a.gsn.yaml and already in " \
                    f"{tmp_path / 'main.gsn.yaml'}:8"  # fmt: skip
+
+
+def test_kept_bindings_and_used_files_that_cannot_be_read(tmp_path: Path) -> None:
+    (tmp_path / "latin1.gsn.yaml").write_bytes(b"G-X:\n  text: caf\xe9\n  undeveloped: true\n")
+    write(tmp_path, "main.gsn.yaml", "module:\n  name: m\n  brief: b\n  uses: [latin1.gsn.yaml]\n"
+          "  additionalInformation:\n    casewatch:\n      bindings:\n"
+          "        Sn7: {spi: {signal: els, threshold: '>= 0.6'}}\n"
+          "G1: {text: top, undeveloped: true}\n")  # fmt: skip
+    case, findings = check_file(tmp_path / "main.gsn.yaml")
+    assert case is None
+    found = {(f.code, f.line) for f in findings}
+    assert ("CW028", 4) in found  # latin1.gsn.yaml is not UTF-8
+    assert ("CW030", 8) in found  # a kept binding for a node that does not exist
