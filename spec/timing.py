@@ -128,9 +128,14 @@ def delay(formula: Formula, ticks: int, period: Fraction) -> Formula | None:
     if isinstance(formula, Prev):
         return delay(formula.operand, ticks + 1, period)
     if isinstance(formula, Window):
-        h = future_depth(formula.operand, period)
-        shifted = delay(formula.operand, h, period)
-        if shifted is None:
+        # the operand judged late by the least delay that has a past form: its depth, or
+        # (a `since` whose lower bound credits a `next`, say) its reach
+        for h in sorted({future_depth(formula.operand, period),
+                         future_reach(formula.operand, period)}):  # fmt: skip
+            shifted = delay(formula.operand, h, period)
+            if shifted is not None:
+                break
+        else:
             return None
         lo, hi = _ticks(formula.interval, period) if formula.interval else (0, 0)
         e = ticks - h

@@ -57,3 +57,17 @@ def test_delay_is_the_future_formula_judged_late(formula, trace) -> None:  # typ
     for t in range(warm_up, n):
         a, b = judged[t], truth[t - depth]
         assert (a == b) if math.isinf(b) or math.isinf(a) else abs(a - b) <= 1e-9, (t, a, b)
+
+
+def test_a_window_over_a_since_whose_lower_bound_credits_a_next() -> None:
+    """`since[0.1:0.1]` looks one sample back, so `next` on its right has depth 0 there, yet
+    the `since` itself needs a delay of 1 (found by hypothesis): the window takes the reach."""
+    formula = parse_formula("once[0:0] ((x < 0) since[0.1:0.1] next (y < 0))")
+    found = past_form(formula, P)
+    assert found is not None
+    shifted, depth = found
+    trace = {"x": [1.0, -1.0, -2.0, 3.0, -1.0, -1.0], "y": [-1.0, 2.0, -3.0, -1.0, 1.0, -2.0]}
+    late = reference_robustness(shifted, trace, 0.1)
+    now = reference_robustness(formula, trace, 0.1)
+    warm_up = depth + past_horizon(formula, P) + depth  # as in the property test above
+    assert depth == 1 and late[warm_up:] == now[warm_up - depth : len(now) - depth]
