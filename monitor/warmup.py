@@ -12,7 +12,6 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from monitor.bags.decode import warm_up as warm_up_bags
 from monitor.engine import MetricEngine
 from monitor.frames import Coverage
 from monitor.parse import parse_frame
@@ -56,4 +55,3 @@ def warm_up(frames: int = 35) -> None:
         b = _channel(t, 0.3, (f"{k}-1", f"{k}-2"), coarse=k % 2 == 1)
         d = {"t": t, "channels": {"a": a, "b": b}}
         engine.step(parse_frame(d, _CHANNELS, line=k + 1))
-    warm_up_bags()  # the ROS 2 bag reader's objects walker

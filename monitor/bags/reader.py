@@ -151,7 +151,9 @@ class BagReader:
         self._footprint = box_footprint(self.mapping.ego.length, self.mapping.ego.width)
         self._bag = self._open()
         self._topics = self._connect()
-        warm_up_decoder()  # compiled (or loaded from numba's cache) before the first message
+        # compiled (or loaded from numba's cache) here, not in monitor.warmup: a live stream
+        # never needs it, and its start-up is what a live monitor waits for
+        warm_up_decoder()
 
     # -- opening --------------------------------------------------------------------------
 
