@@ -74,6 +74,14 @@ class StreamError(Exception):
         self.defect = defect
 
 
+def keep_defect(defects: list[StreamDefect], strict: bool, defect: StreamDefect) -> None:
+    """What every reader (JSON Lines, ROS 2 bag) does with a defect: raise it in strict mode,
+    else keep it for the report."""
+    if strict:
+        raise StreamError(defect)
+    defects.append(defect)
+
+
 def _open_text(source: str | Path | IO) -> tuple[IO[str], str, bool]:
     """(text stream, display name, whether we own it and must close it)."""
     if isinstance(source, (str, Path)):
@@ -132,10 +140,7 @@ class StreamReader:
         self._started = False
 
     def _defect(self, line: int, kind: str, message: str) -> None:
-        d = StreamDefect(line, kind, message, self.name)
-        if self.strict:
-            raise StreamError(d)
-        self.defects.append(d)
+        keep_defect(self.defects, self.strict, StreamDefect(line, kind, message, self.name))
 
     def __iter__(self) -> Iterator[Frame]:
         if self._started:

@@ -47,7 +47,7 @@ from monitor.bags.storage import (
 )
 from monitor.bags.types import ROLE_TYPES, base_typestore, field_layout
 from monitor.frames import ChannelState, Coverage, Frame, Header, box_footprint
-from monitor.reader import StreamDefect, StreamError
+from monitor.reader import StreamDefect, keep_defect
 
 #: A message stamped this much later than every channel message before it is a `bad-stamp`
 #: defect, not a tick an hour ahead (ticks in between would all be built): a stack on another
@@ -239,10 +239,7 @@ class BagReader:
     # -- reading --------------------------------------------------------------------------
 
     def _defect(self, number: int, kind: str, message: str) -> None:
-        d = StreamDefect(number, kind, message, self.name)
-        if self.strict:
-            raise StreamError(d)
-        self.defects.append(d)
+        keep_defect(self.defects, self.strict, StreamDefect(number, kind, message, self.name))
 
     def __iter__(self) -> Iterator[Frame]:
         if self._started:
