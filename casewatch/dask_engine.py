@@ -56,10 +56,15 @@ def run_on_dask(
                 # of the throughput of these CPU-bound tasks
                 "distributed.worker.profile.enabled": False,
             }))  # fmt: skip
-            cluster = stack.enter_context(LocalCluster(
-                n_workers=workers, threads_per_worker=1, processes=True,
-                dashboard_address=None, silence_logs=40, memory_limit=0,
-            ))  # fmt: skip
+            try:
+                cluster = stack.enter_context(LocalCluster(
+                    n_workers=workers, threads_per_worker=1, processes=True,
+                    dashboard_address=None, silence_logs=40, memory_limit=0,
+                ))  # fmt: skip
+            except RuntimeError as exc:  # distributed: "Nanny failed to start."
+                raise EngineError(f"the local Dask cluster of {workers} worker(s) did not "
+                                  f"start ({exc}): a worker process died while starting; "
+                                  "run again, or use --engine processes") from None
             client = stack.enter_context(Client(cluster))
         futures = client.map(run_job, list(jobs), retries=RETRIES, pure=False)
         index = {f.key: k for k, f in enumerate(futures)}

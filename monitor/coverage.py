@@ -18,6 +18,11 @@ import numpy as np
 
 from monitor.frames import Coverage, Ego, Objects
 
+#: Resolution [m] of the edge tests: a point on an edge is inside whatever the rounding of
+#: arctan2 and sin in the numpy build at hand (one build put a point on the edge ray 4e-15 m
+#: outside it).
+EDGE_EPS = 1e-9
+
 
 def inside(coverage: Coverage, ego: Ego, pos: np.ndarray, margin: float) -> np.ndarray:
     """(K,) True where the points `pos` (K, 2) lie inside `coverage` seen from `ego`, at least
@@ -25,7 +30,7 @@ def inside(coverage: Coverage, ego: Ego, pos: np.ndarray, margin: float) -> np.n
     A negative margin grows the coverage by as much instead."""
     rel = pos - np.array([ego.x, ego.y])
     r = np.hypot(rel[:, 0], rel[:, 1])
-    keep = r <= coverage.range_m - margin
+    keep = r <= coverage.range_m - margin + EDGE_EPS
     if coverage.fov_deg < 360.0:
         bearing = np.arctan2(rel[:, 1], rel[:, 0]) - ego.yaw
         bearing = np.abs((bearing + math.pi) % (2.0 * math.pi) - math.pi)
@@ -33,7 +38,7 @@ def inside(coverage: Coverage, ego: Ego, pos: np.ndarray, margin: float) -> np.n
         # and r itself once the nearest point of the ray is its apex (past a right angle)
         to_edge = np.clip(math.radians(coverage.fov_deg) / 2.0 - bearing, -math.pi / 2,
                           math.pi / 2)  # fmt: skip
-        keep &= r * np.sin(to_edge) >= margin
+        keep &= r * np.sin(to_edge) >= margin - EDGE_EPS
     return keep
 
 

@@ -54,7 +54,16 @@ def test_a_killed_worker_is_retried_and_a_bad_log_fails_alone(tmp_path):
         # process) are busy with logs, kill one of them mid-task
         killed = None
         started = time.monotonic()
-        while killed is None and time.monotonic() - started < 120 and proc.poll() is None:
+        # not before the cluster is up: a worker killed while its nanny starts is a failed
+        # start (EngineError), not a task to retry; the first log reported (on standard error)
+        # means it is up
+        assert proc.stderr is not None
+        os.set_blocking(proc.stderr.fileno(), False)
+        printed = ""
+        while ".jsonl" not in printed and time.monotonic() - started < 300:
+            printed += proc.stderr.readline() or ""
+            time.sleep(0.05)
+        while killed is None and time.monotonic() - started < 300 and proc.poll() is None:
             busy = []
             for child in psutil.Process(proc.pid).children():
                 with contextlib.suppress(psutil.Error):
@@ -63,10 +72,13 @@ def test_a_killed_worker_is_retried_and_a_bad_log_fails_alone(tmp_path):
             if busy and time.monotonic() - started > 3.0:
                 killed = busy[0]
                 os.kill(killed, signal.SIGKILL)
-        assert killed is not None, "no busy worker process found to kill"
+        assert killed is not None, f"no busy worker to kill; exit {proc.poll()}: {printed}"
         code = proc.wait(timeout=300)
     finally:
         proc.kill()
+    _, err = proc.communicate(timeout=60)
+    err = printed + (err or "")
+    assert (out / "summary.json").is_file(), f"exit {code}, killed {killed}; stderr:\n{err}"
     summary = json.loads((out / "summary.json").read_text())
     assert code == 2  # the bad log is unusable input; every other log was judged
     assert summary["logs"] == 7 and summary["logs_failed"] == 1
