@@ -37,6 +37,9 @@ from spec.model import CompiledFormula, CompiledSpec
 #: `reset()` must work before the first update (it starts every run of samples).
 MonitorFactory = Callable[[CompiledFormula, float], Any]
 
+#: What a data gap names while a `sum` window fills after a restart (docs/formulas.md).
+WARMING_UP = "(sum window filling)"
+
 #: Receives each episode at its onset and when it closes, and each data gap when it closes.
 EventSink = Callable[[Episode | EpisodeOpen | NearMiss | DataGap], None]
 
@@ -129,15 +132,8 @@ class Evaluator:
                 inputs.append((name, float(value)))
         shown = values.get(formula.signal) if formula.signal else None
         if missing:
-            state.ticks_no_data += 1
-            state.gaps.missing(t, missing)
             state.fresh = True
-            self._emit_episode(state, state.episodes.step(t, None))
-            if state.near is not None:
-                self._emit_near(state, state.near.step(t, None))
-            state.series.add(t, None)
-            return "no-data"
-        self._emit_gap(state, state.gaps.close())
+            return self._no_verdict(state, t, missing)
         if state.fresh:
             state.monitor.reset()  # build_rtamt_monitor's monitors reset before any update too
             state.index = 0
@@ -146,6 +142,10 @@ class Evaluator:
         robustness = float(state.monitor.update(state.index, inputs))
         self.stl_seconds += time.perf_counter() - started
         state.index += 1
+        if state.index <= formula.warmup_ticks:
+            # a `sum` window still filling after a restart: no verdict (the monitor is fed)
+            return self._no_verdict(state, t, [WARMING_UP])
+        self._emit_gap(state, state.gaps.close())
         state.ticks_evaluated += 1
         if state.worst is None or robustness < state.worst:
             state.worst, state.t_worst = robustness, t
@@ -160,6 +160,16 @@ class Evaluator:
             self._emit_near(state, state.near.step(t, robustness - formula.warn if inside else 1.0))
         state.series.add(t, float(shown) if formula.signal and shown is not None else robustness)
         return "violated" if violated else "ok"
+
+    def _no_verdict(self, state: FormulaState, t: float, missing: list[str]) -> Verdict:
+        """A tick without a verdict for `state`'s formula: a data gap naming what is missing."""
+        state.ticks_no_data += 1
+        state.gaps.missing(t, missing)
+        self._emit_episode(state, state.episodes.step(t, None))
+        if state.near is not None:
+            self._emit_near(state, state.near.step(t, None))
+        state.series.add(t, None)
+        return "no-data"
 
     def _stream_gap(self, last_t: float, t: float) -> None:
         """Frames are missing between `last_t` and `t`: a gap for every formula."""

@@ -30,7 +30,7 @@ from evaluator.stl_engines import input_names
 from evaluator.vector_eval import Segments, evaluated_ticks, robustness
 from monitor.engine import MetricEngine
 from monitor.reader import read_stream
-from spec.parser import parse_formula
+from spec.parser import parse_rtamt
 
 REPO = Path(__file__).resolve().parents[1]
 CASE = REPO / "examples" / "reference-case.yaml"
@@ -66,7 +66,7 @@ def per_formula(spec, columns: Columns, max_gap: float) -> list[dict[str, object
     rows = []
     t = columns.t
     for f in spec.formulas:
-        ast = parse_formula(f.rtamt)
+        ast = parse_rtamt(f.rtamt, spec.period)
         cols = {n: np.ascontiguousarray(columns.column(n)) for n in f.signals}
         robustness(ast, {n: c[:50] for n, c in cols.items()}, t[:50], spec.period,
                    max_gap)  # compiled kernels loaded before timing

@@ -15,9 +15,9 @@ to rtamt itself, applied the way `evaluator.core` applies them:
   counted in samples, as rtamt counts it.
 
 Every operator of the formula language: terms, comparisons, `not`, `and`, `or`, `implies`,
-`prev`, `once` / `historically` (bounded or not), `since`, and for offline formulas `next`,
-`eventually`, `always`, `until` (bounded), which read the end of a segment as missing samples,
-as `spec.reference_eval` does. The temporal operators are compiled loops
+`prev`, `once` / `historically` (bounded or not), `since`, the term `sum[a:b]`, and for
+offline formulas `next`, `eventually`, `always`, `until` (bounded), which read the end of a
+segment as missing samples, as `spec.reference_eval` does. The temporal operators are compiled loops
 (`evaluator.stl_kernels`): windows in O(n) with a monotonic deque, whatever their length.
 """
 
@@ -43,6 +43,7 @@ from spec.ast import (
     Prev,
     Signal,
     Span,
+    Sum,
     Term,
     Window,
     signals_of,
@@ -130,6 +131,8 @@ class _Evaluator:
                                         "/": np.divide}  # fmt: skip
             with np.errstate(divide="ignore", invalid="ignore"):
                 return ops[node.op](a, b)
+        if isinstance(node, Sum):
+            return self._sum(node)
         raise Unsupported(f"{type(node).__name__} is not a term")
 
     def formula(self, node: Formula) -> np.ndarray:
@@ -166,6 +169,26 @@ class _Evaluator:
         if isinstance(node, Span):
             return self._span(node)
         raise Unsupported(f"operator {_name(node)}")
+
+    def _shift(self, values: np.ndarray, k: int) -> np.ndarray:
+        """`values` `k` samples earlier inside each segment, `+inf` before its start (`prev`)."""
+        if k == 0:
+            return values
+        out = np.full(self.n, INF)
+        later = self.segments.position >= k
+        out[later] = values[np.flatnonzero(later) - k]
+        return out
+
+    def _sum(self, node: Sum) -> np.ndarray:
+        """`e(t-a) + (e(t-a-1) + (... + e(t-b)))`: the additions in the order of rtamt's
+        expansion (`spec.emit`), so the values are the same to the bit."""
+        inner = np.asarray(self.term(node.operand), dtype=float)
+        lo, hi = self._samples(node.interval)
+        total = self._shift(inner, hi)
+        with np.errstate(invalid="ignore"):
+            for k in range(hi - 1, lo - 1, -1):
+                total = self._shift(inner, k) + total
+        return total
 
     def _samples(self, interval: Interval | None) -> tuple[int, int]:
         """An interval in samples; hi -1 for an unbounded one."""

@@ -3,7 +3,9 @@
 Two sorts, kept apart on purpose: a `Term` is a real-valued expression over signals (arithmetic),
 a `Formula` is a condition whose STL robustness says how well it holds. Temporal and boolean
 operators take formulas only; comparisons turn two terms into a formula. Keeping the sorts apart
-means `prev` never applies to a raw signal, so robustness stays free of `inf - inf` (NaN).
+means `prev` never applies to a raw signal, so robustness stays free of `inf - inf` (NaN). The
+one number that can be infinite is a `sum` whose window is not complete yet (`+inf`, as rtamt
+expands it); `docs/formulas.md` ("Windowed sums") says what that means for arithmetic on sums.
 
 Every node is a frozen dataclass: values, hashable, comparable. Source columns (`col`) are carried
 for error messages but excluded from equality, so a formula equals its re-parsed canonical text.
@@ -65,7 +67,20 @@ class Arith:
     right: Term
 
 
-Term: TypeAlias = Num | Signal | Neg | Abs | Arith
+@dataclass(frozen=True)
+class Sum:
+    """`sum[a:b](e)`: the sum of the term `e` over the samples `t-b .. t-a` (a past operator).
+
+    A sample before the first one (of the stream, or since a monitor reset) counts as `+inf`,
+    as rtamt's `prev` gives it, so the sum is `+inf` until its window is complete.
+    """
+
+    interval: Interval
+    operand: Term
+    col: int = field(default=0, compare=False)  # column of the `sum` keyword
+
+
+Term: TypeAlias = Num | Signal | Neg | Abs | Arith | Sum
 
 # ---- formulas ----------------------------------------------------------------------------
 
@@ -132,7 +147,7 @@ class Span:
 Formula: TypeAlias = Compare | Not | BoolOp | Prev | Next | Window | Span
 Node: TypeAlias = Term | Formula
 
-TERM_TYPES = (Num, Signal, Neg, Abs, Arith)
+TERM_TYPES = (Num, Signal, Neg, Abs, Arith, Sum)
 FORMULA_TYPES = (Compare, Not, BoolOp, Prev, Next, Window, Span)
 
 
@@ -140,7 +155,7 @@ def children(node: Node) -> tuple[Node, ...]:
     """Direct sub-nodes, left to right."""
     if isinstance(node, Num | Signal):
         return ()
-    if isinstance(node, Neg | Abs | Not | Prev | Next | Window):
+    if isinstance(node, Neg | Abs | Sum | Not | Prev | Next | Window):
         return (node.operand,)
     return (node.left, node.right)
 

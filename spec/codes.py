@@ -15,6 +15,7 @@ FORMULA_CODES: dict[str, tuple[Severity, str]] = {
     "CW046": ("error", "sampling period is not a positive whole number of nanoseconds"),
     "CW047": ("error", "formula reads no signal (a constant verdict)"),
     "CW048": ("error", "time window longer than 10^6 sampling periods"),
+    "CW049": ("error", "`sum` window of more than 100 samples"),
 }
 
 

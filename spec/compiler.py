@@ -26,16 +26,26 @@ from spec.ast import (
     Not,
     Num,
     Signal,
+    Sum,
     Window,
+    children,
     future_operators,
     walk,
 )
+from spec.ast import Node as AstNode
 from spec.codes import formula_finding
 from spec.emit import interval_text, number_text, period_fraction, to_rtamt, to_text
 from spec.model import CompiledFormula, CompiledSpec, FormulaKind
 from spec.parser import FormulaError, parse_formula, yaml_position
 from spec.signals import resolve_signals
-from spec.timing import bound_ticks, future_depth, intervals_of, past_form, past_horizon
+from spec.timing import (
+    bound_ticks,
+    future_depth,
+    intervals_of,
+    past_form,
+    past_horizon,
+    sum_warmup,
+)
 from spec.trace import traces_for
 
 Mode = Literal["online", "offline"]
@@ -43,6 +53,10 @@ Mode = Literal["online", "offline"]
 #: The longest time window, in samples (27.8 h at 0.1 s): rtamt keeps a window's samples in a
 #: buffer, so `once[0:1e300s]` would overflow it and `historically[0:1000000h]` exhaust memory.
 MAX_BOUND_TICKS = 1_000_000
+
+#: The most samples one `sum` adds, counting those of the sums inside it: rtamt receives a sum
+#: expanded, one `prev` and one `+` per sample (CW049).
+MAX_SUM_SAMPLES = 100
 
 
 @dataclass(frozen=True)
@@ -216,6 +230,25 @@ def _check(
                         hint="rtamt counts samples; use a multiple of monitor.period",
                     )
                 )
+    for node, samples in _long_sums(formula, period):
+        line, col = _at(case, src, node.col)
+        own = (node.interval.hi - node.interval.lo) / period + 1
+        detail = f"{float(node.interval.lo):g}s to {float(node.interval.hi):g}s ago at " + (
+            f"{float(period):g}s" if own == samples else
+            f"{float(period):g}s is {own}, times {samples // int(own)} of the sum inside it"
+        )  # fmt: skip
+        findings.append(
+            formula_finding(
+                "CW049",
+                f"`sum` in node {src.node.id} adds {samples} samples ({detail}); at most "
+                f"{MAX_SUM_SAMPLES}",
+                path,
+                line,
+                col,
+                hint="rtamt receives a sum expanded, one `prev` per sample; sum over a shorter "
+                f"window, e.g. 'sum[0:{float(period * (MAX_SUM_SAMPLES - 1)):g}s](...)'",
+            )
+        )
     for node in walk(formula):
         if isinstance(node, Arith) and node.op == "/" and node.right == Num(0.0):
             findings.append(
@@ -230,6 +263,30 @@ def _check(
     if mode == "online" and not any(f.code == "CW043" for f in findings):
         findings.extend(_causality(case, src, formula, period))
     return findings
+
+
+def _sum_samples(node: AstNode, period: Fraction) -> int | None:
+    """How many samples the outermost sums under `node` add at most, counting the samples of
+    nested sums (None when a bound is not whole periods: CW043 reports that)."""
+    if isinstance(node, Sum):
+        lo, hi = bound_ticks(node.interval.lo, period), bound_ticks(node.interval.hi, period)
+        inner = _sum_samples(node.operand, period)
+        if lo is None or hi is None or inner is None:
+            return None
+        return (hi - lo + 1) * max(inner, 1)
+    counts = [_sum_samples(child, period) for child in children(node)]
+    if None in counts:
+        return None
+    return max((c for c in counts if c is not None), default=0)
+
+
+def _long_sums(node: AstNode, period: Fraction) -> list[tuple[Sum, int]]:
+    """The outermost sums adding more than MAX_SUM_SAMPLES samples, with their count."""
+    if isinstance(node, Sum):
+        samples = _sum_samples(node, period)
+        if samples is not None and samples > MAX_SUM_SAMPLES:
+            return [(node, samples)]
+    return [found for child in children(node) for found in _long_sums(child, period)]
 
 
 def _causality(case: Case, src: _Source, formula: Formula, period: Fraction) -> list[Finding]:
@@ -293,7 +350,7 @@ def _compile_one(
         node_text=src.node.text,
         kind=src.kind,
         source=src.text,
-        rtamt=to_rtamt(monitored),
+        rtamt=to_rtamt(monitored, period),
         signals=known,
         signal=spi.signal if spi and spi.stl is None else None,
         threshold=(
@@ -308,6 +365,7 @@ def _compile_one(
         warn=src.warn or 0.0,
         horizon=float(past_horizon(monitored, period) * period),
         future_horizon=float(future_depth(monitored, period) * period),
+        warmup_ticks=sum_warmup(monitored, period),
     )
     return compiled, findings
 

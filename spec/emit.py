@@ -17,7 +17,12 @@ rtamt emitter therefore never relies on rtamt's precedence or associativity:
 - a repeated stateful subformula (`prev`, `once`, `historically`, `since`) is made textually
   unique: rtamt keys operator state by the printed subformula and would update a shared one
   twice per sample;
-- `pastify()` is never called (it shifts a predicate twice beside a bounded future operator).
+- `pastify()` is never called (it shifts a predicate twice beside a bounded future operator);
+- rtamt has no windowed sum: `sum[a:b](e)` is expanded with `prev` on the term, nested
+  (Horner form) so that each of its `b` `prev` operators has a different text:
+  `sum[0:0.2](e)` is `(e + (prev (e + (prev e))))`, and `sum[0.1:0.2](e)` is
+  `(prev (e + (prev e)))`. A flat `e + prev e + prev prev e` would repeat `prev e` (shared
+  state, see below) and need O(n^2) operators.
 """
 
 from __future__ import annotations
@@ -43,9 +48,11 @@ from spec.ast import (
     Prev,
     Signal,
     Span,
+    Sum,
     Window,
 )
 from spec.model import CompiledFormula
+from spec.timing import bound_ticks
 
 #: Name of the output variable every built monitor declares.
 OUTPUT_VAR = "robustness"
@@ -93,6 +100,8 @@ def to_text(node: Node) -> str:
         return f"(-{to_text(node.operand)})"
     if isinstance(node, Abs):
         return f"abs({to_text(node.operand)})"
+    if isinstance(node, Sum):
+        return f"sum{interval_text(node.interval)}({to_text(node.operand)})"
     if isinstance(node, Arith | Compare):
         return f"({to_text(node.left)} {node.op} {to_text(node.right)})"
     if isinstance(node, Not):
@@ -114,9 +123,23 @@ def to_text(node: Node) -> str:
 # ---- rtamt 0.4.10 text -------------------------------------------------------------------
 
 
-def to_rtamt(node: Node) -> str:
-    """Canonical rtamt text with every fence applied (see the module docstring)."""
-    return _RtamtEmitter().emit(node)
+def to_rtamt(node: Node, period: Fraction | None = None) -> str:
+    """Canonical rtamt text with every fence applied (see the module docstring).
+
+    `period` (exact seconds, `period_fraction`) is needed only by a `sum`, whose window is
+    expanded sample by sample; a formula with a `sum` and no period is a `ValueError`."""
+    return _RtamtEmitter(period).emit(node)
+
+
+def sum_ticks(node: Sum, period: Fraction | None) -> tuple[int, int]:
+    """The window `[a:b]` of a `sum` in samples (ValueError without a period or when a bound is
+    not a whole number of periods, which the compiler reports as CW043 first)."""
+    if period is None:
+        raise ValueError(f"{to_text(node)} needs the sampling period to be expanded for rtamt")
+    lo, hi = bound_ticks(node.interval.lo, period), bound_ticks(node.interval.hi, period)
+    if lo is None or hi is None:
+        raise ValueError(f"{to_text(node)}: a bound is not a whole number of periods")
+    return lo, hi
 
 
 class _RtamtEmitter:
@@ -126,11 +149,14 @@ class _RtamtEmitter:
     so two equal subformulas (`prev (x >= 1) and prev (x >= 1)`) share one state that is
     updated twice per sample: the second reads the sample just written. The fence writes a
     repeated stateful subformula with its operand as `not (not ...)` (same robustness,
-    different name) as many times as needed to make every stateful name unique.
+    different name) as many times as needed to make every stateful name unique. A repeated
+    `prev` of a term (from `sum` expansions) gets its operand as `(... * 1.0)` instead: exact
+    for every float, infinities and -0.0 included.
     """
 
-    def __init__(self) -> None:
+    def __init__(self, period: Fraction | None = None) -> None:
         self.stateful: set[str] = set()
+        self.period = period
 
     def emit(self, node: Node) -> str:
         if isinstance(node, Num):
@@ -144,6 +170,8 @@ class _RtamtEmitter:
             return f"(0.0 - {self.emit(node.operand)})"
         if isinstance(node, Abs):
             return f"abs({self.emit(node.operand)})"
+        if isinstance(node, Sum):
+            return self._sum(node)
         if isinstance(node, Arith):
             right = self.emit(node.right)
             if node.op == "-" and isinstance(node.right, Num):
@@ -172,12 +200,26 @@ class _RtamtEmitter:
             )
         raise TypeError(f"not a formula node: {node!r}")
 
-    def _unique(self, shape: Callable[[str], str], operand: str) -> str:
+    def _unique(self, shape: Callable[[str], str], operand: str, term: bool = False) -> str:
         text = shape(operand)
         while text in self.stateful:
-            operand = f"(not (not {operand}))"
+            operand = f"({operand} * 1.0)" if term else f"(not (not {operand}))"
             text = shape(operand)
         self.stateful.add(text)
+        return text
+
+    def _sum(self, node: Sum) -> str:
+        """`sum[a:b](e)` as `prev`s of `e + prev(e + prev(...))`: the value at `t` is
+        `e(t-a) + (e(t-a-1) + (... + e(t-b)))`, and `+inf` once a `prev` reaches before the
+        first sample (rtamt's `prev` of a real at the first sample). Each copy of `e` is
+        emitted afresh, so stateful operators inside it (a nested `sum`) get unique names."""
+        lo, hi = sum_ticks(node, self.period)
+        text = self.emit(node.operand)
+        for _ in range(hi - lo):
+            inner = self._unique(lambda operand: f"(prev {operand})", text, term=True)
+            text = f"({self.emit(node.operand)} + {inner})"
+        for _ in range(lo):
+            text = self._unique(lambda operand: f"(prev {operand})", text, term=True)
         return text
 
 

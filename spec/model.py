@@ -41,6 +41,7 @@ class CompiledFormula(BaseModel):
     horizon: float = 0.0  # seconds of past the formula looks at (for warm-up accounting)
     # seconds the formula looks ahead (0 online; offline, a verdict at t needs data to t + this)
     future_horizon: float = 0.0
+    warmup_ticks: int = 0  # samples after a reset whose verdict is undefined (`sum` incomplete)
 
 
 class CompiledSpec(BaseModel):

@@ -36,6 +36,7 @@ from spec.ast import (
     Prev,
     Signal,
     Span,
+    Sum,
     Term,
     Window,
 )
@@ -68,6 +69,7 @@ _TERMINAL_WORDS: dict[str, str] = {
     "EVENTUALLY": "'eventually'",
     "ALWAYS": "'always'",
     "ABS": "'abs'",
+    "SUM": "'sum'",
     "$END": "the end of the formula",
 }
 
@@ -143,6 +145,20 @@ def parse_formula(text: str) -> Formula:
     return _need_formula(node, tree, text)
 
 
+def parse_rtamt(text: str, period: float) -> Formula:
+    """Read back the rtamt text `spec.emit.to_rtamt` wrote (`CompiledFormula.rtamt`) as the
+    formula rtamt evaluates, for the whole-log engine: `!==` is `!=`, and `prev` of a number
+    (from an expanded `sum`) is `sum[p:p]` at the period `p`: the value one sample earlier,
+    `+inf` at the first sample, as rtamt's `prev` of a real."""
+    text = text.replace("!==", "!=")
+    try:
+        tree = _parser().parse(text)
+    except UnexpectedInput as exc:
+        raise _syntax_error(text, exc) from None
+    node = _Builder(text, term_prev=Fraction(repr(float(period)))).build(tree)
+    return _need_formula(node, tree, text)
+
+
 def parse_term(text: str) -> Term:
     """Parse a numeric expression (used for SPI signals written as expressions)."""
     try:
@@ -198,8 +214,9 @@ def _seconds(bound: Tree) -> Fraction:
 class _Builder:
     """Turns the lark tree into typed nodes, checking sorts on the way."""
 
-    def __init__(self, text: str):
+    def __init__(self, text: str, term_prev: Fraction | None = None):
         self.text = text
+        self.term_prev = term_prev  # read `prev` of a number as `sum[p:p]` (parse_rtamt)
 
     def build(self, tree: Tree | Token) -> Node:
         if isinstance(tree, Token):  # pragma: no cover - every token sits under a rule
@@ -219,6 +236,9 @@ class _Builder:
             return Neg(self.term(kids[1]))
         if rule == "abs_":
             return Abs(self.term(kids[0]))
+        if rule == "sum_window":
+            col = _col_of(kids[0], self.text)[1]
+            return Sum(self.interval(kids[1]), self.term(kids[2]), col=col)
         if rule == "arith":
             op = str(kids[1])
             return Arith(op, self.term(kids[0]), self.term(kids[2]))  # type: ignore[arg-type]
@@ -231,7 +251,12 @@ class _Builder:
             name = rule.rstrip("_")
             return BoolOp(name, self.formula(kids[0]), self.formula(kids[1]))  # type: ignore[arg-type]
         if rule == "prev":
-            return Prev(self.formula(kids[1]), col=_col_of(kids[0], self.text)[1])
+            col = _col_of(kids[0], self.text)[1]
+            operand = self.build(kids[1])
+            if self.term_prev is not None and isinstance(operand, TERM_TYPES):
+                one = Interval(self.term_prev, self.term_prev)
+                return Sum(one, cast(Term, operand), col=col)
+            return Prev(_need_formula(operand, kids[1], self.text), col=col)
         if rule == "next_":
             return Next(self.formula(kids[1]), col=_col_of(kids[0], self.text)[1])
         if rule == "window":

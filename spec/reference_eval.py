@@ -8,6 +8,8 @@ exactly, including its edges (checked operator by operator against rtamt's onlin
 - `a == b` -> `-|a - b|`; `a != b` -> `|a - b|`;
 - `not` -> negation; `and`/`or` -> min/max; `a implies b` -> `max(-a, b)`;
 - `prev f` at the first sample -> `+inf`;
+- `sum[a:b](e)` at `t` -> `e(t-a) + (e(t-a-1) + (... + e(t-b)))`, a missing sample (before the
+  first) counting `+inf` (rtamt's `prev` of a real; `spec.emit` expands it so, in this order);
 - `once[a:b] f` at `t` -> max of `f` over samples `t-b .. t-a` that exist, `-inf` if none;
   `historically` the min, `+inf` if none; unbounded forms run from the first sample;
 - `l since[a:b] r` at `t` -> max over samples `s` in `t-b .. t-a` of
@@ -39,6 +41,7 @@ from spec.ast import (
     Prev,
     Signal,
     Span,
+    Sum,
     Term,
     Window,
 )
@@ -85,6 +88,13 @@ class ReferenceEvaluator:
             if node.op == "*":
                 return a * b
             return a / b
+        if isinstance(node, Sum):
+            lo, hi = self._ticks(node.interval)
+            assert hi is not None
+            total = INF if t - hi < 0 else self.term(node.operand, t - hi)
+            for k in range(hi - 1, lo - 1, -1):
+                total = (INF if t - k < 0 else self.term(node.operand, t - k)) + total
+            return total
         raise TypeError(node)
 
     def robustness(self, node: Formula, t: int) -> float:

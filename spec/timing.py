@@ -26,6 +26,7 @@ from spec.ast import (
     Prev,
     Signal,
     Span,
+    Sum,
     Window,
     future_operators,
 )
@@ -40,7 +41,7 @@ def bound_ticks(seconds: Fraction, period: Fraction) -> int | None:
 def intervals_of(node: Node) -> list[Interval]:
     from spec.ast import walk
 
-    return [n.interval for n in walk(node) if isinstance(n, Window | Span) and n.interval]
+    return [n.interval for n in walk(node) if isinstance(n, Window | Span | Sum) and n.interval]
 
 
 def _ticks(interval: Interval, period: Fraction) -> tuple[int, int]:
@@ -61,6 +62,8 @@ def past_horizon(node: Node, period: Fraction) -> int:
         return max(past_horizon(node.left, period), past_horizon(node.right, period))
     if isinstance(node, Prev):
         return 1 + past_horizon(node.operand, period)
+    if isinstance(node, Sum):
+        return _ticks(node.interval, period)[1] + past_horizon(node.operand, period)
     if isinstance(node, Window):
         inner = past_horizon(node.operand, period)
         if node.interval is None or node.op not in ("once", "historically"):
@@ -74,10 +77,61 @@ def past_horizon(node: Node, period: Fraction) -> int:
     raise TypeError(node)
 
 
+def sum_warmup(node: Node, period: Fraction) -> int:
+    """Samples after a (re)start during which some `sum` the formula reads has an incomplete
+    window (a sample before the start, `+inf` in rtamt): the past depth of the deepest `sum`
+    window end, where nested sums add and so do the operators around a sum (`prev`: 1,
+    `once[a:b]`: b; a future operator's lower bound is credited). 0 without a `sum`.
+
+    An unbounded past operator (`once`, `historically`, `since` without bound) adds nothing,
+    as in `past_horizon`: it keeps reading the incomplete windows of the first samples for ever.
+    """
+    depth = _sum_depth(node, period)
+    return max(0, depth) if depth is not None else 0
+
+
+def _sum_depth(node: Node, period: Fraction) -> int | None:
+    """How far before `t` the deepest `sum` window under `node` reaches (None: no `sum`)."""
+
+    def deepest(*depths: int | None) -> int | None:
+        found = [d for d in depths if d is not None]
+        return max(found) if found else None
+
+    def shifted(depth: int | None, by: int) -> int | None:
+        return None if depth is None else depth + by
+
+    if isinstance(node, Num | Signal):
+        return None
+    if isinstance(node, Sum):
+        return _ticks(node.interval, period)[1] + (_sum_depth(node.operand, period) or 0)
+    if isinstance(node, Neg | Abs | Not):
+        return _sum_depth(node.operand, period)
+    if isinstance(node, Arith | Compare | BoolOp):
+        return deepest(_sum_depth(node.left, period), _sum_depth(node.right, period))
+    if isinstance(node, Prev | Next):
+        return shifted(_sum_depth(node.operand, period), 1 if isinstance(node, Prev) else -1)
+    if isinstance(node, Window):
+        inner = _sum_depth(node.operand, period)
+        if node.interval is None:
+            return inner
+        lo, hi = _ticks(node.interval, period)
+        return shifted(inner, hi if node.op in ("once", "historically") else -lo)
+    if isinstance(node, Span):
+        inner = deepest(_sum_depth(node.left, period), _sum_depth(node.right, period))
+        if node.interval is None:
+            return inner
+        lo, hi = _ticks(node.interval, period)
+        if node.op == "since":
+            return shifted(inner, hi)
+        # until: the right operand from t + lo, the left from t
+        return deepest(_sum_depth(node.left, period), shifted(_sum_depth(node.right, period), -lo))
+    raise TypeError(node)
+
+
 def future_depth(node: Node, period: Fraction) -> int:
     """Samples ahead of `t` the formula needs to be known at `t` (0 for a causal formula)."""
-    if isinstance(node, Num | Signal | Compare | Arith | Neg | Abs):
-        return 0
+    if isinstance(node, Num | Signal | Compare | Arith | Neg | Abs | Sum):
+        return 0  # terms have no future operators
     if isinstance(node, Not):
         return future_depth(node.operand, period)
     if isinstance(node, BoolOp):

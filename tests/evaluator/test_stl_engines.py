@@ -16,12 +16,13 @@ from evaluator.session import InputError, RunOptions, evaluate_stream
 from evaluator.stl_engines import CheckedMonitor, EngineMismatch, WholeLog
 from evaluator.vector_eval import Segments, evaluated_ticks, robustness
 from spec.ast import signals_of
-from spec.emit import new_rtamt_spec, to_rtamt
+from spec.emit import new_rtamt_spec, period_fraction, to_rtamt
 from tests.evaluator.streams import write_case, write_stream
 from tests.evaluator.test_vector_eval import gappy_traces
 from tests.spec.strategies import PERIOD, SIGNALS, past_formulas
 
 REPO = Path(__file__).resolve().parents[2]
+P = period_fraction(PERIOD)
 
 
 def rtamt_per_segment(formula, trace, t, max_gap):
@@ -34,7 +35,7 @@ def rtamt_per_segment(formula, trace, t, max_gap):
     starts = set(segments.starts.tolist())
     for j, i in enumerate(segments.index.tolist()):
         if j in starts:
-            monitor = new_rtamt_spec(to_rtamt(formula), list(SIGNALS), PERIOD)
+            monitor = new_rtamt_spec(to_rtamt(formula, P), list(SIGNALS), PERIOD)
             k = 0
         out[i] = monitor.update(k * PERIOD, [(n, float(trace[n][i])) for n in SIGNALS])
         k += 1
@@ -56,7 +57,7 @@ def test_numpy_engine_equals_rtamt_on_every_tick(formula, data):
     for i in np.flatnonzero(~np.isnan(theirs)):
         a, b = ours[i], theirs[i]
         assert (a == b) if (math.isinf(a) or math.isinf(b)) else abs(a - b) <= 1e-9, (
-            f"tick {i}: numpy {a} != rtamt {b} for {to_rtamt(formula)}")
+            f"tick {i}: numpy {a} != rtamt {b} for {to_rtamt(formula, P)}")
 
 
 def _result(engine: str, path: Path):

@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from rtamt.exception.exception import RTAMTException
 
-from spec.emit import build_rtamt_monitor, to_rtamt, to_text
+from spec.emit import build_rtamt_monitor, period_fraction, to_rtamt, to_text
 from spec.model import CompiledFormula
 from spec.parser import parse_formula, parse_term
 from spec.timing import delay, future_depth
@@ -208,7 +208,7 @@ def test_fenced_monitor_equals_plain_rtamt_across_a_reset(formula, trace, cut) -
     """build_rtamt_monitor's fences (no sampling bookkeeping, direct predicate arithmetic,
     eager operators) change no value: random past-time formulas over every comparison
     operator, fed, reset at `cut`, fed again, equal plain rtamt fed the two parts fresh."""
-    text = to_rtamt(formula)
+    text = to_rtamt(formula, period_fraction(PERIOD))
     n = len(next(iter(trace.values())))
     cut = min(cut, n)
     fenced = build_rtamt_monitor(_compiled(text, list(trace)), PERIOD)

@@ -15,6 +15,7 @@ from tests.spec.rtamt_helpers import offline
 from tests.spec.strategies import PERIOD, SIGNALS, mixed_formulas, past_formulas, traces
 
 INF = math.inf
+P = period_fraction(PERIOD)
 
 
 def rtamt_online(formula_text: str, trace: dict[str, list[float]], period: float) -> list[float]:
@@ -70,10 +71,10 @@ def test_hand_computed_matches_rtamt() -> None:
 def test_reference_agrees_with_rtamt_online(formula, trace) -> None:  # type: ignore[no-untyped-def]
     """Random past-time formulas on random traces: every sample within 1e-9 (or equal infs)."""
     ours = reference_robustness(formula, trace, PERIOD)
-    theirs = rtamt_online(to_rtamt(formula), trace, PERIOD)
+    theirs = rtamt_online(to_rtamt(formula, P), trace, PERIOD)
     assert set(trace) == set(SIGNALS)
     for t, (a, b) in enumerate(zip(ours, theirs, strict=True)):
-        assert close(a, b), f"sample {t}: reference {a} != rtamt {b} for {to_rtamt(formula)}"
+        assert close(a, b), f"sample {t}: reference {a} != rtamt {b} for {to_rtamt(formula, P)}"
 
 
 @settings(max_examples=100, deadline=None)
@@ -83,7 +84,7 @@ def test_reference_agrees_with_rtamt_offline_where_the_future_is_known(formula, 
     trace. Near the end rtamt fills missing future samples its own way (`next` at the last
     sample is +inf there, -inf here); those verdicts are incomplete either way."""
     ours = reference_robustness(formula, trace, PERIOD)
-    theirs = offline(to_rtamt(formula), trace, PERIOD)
+    theirs = offline(to_rtamt(formula, P), trace, PERIOD)
     reach = future_reach(formula, period_fraction(PERIOD))
     for t in range(len(ours) - reach):
         assert close(ours[t], theirs[t]), f"sample {t}: {ours[t]} != {theirs[t]}"

@@ -50,7 +50,7 @@ def test_delay_is_the_future_formula_judged_late(formula, trace) -> None:  # typ
     assert depth >= future_depth(formula, P)
     assert future_depth(shifted, P) == 0  # causal: rtamt's online monitor accepts it
     truth = reference_robustness(formula, trace, PERIOD)
-    judged = online(to_rtamt(shifted), trace)
+    judged = online(to_rtamt(shifted, P), trace)
     n = len(truth)
     # after the warm-up (shift + look-back) every late verdict equals the truth d samples back
     warm_up = depth + past_horizon(formula, P) + depth
