@@ -13,7 +13,7 @@ from __future__ import annotations
 import gzip
 import json
 import math
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -83,6 +83,23 @@ def _dump(obj: dict[str, Any]) -> str:
     return json.dumps(obj, separators=(",", ":"), allow_nan=False)
 
 
+def write_stream(
+    path: Path, head: dict[str, Any], rows: Iterable[dict[str, Any]],
+) -> int:
+    """Write a gzipped frame stream: the header line `head`, then one line per frame of `rows`
+    (compact JSON, no NaN). Returns the number of frames written."""
+    count = 0
+    # mtime=0 keeps the gzip bytes reproducible for the same content
+    with open(path, "wb") as raw, gzip.GzipFile(
+        filename="", mode="wb", fileobj=raw, mtime=0, compresslevel=9
+    ) as gz:
+        gz.write((_dump(head) + "\n").encode())
+        for frame in rows:
+            gz.write((_dump(frame) + "\n").encode())
+            count += 1
+    return count
+
+
 def write_jsonl(path: Path, rows: list[dict[str, Any]]) -> None:
     path.write_text("".join(_dump(r) + "\n" for r in rows))
 
@@ -112,15 +129,7 @@ def generate(sc: Scenario, out_dir: Path, work_dir: Path | None = None) -> Gener
     out_dir.mkdir(parents=True, exist_ok=True)
     gt = run(sc, work_dir)
     stream = out_dir / f"{sc.name}.jsonl.gz"
-    count = 0
-    # mtime=0 keeps the gzip bytes reproducible for the same content
-    with open(stream, "wb") as raw, gzip.GzipFile(
-        filename="", mode="wb", fileobj=raw, mtime=0, compresslevel=9
-    ) as gz:
-        gz.write((_dump(header(sc)) + "\n").encode())
-        for frame in frames(sc, gt):
-            gz.write((_dump(frame) + "\n").encode())
-            count += 1
+    count = write_stream(stream, header(sc), frames(sc, gt))
     keep = gt.times[gt.times <= sc.duration + 1e-9]
     labels = lab.geometry_labels(gt, sc.duration) + lab.fault_labels(sc, keep)
     labels.sort(key=lambda d: (d["start"], d["hazard"]))

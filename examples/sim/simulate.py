@@ -88,6 +88,11 @@ class GroundTruth:
     ssm_file: Path
     ego_index: int = 0
     work_dir: Path = field(default_factory=Path)
+    # (T,) the ego's lateral offset from its lane's centre line (m, SUMO's
+    # getLateralLanePosition: positive to the left of the driving direction) and the width of
+    # its lane (m); None for ground truths built by hand (the tests)
+    ego_lateral: np.ndarray | None = None
+    ego_lane_width: np.ndarray | None = None
 
     @property
     def present(self) -> np.ndarray:
@@ -308,6 +313,8 @@ def run(sc: Scenario, work_dir: Path | None = None, extra_time: float = 5.5) -> 
     leaders: list[str | None] = [None] * steps
     leader_gap = np.full(steps, np.nan)
     ego_min_gap = np.full(steps, np.nan)
+    ego_lateral = np.full(steps, np.nan)
+    ego_lane_width = np.full(steps, np.nan)
     actions = sorted(sc.actions, key=lambda a: a.time)
     next_action = 0
     configured: set[str] = set()
@@ -360,6 +367,9 @@ def run(sc: Scenario, work_dir: Path | None = None, extra_time: float = 5.5) -> 
                 leaders[k] = lead[0]
                 leader_gap[k] = lead[1]
             ego_min_gap[k] = ls.vehicle.getMinGap(ego)
+            # queries only: they do not change the simulation
+            ego_lateral[k] = ls.vehicle.getLateralLanePosition(ego)
+            ego_lane_width[k] = ls.lane.getWidth(lane)
     finally:
         ls.close()
 
@@ -385,6 +395,7 @@ def run(sc: Scenario, work_dir: Path | None = None, extra_time: float = 5.5) -> 
         lane=grid(7, -1).astype(int), lane_pos=grid(8), lane_ids=lane_ids,
         speed_limit=limit[:n_t], sumo_leader=leaders[:n_t], sumo_leader_gap=leader_gap[:n_t],
         ego_min_gap=ego_min_gap[:n_t], ssm_file=ssm_file, ego_index=index[ego], work_dir=work,
+        ego_lateral=ego_lateral[:n_t], ego_lane_width=ego_lane_width[:n_t],
     )
 
 
