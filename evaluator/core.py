@@ -17,25 +17,32 @@ from typing import Any
 from evaluator.episodes import ClosedEpisode, EpisodeTracker
 from evaluator.gaps import ClosedGap, GapTracker
 from evaluator.intervals import RunLength
+from evaluator.odd_check import OddCheck
 from evaluator.result import (
+    ConditionStats,
     DataGap,
     Episode,
     EpisodeOpen,
     FormulaStats,
+    FormulaTally,
     NearMiss,
     NodeStatus,
+    OddSummary,
     Series,
     StatusInterval,
     TraceStep,
 )
 from evaluator.series import DecimatedSeries
 from evaluator.status import StatusPropagator, Verdict, worst_status
-from safety_case.model import Case
+from safety_case.model import Case, OddValue
 from spec.model import CompiledFormula, CompiledSpec
 
 #: Builds an object with rtamt's online interface (`update(i, [(name, value)])`, `reset()`);
 #: `reset()` must work before the first update (it starts every run of samples).
 MonitorFactory = Callable[[CompiledFormula, float], Any]
+
+#: The conditions of a stream that reports none.
+NO_CONDITIONS: Mapping[str, OddValue] = {}
 
 #: What a data gap names while a `sum` window fills after a restart (docs/formulas.md).
 WARMING_UP = "(sum window filling)"
@@ -51,6 +58,17 @@ def rtamt_monitor(formula: CompiledFormula, period: float) -> Any:
 
 
 @dataclass
+class Feed:
+    """One monitor and where it stands: samples since its last reset, and whether it must be
+    reset before its next update (after a tick without its inputs)."""
+
+    formula: CompiledFormula
+    monitor: Any
+    index: int = 0
+    fresh: bool = True
+
+
+@dataclass
 class FormulaState:
     """Everything the evaluator tracks for one formula."""
 
@@ -58,6 +76,8 @@ class FormulaState:
     monitor: Any
     episodes: EpisodeTracker
     series: DecimatedSeries
+    assume: Feed | None = None  # a contract's assumption
+    ticks_outside: int = 0  # a contract's ticks outside its assumption
     gaps: GapTracker = field(default_factory=GapTracker)
     index: int = 0  # samples fed to the monitor since its last reset
     fresh: bool = True  # the monitor must be reset before its next update
@@ -80,6 +100,12 @@ class Evaluator:
         monitor_factory: MonitorFactory = rtamt_monitor,
         series_points: int = 1000,
     ):
+        # the contexts that state an ODD, checked every tick (docs/odd.md)
+        self.odd_checks = [OddCheck(n.id, n.odd) for n in case.nodes.values() if n.odd]
+        self.tallies: dict[tuple, dict[str, FormulaTally]] = {}
+        self.tally_ticks: dict[tuple, int] = {}
+        self.tally_spans: dict[tuple, list[list[float]]] = {}
+        self._conditions_key: tuple[int, tuple] | None = None
         self.case = case
         self.spec = spec
         self.period = spec.period
@@ -92,11 +118,14 @@ class Evaluator:
                 episodes=EpisodeTracker(f.merge_gap, f.min_duration, spec.period),
                 series=DecimatedSeries(spec.period, series_points),
                 near=EpisodeTracker(f.merge_gap, f.min_duration, spec.period) if f.warn else None,
+                assume=(Feed(f.assumption, monitor_factory(f.assumption, spec.period))
+                        if f.assumption is not None else None),
             )
             for f in spec.formulas
         ]
         self.near_misses: list[NearMiss] = []
-        self.propagator = StatusPropagator(case, {f.node_id: f.id for f in spec.formulas})
+        self.propagator = StatusPropagator(case, {f.node_id: f.id for f in spec.formulas},
+                                           [c.node_id for c in self.odd_checks])  # fmt: skip
         self.timelines = {node_id: RunLength() for node_id in case.nodes}
         self.episodes: list[Episode] = []
         self.data_gaps: list[DataGap] = []
@@ -106,8 +135,11 @@ class Evaluator:
 
     # -- per tick ---------------------------------------------------------------------------
 
-    def step(self, t: float, values: Mapping[str, float | None]) -> dict[str, str]:
-        """Judge one tick; returns every node's status at `t`."""
+    def step(self, t: float, values: Mapping[str, float | None],
+             conditions: Mapping[str, OddValue] = NO_CONDITIONS) -> dict[str, str]:  # fmt: skip
+        """Judge one tick under the reported `conditions` (flattened `meta.odd` with the
+        frames' updates: the same mapping object until they change); returns every node's
+        status at `t`."""
         if self.last_t is not None and t - self.last_t > self.max_gap + 1e-9:
             self._stream_gap(self.last_t, t)
         self.last_t = t
@@ -115,36 +147,53 @@ class Evaluator:
         verdicts: dict[str, Verdict] = {}
         for state in self.states:
             verdicts[state.formula.id] = self._judge(state, t, values)
-        statuses = self.propagator.statuses(verdicts)
+        self._tally(t, conditions, verdicts)
+        odd = {c.node_id: c.judge(conditions, values) for c in self.odd_checks}
+        statuses = self.propagator.statuses(verdicts, odd)
         for node_id, status in statuses.items():
             self.timelines[node_id].add(t, status)
         return statuses
 
-    def _judge(self, state: FormulaState, t: float, values: Mapping[str, float | None]) -> Verdict:
-        formula = state.formula
+    def _feed(self, feed: Feed | FormulaState, values: Mapping[str, float | None]
+              ) -> tuple[float, list[str]]:  # fmt: skip
+        """Update one monitor with this tick's inputs: (robustness, []) or, when an input has
+        no value (the monitor is not updated and restarts when data returns) or a `sum`
+        window is still filling after a restart (it is updated), (nan, what is missing)."""
         inputs: list[tuple[str, float]] = []
         missing: list[str] = []
-        for name in formula.signals:
+        for name in feed.formula.signals:
             value = values.get(name)
             if value is None or not math.isfinite(value):
                 missing.append(name)
             else:
                 inputs.append((name, float(value)))
-        shown = values.get(formula.signal) if formula.signal else None
         if missing:
-            state.fresh = True
-            return self._no_verdict(state, t, missing)
-        if state.fresh:
-            state.monitor.reset()  # build_rtamt_monitor's monitors reset before any update too
-            state.index = 0
-            state.fresh = False
+            feed.fresh = True
+            return math.nan, missing
+        if feed.fresh:
+            feed.monitor.reset()  # build_rtamt_monitor's monitors reset before any update too
+            feed.index = 0
+            feed.fresh = False
         started = time.perf_counter()
-        robustness = float(state.monitor.update(state.index, inputs))
+        robustness = float(feed.monitor.update(feed.index, inputs))
         self.stl_seconds += time.perf_counter() - started
-        state.index += 1
-        if state.index <= formula.warmup_ticks:
-            # a `sum` window still filling after a restart: no verdict (the monitor is fed)
-            return self._no_verdict(state, t, [WARMING_UP])
+        feed.index += 1
+        if feed.index <= feed.formula.warmup_ticks:
+            return math.nan, [WARMING_UP]
+        return robustness, []
+
+    def _judge(self, state: FormulaState, t: float, values: Mapping[str, float | None]) -> Verdict:
+        formula = state.formula
+        robustness, missing = self._feed(state, values)
+        if state.assume is not None:
+            holds, unknown = self._feed(state.assume, values)
+            if unknown:
+                return self._no_verdict(state, t, sorted({*unknown, *missing}))
+            if holds < 0:
+                return self._outside_assumption(state, t)
+        if missing:
+            return self._no_verdict(state, t, missing)
+        shown = values.get(formula.signal) if formula.signal else None
         self._emit_gap(state, state.gaps.close())
         state.ticks_evaluated += 1
         if state.worst is None or robustness < state.worst:
@@ -160,6 +209,45 @@ class Evaluator:
             self._emit_near(state, state.near.step(t, robustness - formula.warn if inside else 1.0))
         state.series.add(t, float(shown) if formula.signal and shown is not None else robustness)
         return "violated" if violated else "ok"
+
+    def _outside_assumption(self, state: FormulaState, t: float) -> Verdict:
+        """A contract's tick where its assumption fails: not judged, neither pass nor
+        violation; an open episode may still merge across it."""
+        state.ticks_outside += 1
+        self._emit_gap(state, state.gaps.close())
+        self._emit_episode(state, state.episodes.step(t, math.inf))
+        if state.near is not None:
+            self._emit_near(state, state.near.step(t, math.inf))
+        state.series.add(t, None)
+        return "outside-assumption"
+
+    def _tally(self, t: float, conditions: Mapping[str, OddValue],
+               verdicts: Mapping[str, Verdict]) -> None:  # fmt: skip
+        """Count each formula's verdict under the current combination of conditions, and
+        extend the stretch of time spent under it."""
+        cached = self._conditions_key
+        if cached is None or cached[0] != id(conditions):
+            key = tuple(sorted(conditions.items()))
+            if cached is None or cached[1] != key:
+                self.tally_spans.setdefault(key, []).append([t, t])
+            cached = self._conditions_key = (id(conditions), key)
+        tally = self.tallies.get(cached[1])
+        if tally is None:
+            tally = self.tallies[cached[1]] = {f.id: FormulaTally() for f in self.spec.formulas}
+            self.tally_ticks[cached[1]] = 0
+        self.tally_ticks[cached[1]] += 1
+        self.tally_spans[cached[1]][-1][1] = t
+        for formula_id, verdict in verdicts.items():
+            counts = tally[formula_id]
+            if verdict == "ok":
+                counts.evaluated += 1
+            elif verdict == "violated":
+                counts.evaluated += 1
+                counts.violated += 1
+            elif verdict == "outside-assumption":
+                counts.outside_assumption += 1
+            else:
+                counts.no_data += 1
 
     def _no_verdict(self, state: FormulaState, t: float, missing: list[str]) -> Verdict:
         """A tick without a verdict for `state`'s formula: a data gap naming what is missing."""
@@ -284,9 +372,28 @@ class Evaluator:
                 t_worst=None if s.t_worst is None else round(s.t_worst, 6),
                 merge_gap=s.formula.merge_gap,
                 min_duration=s.formula.min_duration,
+                assumption=s.formula.assumption.source if s.formula.assumption else None,
+                contract_use=s.formula.contract_use,
+                ticks_outside_assumption=s.ticks_outside,
             )
             for s in self.states
         ]
+
+    def condition_stats(self) -> list[ConditionStats]:
+        """Per combination of reported conditions, its ticks and each formula's tally."""
+        return [
+            ConditionStats(attributes=dict(key), ticks=self.tally_ticks[key], formulas=tally,
+                           spans=[[round(a, 6), round(b, 6)] for a, b in self.tally_spans[key]])
+            for key, tally in self.tallies.items()
+        ]  # fmt: skip
+
+    def odd_summaries(self) -> list[OddSummary]:
+        return [
+            OddSummary(node_id=c.node_id, name=c.spec.name, inside=c.counts["inside"],
+                       outside=c.counts["outside"], unknown=c.counts["unknown"],
+                       outside_by=dict(c.outside_by), unknown_by=dict(c.unknown_by))
+            for c in self.odd_checks
+        ]  # fmt: skip
 
     def node_statuses(self) -> list[NodeStatus]:
         out = []

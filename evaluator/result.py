@@ -19,15 +19,20 @@ RESULT_FORMAT = "casewatch-result"
 RESULT_VERSION = 1
 
 Status = Literal[
-    "satisfied", "violated", "undermined", "in-doubt", "no-data", "undeveloped", "external"
+    "satisfied", "violated", "undermined", "in-doubt", "no-data", "outside-odd",
+    "outside-assumption", "undeveloped", "external",
 ]
 
 #: Worst first. `external` (evidence or context outside the monitor) never outranks a verdict.
+#: `outside-odd` and `outside-assumption` (docs/odd.md, docs/contracts.md) are no verdict
+#: either way: worse than a pass (nothing is claimed there), better than missing data.
 STATUS_SEVERITY: dict[str, int] = {
-    "violated": 6,
-    "undermined": 5,
-    "in-doubt": 4,
-    "no-data": 3,
+    "violated": 8,
+    "undermined": 7,
+    "in-doubt": 6,
+    "no-data": 5,
+    "outside-odd": 4,
+    "outside-assumption": 3,
     "undeveloped": 2,
     "satisfied": 1,
     "external": 0,
@@ -192,6 +197,45 @@ class FormulaStats(_Record):
     t_worst: float | None = None
     merge_gap: float = 1.0
     min_duration: float = 0.0
+    # a contract (`contract:`): its assumption's text, the library contract it instantiates,
+    # and the ticks where the assumption failed (neither evaluated nor violated)
+    assumption: str | None = None
+    contract_use: str | None = None
+    ticks_outside_assumption: int = 0
+
+
+class FormulaTally(_Record):
+    """One formula's ticks under one combination of conditions: judged, violated, outside
+    its assumption, without data (they add up to the ticks of the combination)."""
+
+    evaluated: int = 0
+    violated: int = 0
+    outside_assumption: int = 0
+    no_data: int = 0
+
+
+class ConditionStats(_Record):
+    """The ticks a run spent under one combination of reported conditions (`meta.odd` and
+    frame `odd` updates, flattened: `environment.weather`), and each formula's tally there:
+    what `casewatch odd` aggregates over runs."""
+
+    attributes: dict[str, str | float | bool]
+    ticks: int
+    formulas: dict[str, FormulaTally]
+    spans: list[list[float]] = []  # [first, last] tick times of each stretch under them
+
+
+class OddSummary(_Record):
+    """How a run stood against the ODD of one context node: ticks inside, outside, with a
+    condition not reported (unknown), and per attribute the ticks it put outside or unknown."""
+
+    node_id: str
+    name: str = ""
+    inside: int = 0
+    outside: int = 0
+    unknown: int = 0
+    outside_by: dict[str, int] = {}
+    unknown_by: dict[str, int] = {}
 
 
 class StatusInterval(_Record):
@@ -309,3 +353,5 @@ class RunResult(_Record):
     # which episodes fail the run (evaluator.policy): the exit code and JUnit's failures
     fail_on: Literal["any", "hazard", "spi", "never"] = "any"
     root_no_data: RootNoData | None = None  # None in results written before it existed
+    conditions: list[ConditionStats] = []  # per combination of reported conditions
+    odd: list[OddSummary] = []  # per context node with an `odd:` specification

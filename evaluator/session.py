@@ -131,10 +131,12 @@ def evaluate_stream(
 
     evaluator = Evaluator(case, spec, on_event=emit, series_points=options.series_points)
     columns = Columns(input_names(spec)) if whole_log else None
+    conditions: dict = {}  # the stream's conditions (docs/odd.md), one mapping per change
+    tick_conditions: list[dict] = []  # per tick, for the whole-log replay
     engine = MetricEngine(case.monitor.metrics, list(case.monitor.channels))
     recorder = None
     if options.signals_path is not None:
-        inputs = {name for f in spec.formulas for name in f.signals}
+        inputs = {name for f in spec.formulas for g in f.monitored() for name in g.signals}
         names = [*engine.signal_names, *sorted(inputs - set(engine.signal_names))]
         recorder = SignalRecorder(names, case.monitor.period, case.monitor.metrics.max_gap)
     if not bag:
@@ -156,14 +158,19 @@ def evaluate_stream(
                     period_checked = True
                     _check_period(reader, case, name)
                     engine.coverage = channel_coverage(case, reader.header)
+                    if reader.header is not None:
+                        conditions = dict(reader.header.conditions)
+                if frame.odd:
+                    conditions = {**conditions, **frame.odd}
                 values = engine.step(frame)
                 if recorder is not None:
                     recorder.add(frame.t, values)
                 t2 = time.perf_counter()
                 if columns is not None:
                     columns.add(frame.t, values)  # judged once the whole log is read
+                    tick_conditions.append(conditions)
                 else:
-                    evaluator.step(frame.t, values)
+                    evaluator.step(frame.t, values, conditions)
                 t3 = time.perf_counter()
                 arbitration.add(frame.t, engine.last_arbitration)
                 clock.metrics += t2 - t1
@@ -186,7 +193,8 @@ def evaluate_stream(
                 binary.close()
                 hashing.close()
         if columns is not None:
-            evaluator = _judge_whole_log(case, spec, columns, options, emit, clock)
+            evaluator = _judge_whole_log(case, spec, columns, tick_conditions, options, emit,
+                                         clock)  # fmt: skip
         evaluator.finish()
     finally:
         if log is not None:
@@ -257,10 +265,13 @@ def evaluate_stream(
             limit=options.max_no_data,
             exceeded=share > options.max_no_data,
         ),
+        conditions=evaluator.condition_stats(),
+        odd=evaluator.odd_summaries(),
     )
 
 
-def _judge_whole_log(case: Case, spec: CompiledSpec, columns: Columns, options: RunOptions,
+def _judge_whole_log(case: Case, spec: CompiledSpec, columns: Columns,
+                     conditions: list[dict], options: RunOptions,
                      emit: Callable[[Event], None], clock: _Clock) -> Evaluator:  # fmt: skip
     """Every formula over the whole log at once (numpy), then the ticks replayed through the
     evaluator with those values; with `both`, rtamt runs too and must agree on every value."""
@@ -280,7 +291,7 @@ def _judge_whole_log(case: Case, spec: CompiledSpec, columns: Columns, options: 
     t = columns.t.tolist()
     replay = time.perf_counter()
     for i, ti in enumerate(t):
-        evaluator.step(ti, columns.row(i))
+        evaluator.step(ti, columns.row(i), conditions[i])
     clock.judge += time.perf_counter() - replay + vector_s
     evaluator.stl_seconds += vector_s
     if counter[0]:

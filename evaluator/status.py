@@ -10,6 +10,12 @@ Statuses (architecture.md, "Verdicts and status"), worst first:
 - `satisfied`: everything below it holds;
 - `external` (casewatch's addition): evidence or context the monitor does not observe (an Sn
   without `spi:`, C/A/J nodes). It is neutral in propagation: it neither supports nor undermines.
+- `outside-assumption` (docs/contracts.md): a contract whose assumption fails at this tick;
+  neither a pass nor a violation, and it reaches the goals above like any status;
+- `outside-odd` (docs/odd.md): a context node with an `odd:` whose ODD the tick is outside of;
+  every node in its scope (the goals and strategies naming it in `inContextOf`, and everything
+  that supports them) that would be `satisfied` is `outside-odd` instead, and `no-data` when a
+  condition is not reported: a pass outside the domain would extrapolate. Violations stay.
 """
 
 from __future__ import annotations
@@ -22,7 +28,12 @@ import networkx as nx
 from evaluator.result import STATUS_SEVERITY
 from safety_case.model import Case, NodeType
 
-Verdict = Literal["ok", "violated", "no-data"]
+Verdict = Literal["ok", "violated", "no-data", "outside-assumption"]
+OddVerdict = Literal["inside", "outside", "unknown"]
+_OWN = {"ok": "satisfied", "violated": "violated", "no-data": "no-data",
+        "outside-assumption": "outside-assumption"}  # fmt: skip
+_ODD_CONTEXT = {"inside": "satisfied", "outside": "outside-odd", "unknown": "no-data"}
+_ODD_SCOPE = {"outside": "outside-odd", "unknown": "no-data"}
 
 _COUNTER = (NodeType.COUNTER_GOAL, NodeType.COUNTER_SOLUTION)
 _ARGUMENT = (NodeType.GOAL, NodeType.STRATEGY)
@@ -35,8 +46,11 @@ class StatusPropagator:
     for long stretches, so results are memoised by the verdict tuple.
     """
 
-    def __init__(self, case: Case, formula_of_node: Mapping[str, str]):
+    def __init__(self, case: Case, formula_of_node: Mapping[str, str],
+                 odd_contexts: list[str] | tuple[str, ...] = ()):  # fmt: skip
         self.case = case
+        self.odd_contexts = tuple(odd_contexts)
+        self.scope = self._odd_scope(case, self.odd_contexts)
         self.formula_of_node = dict(formula_of_node)
         self.formula_ids = sorted(set(self.formula_of_node.values()))
         self.order = self._evaluation_order(case)
@@ -60,29 +74,51 @@ class StatusPropagator:
                     deps.add_edge(node.id, target)
         return list(nx.lexicographical_topological_sort(deps))
 
-    def statuses(self, verdicts: Mapping[str, Verdict]) -> dict[str, str]:
-        """Status of every node given each formula's verdict (`ok`, `violated`, `no-data`)."""
-        key = tuple(verdicts.get(f, "no-data") for f in self.formula_ids)
+    @staticmethod
+    def _odd_scope(case: Case, contexts: tuple[str, ...]) -> dict[str, list[str]]:
+        """node id -> the ODD contexts whose scope it is in: a goal or strategy naming the
+        context in `inContextOf`, and every node below it along `supportedBy`."""
+        support = nx.DiGraph()
+        support.add_nodes_from(case.nodes)
+        for node in case.nodes.values():
+            support.add_edges_from((node.id, c) for c in node.supported_by if c in case.nodes)
+        scope: dict[str, list[str]] = {}
+        for context in contexts:
+            heads = [n.id for n in case.nodes.values() if context in n.in_context_of]
+            covered = set(heads).union(*(nx.descendants(support, h) for h in heads))
+            for node_id in covered:
+                scope.setdefault(node_id, []).append(context)
+        return scope
+
+    def statuses(self, verdicts: Mapping[str, Verdict],
+                 odd: Mapping[str, OddVerdict] | None = None) -> dict[str, str]:  # fmt: skip
+        """Status of every node given each formula's verdict (`ok`, `violated`, `no-data`,
+        `outside-assumption`) and each ODD context's (`inside`, `outside`, `unknown`)."""
+        odd = odd or {}
+        key = tuple(verdicts.get(f, "no-data") for f in self.formula_ids) + tuple(
+            odd.get(c, "unknown") for c in self.odd_contexts
+        )
         cached = self._memo.get(key)
         if cached is not None:
             return cached
         out: dict[str, str] = {}
         for node_id in self.order:
-            out[node_id] = self._status_of(node_id, verdicts, out)
+            out[node_id] = self._status_of(node_id, verdicts, out, odd)
         if len(self._memo) < 4096:
             self._memo[key] = out
         return out
 
     def _status_of(
-        self, node_id: str, verdicts: Mapping[str, Verdict], known: Mapping[str, str]
+        self, node_id: str, verdicts: Mapping[str, Verdict], known: Mapping[str, str],
+        odd: Mapping[str, OddVerdict],
     ) -> str:
         node = self.case.nodes[node_id]
         formula = self.formula_of_node.get(node_id)
         own = "external"
+        if node_id in self.odd_contexts:
+            return _ODD_CONTEXT[odd.get(node_id, "unknown")]
         if formula is not None:
-            own = {"ok": "satisfied", "violated": "violated", "no-data": "no-data"}[
-                verdicts.get(formula, "no-data")
-            ]
+            own = _OWN[verdicts.get(formula, "no-data")]
         elif node.type in _COUNTER:
             # A counter-goal holds while any counter-evidence below it holds.
             below = [known[c] for c in node.supported_by if c in known]
@@ -100,6 +136,11 @@ class StatusPropagator:
                 own = worst
             if node.undeveloped and own in ("satisfied", "external"):
                 own = "undeveloped"
+        if own == "satisfied" and node.type not in _COUNTER:
+            for context in self.scope.get(node_id, ()):
+                scoped = _ODD_SCOPE.get(odd.get(context, "unknown"))
+                if scoped is not None and STATUS_SEVERITY[scoped] > STATUS_SEVERITY[own]:
+                    own = scoped
         challenged = any(known.get(c) == "violated" for c in self.challengers.get(node_id, ()))
         if challenged and STATUS_SEVERITY[own] < STATUS_SEVERITY["in-doubt"]:
             own = "in-doubt"

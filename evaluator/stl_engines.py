@@ -33,7 +33,7 @@ TOLERANCE = 1e-9
 
 def input_names(spec: CompiledSpec) -> list[str]:
     """Every signal the formulas read or show."""
-    names = {n for f in spec.formulas for n in f.signals}
+    names = {n for f in spec.formulas for g in f.monitored() for n in g.signals}
     names |= {f.signal for f in spec.formulas if f.signal}
     return sorted(names)
 
@@ -53,7 +53,7 @@ def evaluate_whole_log(spec: CompiledSpec, columns: Columns, max_gap: float) -> 
     t = columns.t
     values: dict[str, np.ndarray] = {}
     ticks: dict[str, np.ndarray] = {}
-    for f in spec.formulas:
+    for f in (g for formula in spec.formulas for g in formula.monitored()):
         ast = parse_rtamt(f.rtamt, spec.period)
         cols = {name: columns.column(name) for name in f.signals}
         rho = robustness(ast, cols, t, spec.period, max_gap)

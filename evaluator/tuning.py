@@ -91,6 +91,11 @@ def knobs(case: Case, spec: CompiledSpec) -> tuple[list[Knob], list[dict[str, st
     skipped: list[dict[str, str]] = []
     for f in spec.formulas:
         node = case.nodes[f.node_id]
+        if node.contract is not None:
+            skipped.append({"formula": f.id, "reason": "a contract: its guarantee is judged "
+                            "only where its assumption holds, which a threshold sweep of the "
+                            "guarantee alone ignores; set its parameters instead"})  # fmt: skip
+            continue
         duration_kind: str | None = None
         duration = 0.0
         raw = False

@@ -339,6 +339,7 @@ class MetricEngine:
             out[names["ego_speed"]] = speed
             out[names["ego_accel"]] = self._accel(c, t, speed)
             out[names["lead_gap"]] = lead.gap
+            out[names["lead_speed"]] = lead.speed if lead.present else 0.0
             # no leader: the caps (nothing to tailgate), not a headway to the look-ahead's end
             out[names["lead_thw"]] = headway(lead.gap, speed) if lead.present else TIME_CAP
             out[names["lead_ttc"]] = (

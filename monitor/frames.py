@@ -209,6 +209,9 @@ class Frame:
     channels: dict[str, ChannelState]
     signals: dict[str, float | None] = field(default_factory=dict)
     line: int = 0  # 1-based line of the stream it came from (0 = built in memory)
+    #: conditions that change at this tick (flattened `odd`: `environment.weather` -> "fog"),
+    #: kept until a later frame changes them again; None: no change (docs/odd.md)
+    odd: dict[str, str | float | bool] | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -235,3 +238,5 @@ class Header:
     meta: dict[str, Any] = field(default_factory=dict)
     #: channel -> declared coverage (`"coverage"` in the header; channels not named: all-round)
     coverage: dict[str, Coverage] = field(default_factory=dict)
+    #: the stream's conditions at its start (`meta.odd`, flattened: `environment.weather`)
+    conditions: dict[str, str | float | bool] = field(default_factory=dict)

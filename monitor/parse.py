@@ -27,6 +27,8 @@ from monitor.frames import (
     is_convex,
 )
 from monitor.jit import kernel
+from safety_case.model import OddValue
+from safety_case.odd import OddError, flatten_conditions
 
 #: Stable defect kinds, documented in docs/streams.md.
 DEFECT_KINDS: dict[str, str] = {
@@ -405,7 +407,13 @@ def parse_frame(obj: Any, known_channels: Iterable[str] | None = None, line: int
                 raise FrameDefect(
                     "wrong-type", f"signals.{key}: expected a number or null, got {val!r:.40}"
                 )
-    return Frame(t=t, channels=channels, signals=signals, line=line)
+    odd = None
+    if d.get("odd") is not None:
+        try:
+            odd = flatten_conditions(d["odd"], "odd")
+        except OddError as exc:
+            raise FrameDefect("wrong-type", str(exc)) from None
+    return Frame(t=t, channels=channels, signals=signals, line=line, odd=odd)
 
 
 def parse_header(obj: Any) -> Header:
@@ -433,9 +441,16 @@ def parse_header(obj: Any) -> Header:
     meta = h.get("meta", {})
     if not isinstance(meta, dict):
         raise FrameDefect("bad-header", "header.meta: expected an object")
+    conditions: dict[str, OddValue] = {}
+    if meta.get("odd") is not None:
+        try:
+            conditions = flatten_conditions(meta["odd"], "header.meta.odd")
+        except OddError as exc:
+            raise FrameDefect("bad-header", str(exc)) from None
     return Header(
         format=fmt, version=version, channels=list(chans), period=float(period), meta=meta,
         coverage=parse_coverage(h.get("coverage", {}), "header.coverage"),
+        conditions=conditions,
     )
 
 

@@ -26,6 +26,8 @@ STATUS_STYLE: dict[str, tuple[str, str]] = {
     "undermined": ("#c2410c", "#fff1e6"),
     "in-doubt": ("#a16207", "#fef9c3"),
     "no-data": ("#6b7280", "#f3f4f6"),
+    "outside-odd": ("#0e7490", "#e0f2f7"),
+    "outside-assumption": ("#4b5563", "#eef2f7"),
     "undeveloped": ("#6b7280", "#ffffff"),
     "satisfied": ("#15803d", "#e8f5e9"),
     "external": ("#374151", "#ffffff"),

@@ -183,6 +183,7 @@ def render_html(result: RunResult) -> str:
         arbitration_strip=arbitration_strip,
         arbitration_class=arbitration_class,
         view=view,
+        result=result,
         diagram=diagram,
         plots=plots,
         plot_ids={p.formula_id for p in plots},

@@ -34,6 +34,9 @@ _TABLE: tuple[tuple[str, Severity, str], ...] = (
         "unsupported YAML construct (alias, explicit tag, complex key, deep nesting)",
     ),
     ("CW007", "error", "number in a YAML 1.1-only notation (1_000, 1:30, 0b101, 017)"),
+    ("CW008", "error", "library contract cannot be expanded (unknown contract or parameter, "
+     "parameter out of range, undeclared signal)"),
+    ("CW009", "error", "ODD specification cannot be used (unreadable, malformed, misplaced)"),
     ("CW010", "error", "missing `module` block"),
     ("CW011", "warning", "no `monitor` block: a pure argument, nothing to judge at run time"),
     ("CW012", "error", "value of the wrong type or out of range"),
@@ -42,10 +45,11 @@ _TABLE: tuple[tuple[str, Severity, str], ...] = (
     ("CW016", "error", "malformed threshold"),
     ("CW015", "error", "malformed warning margin (`warn`): not a finite number above 0"),
     ("CW017", "error", "malformed duration"),
-    ("CW018", "error", "`spi` needs `signal` + `threshold` or `stl`, not both, not neither"),
+    ("CW018", "error", "binding of the wrong shape (`spi`: `signal` + `threshold` or `stl`; "
+     "`contract`: `guarantee` or `use`; not both `spi` and `contract`)"),
     ("CW019", "error", "invalid channel set"),
     ("CW020", "error", "unknown node type (id prefix)"),
-    ("CW021", "error", "`spi` on a node that is not a solution (Sn)"),
+    ("CW021", "error", "`spi` or `contract` on a node that is not a solution (Sn)"),
     ("CW022", "error", "`hazard` on a node that is not a counter-solution (CSn)"),
     ("CW023", "error", "`challenges` on a node that is not a counter node (CG, CSn)"),
     ("CW024", "error", "counter node without `challenges`"),

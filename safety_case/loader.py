@@ -24,18 +24,23 @@ from pathlib import Path
 from pydantic import BaseModel, ValidationError
 
 from safety_case.codes import finding
+from safety_case.contracts import ContractError, expand
 from safety_case.findings import CaseError, Finding, has_errors
 from safety_case.model import (
     Case,
+    ContractBinding,
     HazardBinding,
     Mark,
     Module,
     MonitorConfig,
     Node,
     NodeType,
+    OddSpec,
     SpiBinding,
 )
+from safety_case.odd import OddError, parse_odd, read_odd_file
 from safety_case.schema import (
+    CONTRACT_KEYS,
     GSN_NODE_ATTRIBUTES,
     GSN_NODE_TYPES,
     HAZARD_KEYS,
@@ -50,6 +55,7 @@ from safety_case.schema import (
     bounds_text,
     describe_value,
 )
+from safety_case.signals import available_signals
 from safety_case.yamltree import YNode, compose, to_plain
 
 #: A node id is a type prefix followed by a digit, e.g. G1, Sn3, CSn2, G1.2 (gsn2x style).
@@ -239,6 +245,8 @@ class _Builder:
         # every module file of the case loaded so far (a module used twice is loaded once)
         self.loaded = loaded if loaded is not None else {str(Path(path).resolve())}
         self.bindings: dict[str, dict] = {}  # node id -> spi/hazard entries kept for gsn2x
+        self.monitor_config: MonitorConfig | None = None  # contracts and ODDs resolve against it
+        self.monitor_given = False
 
     def add(self, code: str, message: str, mark: Mark, hint: str = "") -> None:
         self.findings.append(finding(code, message, self.path, mark, hint))
@@ -250,6 +258,8 @@ class _Builder:
         module = self.module(entries.get("module"))
         monitor_entry = entries.get("monitor") or kept.get("monitor")
         monitor = None if self.used_by and monitor_entry is None else self.monitor(monitor_entry)
+        self.monitor_config = monitor
+        self.monitor_given = monitor_entry is not None  # written, though perhaps invalid
         nodes: dict[str, Node] = {}
         skipped: dict[str, Mark] = {}
         for key, entry in entries.items():
@@ -417,6 +427,20 @@ class _Builder:
                     "`hazard` belongs on a counter-solution (CSn) node",
                 ),
                 (
+                    "contract",
+                    node_type is not NodeType.SOLUTION,
+                    "CW021",
+                    "`contract` binds evidence to an assume-guarantee contract and belongs on "
+                    "a solution (Sn) node",
+                ),
+                (
+                    "odd",
+                    node_type is not NodeType.CONTEXT,
+                    "CW009",
+                    "`odd` states an Operational Design Domain and belongs on a context (C) "
+                    "node that a goal names in `inContextOf`",
+                ),
+                (
                     "challenges",
                     node_type not in COUNTER_TYPES,
                     "CW023",
@@ -429,7 +453,13 @@ class _Builder:
                         code, f"{where} is a {_type_name(node_type)}: {why}", entries[key].key_mark
                     )
                     del plain[key]
-        levels = {(): NODE_KEYS, ("spi",): SPI_KEYS, ("hazard",): HAZARD_KEYS}
+        if isinstance(plain, dict) and "spi" in plain and "contract" in plain:
+            self.add("CW018", f"{where} has both `spi` and `contract`: a solution is bound to "
+                     "one of them", entries["contract"].key_mark,
+                     "keep the contract (an assume-guarantee pair) or the SPI")  # fmt: skip
+            del plain["contract"]
+        levels = {(): NODE_KEYS, ("spi",): SPI_KEYS, ("hazard",): HAZARD_KEYS,
+                  ("contract",): CONTRACT_KEYS}  # fmt: skip
         raw = self.validate(RawNode, value, mark, where, levels, plain=plain)
         key_marks = {k: e.key_mark for k, e in entries.items()}
         ref_marks = {rel: _ref_marks(entries[rel].value) for rel in RELATIONS if rel in entries}
@@ -445,6 +475,8 @@ class _Builder:
                 url=raw.url,
                 spi=self.spi(raw, entries),
                 hazard=self.hazard(raw, entries),
+                contract=self.contract(node_id, raw, entries),
+                odd=self.odd(node_id, raw, entries),
                 gsn={k: v for k in GSN_NODE_ATTRIBUTES if (v := getattr(raw, k)) is not None},
                 mark=mark,
                 key_marks=key_marks,
@@ -496,6 +528,80 @@ class _Builder:
             mark=entries["hazard"].key_mark,
             formula_mark=hazard_entries["when"].value.content_mark,
         )
+
+    def contract(self, node_id: str, raw: RawNode, entries: dict) -> ContractBinding | None:
+        """`contract:`, a library contract expanded with its parameters (CW008 when it cannot
+        be), or a hand-written assume/guarantee pair."""
+        if raw.contract is None:
+            return None
+        c = raw.contract
+        keyed = entries["contract"].value.entries()
+        mark = entries["contract"].key_mark
+
+        def at(key: str) -> Mark:
+            return keyed[key].value.content_mark if key in keyed else mark
+
+        common = {"merge_gap": c.merge_gap, "min_duration": c.min_duration, "warn": c.warn,
+                  "mark": mark}  # fmt: skip
+        if c.use is None:
+            return ContractBinding(guarantee=c.guarantee or "", assume=c.assume,
+                                   guarantee_mark=at("guarantee"), assume_mark=at("assume"),
+                                   **common)  # fmt: skip
+        monitor = self.monitor_config
+        if monitor is None:
+            if not self.monitor_given:  # an invalid block is reported already
+                self.add("CW008", f"node {node_id}: a library contract needs the `monitor` "
+                         "block of its file (its channels, period and signals)",
+                         at("use"))  # fmt: skip
+            self.invalid.add(node_id)
+            return None
+        try:
+            _, values, assume, guarantee = expand(c.use, dict(c.params), list(monitor.channels),
+                                                  monitor.signals, monitor.period)  # fmt: skip
+        except ContractError as exc:
+            where = at("use")
+            if exc.key.startswith("params") and "params" in keyed:
+                name = exc.key.partition(".")[2]
+                params = keyed["params"].value.entries() if keyed["params"].value.kind == "map" \
+                    else {}  # fmt: skip
+                where = params[name].value.content_mark if name in params else \
+                    keyed["params"].key_mark  # fmt: skip
+            self.add("CW008", f"node {node_id}: {exc}", where, exc.hint)
+            self.invalid.add(node_id)
+            return None
+        use_mark = at("use")
+        own_guarantee, own_assume = c.guarantee is not None, c.assume is not None
+        return ContractBinding(
+            guarantee=c.guarantee if own_guarantee else guarantee,
+            assume=c.assume if own_assume else assume,
+            use=c.use, params=values,
+            guarantee_mark=at("guarantee") if own_guarantee else use_mark,
+            assume_mark=at("assume") if own_assume else use_mark,
+            guarantee_from_library=not own_guarantee,
+            assume_from_library=not own_assume and assume is not None,
+            **common,
+        )  # fmt: skip
+
+    def odd(self, node_id: str, raw: RawNode, entries: dict) -> OddSpec | None:
+        """`odd:` on a context: a file (relative to this one) or an inline mapping; CW009 when
+        it cannot be used."""
+        if raw.odd is None:
+            return None
+        monitor = self.monitor_config
+        signals = None
+        if monitor is not None and monitor.channels:
+            signals = set(available_signals(monitor.channels, monitor.signals))
+        mark = entries["odd"].value.content_mark
+        try:
+            if isinstance(raw.odd, str):
+                return read_odd_file(Path(self.path).parent / raw.odd, signals)
+            return parse_odd(raw.odd, "", signals)
+        except OddError as exc:
+            self.add("CW009", f"node {node_id}: `odd`: {exc}", mark,
+                     "docs/odd.md: odd: {attributes: {environment.weather: [clear, rain]}} or "
+                     "odd: accepted-odd.yaml")  # fmt: skip
+            self.invalid.add(node_id)
+            return None
 
     # -- pydantic errors -> findings -------------------------------------------------------
 

@@ -112,6 +112,58 @@ class HazardBinding(BaseModel):
     formula_mark: Mark = Mark()  # position of the `when` value
 
 
+class ContractBinding(BaseModel):
+    """`contract:` on a solution: an assume-guarantee pair of formulas. The contract is violated
+    only at ticks where the assumption holds and the guarantee fails; where the assumption
+    fails it is "outside assumption", neither a pass nor a violation (docs/contracts.md).
+
+    `assume` / `guarantee` hold the final formula text: a library contract (`use:`) is expanded
+    by the loader with its parameters (`safety_case.contracts`)."""
+
+    model_config = ConfigDict(frozen=True)
+    guarantee: str
+    assume: str | None = None
+    use: str | None = None  # the library contract it instantiates (`contracts/<name>` text)
+    params: dict[str, int | float | str] = {}  # every parameter of a library contract, resolved
+    merge_gap: float | None = None
+    min_duration: float | None = None
+    warn: float | None = None
+    mark: Mark = Mark()  # the `contract:` key
+    #: where column 1 of each formula sits; for a library contract, the `use:` value (the
+    #: text is the library's, so findings point at the use, not into the text)
+    guarantee_mark: Mark = Mark()
+    assume_mark: Mark = Mark()
+    #: the formula text came from the library: findings point at the mark, not into the text
+    guarantee_from_library: bool = False
+    assume_from_library: bool = False
+
+
+OddValue = str | float | bool
+
+
+class OddRange(BaseModel):
+    """A numeric attribute's accepted interval (either end optional, both inclusive)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    min: float | None = None
+    max: float | None = None
+
+
+class OddSpec(BaseModel):
+    """An Operational Design Domain: the conditions under which the argument claims to hold
+    (`odd:` on a context node, docs/odd.md). A tick is inside when every attribute is reported
+    with an accepted value and, when `combinations` are listed, the conditions match one."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    name: str = ""
+    #: attribute (`environment.weather`, or a signal name such as `ego_speed`) -> accepted
+    #: values (a list) or interval
+    attributes: dict[str, list[OddValue] | OddRange] = {}
+    #: accepted combinations of attribute values (each a partial assignment); empty: any
+    combinations: list[dict[str, OddValue]] = []
+    source: str = ""  # the file it was read from ("" when inline)
+
+
 class Node(BaseModel):
     """One GSN node."""
 
@@ -126,6 +178,8 @@ class Node(BaseModel):
     url: str | None = None
     spi: SpiBinding | None = None
     hazard: HazardBinding | None = None
+    contract: ContractBinding | None = None  # on a solution (Sn), instead of `spi`
+    odd: OddSpec | None = None  # on a context node (C): the ODD its goals are claimed in
     #: gsn2x presentation attributes kept as written (classes, level, horizontalIndex,
     #: rankIncrement, nodeType, acp, ...), for `casewatch export-gsn`
     gsn: dict = {}

@@ -226,6 +226,33 @@ class RawHazard(BaseModel):
     warn: OptionalMargin = None
 
 
+class RawContract(BaseModel):
+    """`contract:` as written: a library contract (`use` + `params`) or an `assume` /
+    `guarantee` pair (with `use`, either one replaces the library's)."""
+
+    model_config = ConfigDict(extra="forbid")
+    use: Text | None = None
+    params: dict[StrictStr, StrictStr | StrictInt | float] = {}
+    assume: Text | None = None
+    guarantee: Text | None = None
+    merge_gap: OptionalDuration = None
+    min_duration: OptionalDuration = None
+    warn: OptionalMargin = None
+
+    @model_validator(mode="after")
+    def _shape(self) -> RawContract:
+        if self.use is None and self.guarantee is None:
+            raise PydanticCustomError(
+                "spi_shape", "a contract needs `guarantee` (and optionally `assume`), or `use` "
+                "naming a library contract (docs/contracts.md)"
+            )
+        if self.use is None and self.params:
+            raise PydanticCustomError(
+                "spi_shape", "`params` set the parameters of a library contract: add `use`"
+            )
+        return self
+
+
 class RawNode(BaseModel):
     """One node as written (keys in gsn2x spelling)."""
 
@@ -238,6 +265,8 @@ class RawNode(BaseModel):
     url: StrictStr | None = None
     spi: RawSpi | None = None
     hazard: RawHazard | None = None
+    contract: RawContract | None = None
+    odd: object = None  # a context's ODD: a file path or a mapping (safety_case.odd)
     # gsn2x presentation attributes: kept as written for export-gsn, otherwise not read
     classes: StrictStr | list[StrictStr] | None = None
     level: StrictStr | None = None
@@ -426,6 +455,7 @@ class RawMonitor(BaseModel):
 NODE_KEYS: tuple[str, ...] = tuple(f.alias or name for name, f in RawNode.model_fields.items())
 SPI_KEYS: tuple[str, ...] = tuple(f.alias or name for name, f in RawSpi.model_fields.items())
 HAZARD_KEYS: tuple[str, ...] = tuple(RawHazard.model_fields)
+CONTRACT_KEYS: tuple[str, ...] = tuple(RawContract.model_fields)
 MODULE_KEYS: tuple[str, ...] = tuple(RawModule.model_fields)
 MONITOR_KEYS: tuple[str, ...] = tuple(RawMonitor.model_fields)
 METRIC_KEYS: tuple[str, ...] = tuple(MetricParams.model_fields)

@@ -51,6 +51,7 @@ SITUATION_METRICS: dict[str, str] = {
     "lead_gap": "bumper-to-bumper gap to the in-path leader [m]",
     "lead_thw": "time headway to the leader: gap / ego speed [s]",
     "lead_ttc": "time to collision with the leader [s]",
+    "lead_speed": "speed of the leader along the ego's path [m/s] (0 when there is none)",
     "follow_gap": "bumper-to-bumper gap to the in-lane follower [m]",
     "follow_thw": "time headway of the follower: gap / follower speed [s]",
     "follow_ttc": "time to collision of the follower [s]",

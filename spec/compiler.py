@@ -17,7 +17,7 @@ from fractions import Fraction
 from typing import Literal
 
 from safety_case.findings import Finding, has_errors
-from safety_case.model import Case, HazardBinding, Mark, Node, SpiBinding
+from safety_case.model import Case, ContractBinding, HazardBinding, Mark, Node, SpiBinding
 from spec.ast import (
     Arith,
     Compare,
@@ -72,6 +72,10 @@ class _Source:
     merge_gap: float | None
     min_duration: float | None
     warn: float | None = None
+    #: the text comes from the contract library: findings point at `mark` (the `use:`), not
+    #: at a column of a text the YAML does not contain
+    fixed: bool = False
+    role: str = ""  # for a contract: "guarantee" or "assumption" (named in findings)
 
 
 def _period_ok(case: Case) -> tuple[Fraction | None, list[Finding]]:
@@ -104,7 +108,24 @@ def _sources(case: Case) -> tuple[list[_Source], list[Finding]]:
                 out.append(src)
         if node.hazard is not None:
             out.append(_hazard_source(node, node.hazard))
+        if node.contract is not None:
+            out.extend(_contract_sources(node, node.contract))
     return out, findings
+
+
+def _contract_sources(node: Node, contract: ContractBinding) -> list[_Source]:
+    """A contract's guarantee (the monitored formula, kind `spi`: it is evidence) and, when it
+    has one, its assumption (compiled alone, then attached to the guarantee)."""
+    common = {"node": node, "kind": "spi", "formula": None, "binding_mark": contract.mark,
+              "merge_gap": contract.merge_gap, "min_duration": contract.min_duration}
+    out = [_Source(text=contract.guarantee, mark=contract.guarantee_mark, warn=contract.warn,
+                   fixed=contract.guarantee_from_library, role="guarantee",
+                   **common)]  # type: ignore[arg-type]
+    if contract.assume is not None:
+        out.append(_Source(text=contract.assume, mark=contract.assume_mark,
+                           fixed=contract.assume_from_library, role="assumption",
+                           **common))  # type: ignore[arg-type]
+    return out
 
 
 def _spi_source(case: Case, node: Node, spi: SpiBinding) -> _Source | Finding:
@@ -162,6 +183,8 @@ def _bound_at(case: Case, src: _Source, col: int) -> tuple[int, int]:
 
 
 def _at(case: Case, src: _Source, col: int, line: int = 1) -> tuple[int, int]:
+    if src.fixed:
+        return src.mark.line, src.mark.col
     if src.formula is not None and col <= 0:
         return src.mark.line, src.mark.col
     return yaml_position(src.mark, line, max(col, 1))
@@ -327,11 +350,12 @@ def _compile_one(
         try:
             formula = parse_formula(src.text)
         except FormulaError as err:
-            line, col = yaml_position(src.mark, err.line, err.col)
+            line, col = _at(case, src, err.col, err.line)
             return None, [
                 formula_finding(
                     "CW040",
-                    f"formula of node {src.node.id} does not parse: {err.message}",
+                    f"{src.role or 'formula'} of node {src.node.id} does not parse: "
+                    f"{err.message}",
                     case.path,
                     line,
                     col,
@@ -381,13 +405,20 @@ def compile_case(case: Case, mode: Mode = "online") -> tuple[CompiledSpec | None
     for src in sources:
         compiled, found = _compile_one(case, src, period, mode)
         findings.extend(found)
-        if compiled is not None:
-            formulas.append(compiled)
+        if compiled is None:
+            continue
+        if src.role == "assumption":  # follows its guarantee (_contract_sources)
+            if formulas and formulas[-1].node_id == src.node.id:
+                formulas[-1] = _with_assumption(formulas[-1], compiled, src.node)
+            continue
+        if src.role == "guarantee" and src.node.contract is not None:
+            compiled = compiled.model_copy(update={"contract_use": src.node.contract.use})
+        formulas.append(compiled)
     if has_errors(findings):
         return None, findings
     signals: dict[str, list[str]] = {name: [] for name in case.monitor.signals}
     for f in formulas:
-        for name in f.signals:
+        for name in sorted({n for g in f.monitored() for n in g.signals}):
             signals.setdefault(name, []).append(f.id)
     spec = CompiledSpec(
         case_path=case.path,
@@ -401,6 +432,14 @@ def compile_case(case: Case, mode: Mode = "online") -> tuple[CompiledSpec | None
         signals={name: sorted(ids) for name, ids in sorted(signals.items())},
     )
     return spec, findings
+
+
+def _with_assumption(guarantee: CompiledFormula, assumption: CompiledFormula,
+                     node: Node) -> CompiledFormula:  # fmt: skip
+    """The contract's monitored formula: its guarantee, carrying its assumption."""
+    own = assumption.model_copy(update={"id": f"{guarantee.id}.assume", "warn": 0.0})
+    use = node.contract.use if node.contract is not None else None
+    return guarantee.model_copy(update={"assumption": own, "contract_use": use})
 
 
 def _root_id(case: Case) -> str:

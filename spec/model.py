@@ -42,6 +42,18 @@ class CompiledFormula(BaseModel):
     # seconds the formula looks ahead (0 online; offline, a verdict at t needs data to t + this)
     future_horizon: float = 0.0
     warmup_ticks: int = 0  # samples after a reset whose verdict is undefined (`sum` incomplete)
+    #: a contract's assumption (`contract:` on a solution), judged by its own monitor: the
+    #: contract is violated only where it holds and this formula (the guarantee) fails, and is
+    #: "outside assumption" where it fails (docs/contracts.md). Its id is `<id>.assume`.
+    assumption: CompiledFormula | None = None
+    contract_use: str | None = None  # the library contract instantiated (`use:`), if any
+
+    def monitored(self) -> list[CompiledFormula]:
+        """This formula and its assumption: every formula a monitor judges for it."""
+        return [self] if self.assumption is None else [self, self.assumption]
+
+
+CompiledFormula.model_rebuild()
 
 
 class CompiledSpec(BaseModel):

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 
 from casewatch import api
+from casewatch.batch import FleetError, read_summary
 from safety_case.findings import CaseError
 from safety_case.model import Case
 from spec.model import CompiledSpec
@@ -32,3 +34,23 @@ def sweep_options_ok(command: str, candidates: int, jobs: int) -> bool:
         print(f"casewatch {command}: --jobs must be at least 1", file=sys.stderr)
         return False
     return True
+
+
+class UsageError(ValueError):
+    """Input a command cannot use: printed as one line, exit 2."""
+
+
+def run_folders(folder: Path) -> dict[str, Path]:
+    """{log name: run folder} of a run folder (result.json) or a fleet folder (summary.json;
+    the logs that could be judged)."""
+    if (folder / "summary.json").is_file():
+        try:
+            logs = read_summary(folder)["per_log"]
+        except FleetError as exc:
+            raise UsageError(str(exc)) from None
+        return {Path(log["out_dir"]).name: Path(log["out_dir"]) for log in logs
+                if log.get("ok", True)}  # fmt: skip
+    if (folder / "result.json").is_file():
+        return {folder.name: folder}
+    raise UsageError(f"{folder}: neither a run folder (result.json) nor a fleet folder "
+                     "(summary.json)")  # fmt: skip

@@ -16,7 +16,7 @@ import json
 import sys
 from pathlib import Path
 
-from casewatch.batch import FleetError, read_summary
+from casewatch.commands.common import UsageError, run_folders
 from evaluator.diff import diff_runs, regressions
 from evaluator.policy import FAIL_ON
 from reports.diff import render_diff_html, render_diff_md
@@ -35,29 +35,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="which new episodes are regressions (default any)")
 
 
-class _Usage(ValueError):
-    pass
-
-
-def _runs(folder: Path) -> dict[str, Path]:
-    """{log name: run folder} of a run folder or a fleet folder."""
-    if (folder / "summary.json").is_file():
-        try:
-            logs = read_summary(folder)["per_log"]
-        except FleetError as exc:
-            raise _Usage(str(exc)) from None
-        return {Path(log["out_dir"]).name: Path(log["out_dir"]) for log in logs
-                if log.get("ok", True)}  # fmt: skip
-    if (folder / "result.json").is_file():
-        return {folder.name: folder}
-    raise _Usage(f"{folder}: neither a run folder (result.json) nor a fleet folder "
-                 "(summary.json)")  # fmt: skip
-
-
 def main(args: argparse.Namespace) -> int:
     a_dir, b_dir = Path(args.run_a), Path(args.run_b)
     try:
-        a_runs, b_runs = _runs(a_dir), _runs(b_dir)
+        a_runs, b_runs = run_folders(a_dir), run_folders(b_dir)
         if len(a_runs) == 1 and len(b_runs) == 1:  # two single runs: paired whatever the names
             (_, a_one), (b_name, b_one) = next(iter(a_runs.items())), next(iter(b_runs.items()))
             pairs = [(b_name, a_one, b_one)]
@@ -66,7 +47,7 @@ def main(args: argparse.Namespace) -> int:
                      if name in b_runs]  # fmt: skip
         diffs = [diff_runs(load_result(a / "result.json"), load_result(b / "result.json"), name)
                  for name, a, b in pairs]  # fmt: skip
-    except (_Usage, ResultError) as exc:
+    except (UsageError, ResultError) as exc:
         print(f"casewatch diff: {exc}", file=sys.stderr)
         return 2
     if not pairs:

@@ -56,6 +56,7 @@ def test_leader_in_the_corridor_hand_computed():
     assert out["lead_gap__a"] == pytest.approx(26.0)
     assert out["lead_thw__a"] == pytest.approx(1.3)
     assert out["lead_ttc__a"] == pytest.approx(5.2)
+    assert out["lead_speed__a"] == pytest.approx(15.0) == out["lead_speed"]
     assert out["lead_thw"] == pytest.approx(1.3) and out["ego_speed"] == pytest.approx(20.0)
 
 
@@ -64,6 +65,7 @@ def test_no_leader_is_the_cap_not_missing_data():
     plan = straight_plan(0, 0, 20, 0, 31)
     out = run_one([obj(1, 30.0, 2.5, 0.0, 4, 2, vx=15.0), obj(2, -10.0, 0.0)], plan=plan)
     assert (out["lead_gap"], out["lead_thw"], out["lead_ttc"]) == (GAP_CAP, TIME_CAP, TIME_CAP)
+    assert out["lead_speed"] == 0.0
 
 
 def test_leader_beyond_a_bend_of_the_plan():

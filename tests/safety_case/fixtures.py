@@ -85,6 +85,20 @@ LOADER_FIXTURES: list[tuple[str, str, int, int | None]] = [
         10,
     ),
     (
+        "CW008",
+        case("G1: {text: t, supportedBy: Sn1}\nSn1:\n  text: e\n"
+             "  contract: {use: rss_longitudnal}\n"),
+        6,
+        19,
+    ),
+    (
+        "CW009",
+        case("G1: {text: t, supportedBy: Sn1, inContextOf: C1}\nSn1: {text: e}\nC1:\n"
+             "  text: c\n  odd: {attributes: {weather: [clear]}}\n"),
+        7,
+        8,
+    ),
+    (
         "CW021",
         case("G1:\n  text: t\n  undeveloped: true\n  spi: {signal: els, threshold: '>1'}\n"),
         6,

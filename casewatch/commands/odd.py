@@ -1,0 +1,167 @@
+"""`casewatch odd RUNS... -o OUT`: the Operational Design Domain the runs support.
+
+RUNS are output folders of `casewatch run` (result.json) or fleet folders (summary.json). Each
+run counts its formulas' ticks per combination of the conditions its stream reported
+(`meta.odd`, frame `odd`; docs/odd.md). Grouped by the attributes `--by` names (default: every
+attribute that varies over the runs), each cell gets every contract's and SPI's violation rate
+with a 95 % confidence interval (runs as the units) and its run count; a cell is accepted when
+every gating formula stays at or below `--max-violation-rate` (and every `--max-mae` bound
+holds). Writes OUT/odd.json (the table), OUT/odd.html (the heatmap) and OUT/accepted-odd.yaml
+(the accepted domain, which a case includes with `odd:` on the root goal's context). When the
+runs' streams carry `meta.odd_truth.degraded` (generated data), it prints which cells agree.
+
+Exit 0 when the table was written (1 when no cell is accepted), 2 for input it cannot use.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from casewatch.commands.common import UsageError, run_folders
+from evaluator.odd_analysis import RunInput, accepted_odd, analyse, varying_attributes
+from evaluator.signal_store import SignalsError, load_signals
+from reports.odd import cell_label, render_odd_html, render_odd_text
+from reports.render import ResultError, load_result
+from safety_case.odd import attribute_problem, odd_to_data
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser(
+        "odd", help="the operational design domain judged runs support (heatmap, YAML ODD)",
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
+    )  # fmt: skip
+    p.add_argument("runs", nargs="+", metavar="RUNS", type=Path,
+                   help="run folders (result.json) or fleet folders (summary.json)")
+    p.add_argument("-o", "--out", required=True, type=Path, help="output folder")
+    p.add_argument("--max-violation-rate", type=float, default=0.05, metavar="RATE",
+                   help="largest accepted violated share of judged ticks (default 0.05)")
+    p.add_argument("--criterion", choices=("estimate", "upper"), default="estimate",
+                   help="compare the rate's estimate (default) or its upper 95 %% bound")
+    p.add_argument("--by", default=None, metavar="ATTR,...",
+                   help="condition attributes that make the cells (default: those that vary)")
+    p.add_argument("--formulas", default=None, metavar="ID,...",
+                   help="the contracts and SPIs that gate acceptance (default: all of them)")
+    p.add_argument("--max-mae", action="append", default=[], metavar="SIGNAL[-REF]=BOUND",
+                   help="also require the mean absolute value of a saved signal (or of the "
+                   "difference of two, lead_gap__camera-gt_lead_gap) at most BOUND per cell; "
+                   "needs runs made with --save-signals; repeatable")
+    p.add_argument("--name", default="accepted", help="the written ODD's name")
+
+
+def _mae_bounds(items: list[str]) -> dict[str, float]:
+    out = {}
+    for item in items:
+        name, sep, bound = item.rpartition("=")
+        try:
+            value = float(bound)
+        except ValueError:
+            value = float("nan")
+        if not sep or not name or not value >= 0:
+            raise UsageError(f"--max-mae {item!r}: expected SIGNAL=BOUND or SIGNAL-REF=BOUND "
+                             "with a bound >= 0, e.g. lead_gap__camera-gt_lead_gap=1.5")
+        out[name] = value
+    return out
+
+
+def _signal_loader(names: list[str]):
+    """Reads, per run folder, the columns `--max-mae` needs from its signals.npz."""
+
+    def load(folder: str) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        try:
+            saved = load_signals(Path(folder))
+        except SignalsError as exc:
+            raise UsageError(f"--max-mae: {exc}") from None
+        index = {n: k for k, n in enumerate(saved.names)}
+        columns = {}
+        for name in names:
+            parts = name.split("-")
+            missing = [p for p in parts if p not in index]
+            if len(parts) > 2 or missing:
+                raise UsageError(f"--max-mae {name}: {folder} saved no signal "
+                                 f"{', '.join(missing) or name!r} (saved: "
+                                 f"{', '.join(saved.names[:12])}...)")  # fmt: skip
+            column = saved.values[:, index[parts[0]]]
+            if len(parts) == 2:
+                column = column - saved.values[:, index[parts[1]]]
+            columns[name] = column
+        return saved.t, columns
+
+    return load
+
+
+def _read_runs(folders: list[Path]) -> list[RunInput]:
+    runs = []
+    for folder in folders:
+        for path in run_folders(folder).values():
+            try:
+                runs.append(RunInput(str(path), load_result(path / "result.json")))
+            except ResultError as exc:
+                raise UsageError(str(exc)) from None
+    return runs
+
+
+def main(args: argparse.Namespace) -> int:
+    try:
+        if not 0 <= args.max_violation_rate <= 1:
+            raise UsageError(f"--max-violation-rate {args.max_violation_rate:g}: a share of "
+                             "ticks, between 0 and 1 (0.05 for 5 %)")  # fmt: skip
+        max_mae = _mae_bounds(args.max_mae)
+        runs = _read_runs(args.runs)
+        if not any(run.result.conditions for run in runs):
+            raise UsageError("no run counted its ticks per condition: judge the logs with "
+                             "this casewatch (result.json `conditions`), and report conditions "
+                             "in the streams (header meta.odd, docs/odd.md)")  # fmt: skip
+        by = varying_attributes(runs) if args.by is None else \
+            [b.strip() for b in args.by.split(",") if b.strip()]  # fmt: skip
+        for name in by:
+            problem = attribute_problem(name, None)
+            if problem or "." not in name:
+                why = problem or "cells are made of layered conditions (environment.weather)"
+                raise UsageError(f"--by {name}: {why}")
+        known = {f.id for run in runs for f in run.result.formulas}
+        formulas = None
+        if args.formulas is not None:
+            formulas = [f.strip() for f in args.formulas.split(",") if f.strip()]
+            unknown = [f for f in formulas if f not in known]
+            if unknown:
+                raise UsageError(f"--formulas: no formula {', '.join(unknown)} in these runs "
+                                 f"(they have {', '.join(sorted(known))})")  # fmt: skip
+        report = analyse(runs, by, formulas, args.max_violation_rate, args.criterion, max_mae,
+                         _signal_loader(list(max_mae)) if max_mae else None)  # fmt: skip
+    except UsageError as exc:
+        print(f"casewatch odd: {exc}", file=sys.stderr)
+        return 2
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "odd.json").write_text(json.dumps(report, indent=1), encoding="utf-8")
+    (args.out / "odd.html").write_text(render_odd_html(report), encoding="utf-8")
+    odd = accepted_odd(report, args.name)
+    written = args.out / "accepted-odd.yaml"
+    if odd is not None:
+        header = (f"# written by casewatch odd from {report['runs']} runs: the cells whose "
+                  f"contracts and SPIs stay at or below {args.max_violation_rate:g} violated "
+                  "share of judged ticks\n")  # fmt: skip
+        written.write_text(header + yaml.safe_dump(odd_to_data(odd), sort_keys=False),
+                           encoding="utf-8")  # fmt: skip
+    elif written.exists():
+        written.unlink()  # a stale domain from an earlier analysis must not survive
+    for line in render_odd_text(report):
+        print(line)
+    truth = [c for c in report["cells"] if "degraded_truth" in c]
+    if truth:
+        agree = sum(1 for c in truth if c["degraded_truth"] != c["accepted"])
+        print(f"Against the streams' known degradation (meta.odd_truth): {agree} of "
+              f"{len(truth)} cells agree")  # fmt: skip
+        for c in truth:
+            mark = "ok " if c["degraded_truth"] != c["accepted"] else "DIFFERS"
+            print(f"  {mark} {cell_label(c['conditions'])}: degraded "
+                  f"{'yes' if c['degraded_truth'] else 'no '}, "
+                  f"{'accepted' if c['accepted'] else 'rejected'}")  # fmt: skip
+    where = written if odd is not None else "no cell accepted, no ODD written"
+    print(f"{args.out / 'odd.html'}, {args.out / 'odd.json'}; {where}")
+    return 0 if odd is not None else 1

@@ -1,0 +1,163 @@
+"""The contract library: named assume-guarantee contracts a case instantiates with `use:`.
+
+The library is data (`libraries/contracts.yaml`, shipped in the package): each contract has a
+text, parameters with defaults and bounds, the stream signals it needs declared, and an
+assume/guarantee pair of formula templates. Expanding one substitutes the parameters into the
+templates, so what the compiler sees is an ordinary formula: one language, one checker, one
+evaluator for library and hand-written contracts alike.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from functools import cache
+from importlib import resources
+from typing import Any
+
+import yaml
+
+from spec.emit import number_text
+
+LIBRARY = "contracts"
+_PLACE = re.compile(r"\{([A-Za-z_][A-Za-z0-9_]*)(?::([a-z]+))?\}")
+_IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+
+
+class ContractError(ValueError):
+    """A `use:` that cannot be expanded; `key` is the YAML key to point at (`use`, `params`,
+    or `params.<name>`)."""
+
+    def __init__(self, message: str, key: str = "use", hint: str = ""):
+        super().__init__(message)
+        self.key = key
+        self.hint = hint
+
+
+@dataclass(frozen=True)
+class Param:
+    name: str
+    kind: str  # number, channel (a monitor channel) or signal (a signal name)
+    default: float | str | None
+    lo: float | None
+    hi: float | None
+    integer: bool
+    unit: str
+    description: str
+
+
+@dataclass(frozen=True)
+class Template:
+    name: str
+    text: str
+    needs: dict[str, str]  # declared stream signals it reads -> what they are
+    params: dict[str, Param]
+    assume: str | None
+    guarantee: str
+
+
+@cache
+def library() -> dict[str, Template]:
+    """Every contract of the shipped library, by name."""
+    raw = yaml.safe_load(
+        resources.files("safety_case").joinpath("libraries", "contracts.yaml").read_text("utf-8")
+    )
+    out: dict[str, Template] = {}
+    for name, entry in raw["contracts"].items():
+        params = {
+            p: Param(p, spec.get("kind", "number"), spec.get("default"), spec.get("min"),
+                     spec.get("max"), bool(spec.get("integer", False)), spec.get("unit", ""),
+                     spec.get("description", ""))
+            for p, spec in (entry.get("params") or {}).items()
+        }
+        out[name] = Template(name, entry["text"], dict(entry.get("needs") or {}), params,
+                             entry.get("assume"), entry["guarantee"])  # fmt: skip
+    return out
+
+
+def _value(param: Param, given: Any, channels: list[str]) -> float | int | str:
+    where = f"params.{param.name}"
+    if param.kind == "channel":
+        if given not in channels:
+            raise ContractError(f"`{where}` must be one of the case's channels "
+                                f"({', '.join(channels)}), got {given!r}", where)  # fmt: skip
+        return str(given)
+    if param.kind == "signal":
+        if not isinstance(given, str) or not _IDENT.match(given):
+            raise ContractError(f"`{where}` must be a signal name, got {given!r}", where)
+        return given
+    if isinstance(given, bool) or not isinstance(given, int | float) or not math.isfinite(given):
+        raise ContractError(f"`{where}` must be a number, got {given!r}", where)
+    value = float(given)
+    if param.integer and value != int(value):
+        raise ContractError(f"`{where}` must be a whole number, got {given!r}", where)
+    if param.integer:
+        value = int(value)
+    if (param.lo is not None and value < param.lo) or (param.hi is not None and value > param.hi):
+        raise ContractError(f"`{where}` must lie in [{param.lo:g}, {param.hi:g}]"
+                            f"{' ' + param.unit if param.unit else ''}, got {given!r}",
+                            where)  # fmt: skip
+    return value
+
+
+def resolve_params(template: Template, given: dict[str, Any], channels: list[str]
+                   ) -> dict[str, float | str]:  # fmt: skip
+    """Every parameter of `template`: the given value (checked) or its default."""
+    unknown = sorted(set(given) - set(template.params))
+    if unknown:
+        known = ", ".join(template.params) or "none"
+        raise ContractError(f"contract {template.name} has no parameter {unknown[0]!r} "
+                            f"(its parameters: {known})", f"params.{unknown[0]}")  # fmt: skip
+    out: dict[str, float | str] = {}
+    for name, param in template.params.items():
+        if name in given:
+            out[name] = _value(param, given[name], channels)
+        elif param.default is None:
+            choices = f" (one of {', '.join(channels)})" if param.kind == "channel" else ""
+            raise ContractError(f"contract {template.name} needs `params.{name}`: "
+                                f"{param.description}{choices}", "params")  # fmt: skip
+        else:
+            default = param.default
+            out[name] = default if isinstance(default, str) or param.integer else float(default)
+    return out
+
+
+def substitute(text: str, values: dict[str, float | str], period: float) -> str:
+    """The template with its `{name}` places filled (`{frames:window}`: seconds)."""
+
+    def fill(match: re.Match[str]) -> str:
+        name, form = match.group(1), match.group(2)
+        value = values[name]
+        if form == "window":
+            return number_text(round((float(value) - 1) * period, 9))
+        if isinstance(value, str):
+            return value
+        return number_text(value)
+
+    return _PLACE.sub(fill, text)
+
+
+def expand(use: str, given: dict[str, Any], channels: list[str], declared: dict[str, str],
+           period: float) -> tuple[Template, dict[str, float | str], str | None, str]:  # fmt: skip
+    """(template, resolved parameters, assume text, guarantee text) for `use: NAME`; raises
+    `ContractError` for an unknown contract, parameter or undeclared needed signal."""
+    contracts = library()
+    name = use.removeprefix(f"{LIBRARY}/")
+    template = contracts.get(name)
+    if template is None:
+        import difflib
+
+        close = difflib.get_close_matches(name, list(contracts), n=1)
+        mean = f"; did you mean {close[0]!r}?" if close else ""
+        raise ContractError(f"no contract {use!r} in the contract library{mean}", "use",
+                            f"the library's contracts: {', '.join(contracts)}")  # fmt: skip
+    missing = [s for s in template.needs if s not in declared]
+    if missing:
+        lines = ", ".join(f"{s}: {template.needs[s]}" for s in missing)
+        raise ContractError(f"contract {name} reads the stream signal(s) {', '.join(missing)}, "
+                            "which monitor.signals does not declare", "use",
+                            f"declare them: monitor: {{signals: {{{lines}}}}}")  # fmt: skip
+    values = resolve_params(template, given, channels)
+    assume = substitute(template.assume, values, period) if template.assume else None
+    return template, values, assume, substitute(template.guarantee, values, period)
