@@ -29,10 +29,11 @@ class ContractError(ValueError):
     """A `use:` that cannot be expanded; `key` is the YAML key to point at (`use`, `params`,
     or `params.<name>`)."""
 
-    def __init__(self, message: str, key: str = "use", hint: str = ""):
+    def __init__(self, message: str, key: str = "use", hint: str = "", at_key: bool = False):
         super().__init__(message)
         self.key = key
         self.hint = hint
+        self.at_key = at_key  # point at the key itself (an unknown parameter), not its value
 
 
 @dataclass(frozen=True)
@@ -108,7 +109,8 @@ def resolve_params(template: Template, given: dict[str, Any], channels: list[str
     if unknown:
         known = ", ".join(template.params) or "none"
         raise ContractError(f"contract {template.name} has no parameter {unknown[0]!r} "
-                            f"(its parameters: {known})", f"params.{unknown[0]}")  # fmt: skip
+                            f"(its parameters: {known})", f"params.{unknown[0]}",
+                            at_key=True)  # fmt: skip
     out: dict[str, float | str] = {}
     for name, param in template.params.items():
         if name in given:

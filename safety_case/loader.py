@@ -564,8 +564,10 @@ class _Builder:
                 name = exc.key.partition(".")[2]
                 params = keyed["params"].value.entries() if keyed["params"].value.kind == "map" \
                     else {}  # fmt: skip
-                where = params[name].value.content_mark if name in params else \
-                    keyed["params"].key_mark  # fmt: skip
+                if name in params:
+                    where = params[name].key_mark if exc.at_key else params[name].value.mark
+                else:
+                    where = keyed["params"].key_mark
             self.add("CW008", f"node {node_id}: {exc}", where, exc.hint)
             self.invalid.add(node_id)
             return None

@@ -241,14 +241,14 @@ class RawContract(BaseModel):
 
     @model_validator(mode="after")
     def _shape(self) -> RawContract:
+        if self.use is None and self.params:
+            raise PydanticCustomError(
+                "spi_shape", "`params` set the parameters of a library contract: add `use`"
+            )
         if self.use is None and self.guarantee is None:
             raise PydanticCustomError(
                 "spi_shape", "a contract needs `guarantee` (and optionally `assume`), or `use` "
                 "naming a library contract (docs/contracts.md)"
-            )
-        if self.use is None and self.params:
-            raise PydanticCustomError(
-                "spi_shape", "`params` set the parameters of a library contract: add `use`"
             )
         return self
 

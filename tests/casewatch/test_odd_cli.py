@@ -1,0 +1,109 @@
+"""`casewatch odd` end to end on part of the bundled ODD grid, and its refusals."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+import yaml
+
+from casewatch.cli import main
+from safety_case.odd import parse_odd
+
+REPO = Path(__file__).resolve().parents[2]
+GRID = REPO / "examples" / "data" / "odd-grid"
+CASE = REPO / "examples" / "odd" / "contracts-case.yaml"
+#: two runs of four highway cells: two degraded (fog by day, rain at night), two not
+DRIVES = [f"odd-highway-{cell}-r{k}" for cell in ("clear-day", "rain-day", "fog-day",
+                                                   "rain-night") for k in (0, 1)]  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def judged(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    root = tmp_path_factory.mktemp("odd")
+    logs = root / "logs"
+    logs.mkdir()
+    for name in DRIVES:
+        shutil.copy(GRID / f"{name}.jsonl.gz", logs / f"{name}.jsonl.gz")
+    code = main(["run", str(CASE), str(logs), "--jobs", "2", "--format", "none", "--quiet",
+                 "--save-signals", "-o", str(root / "runs")])  # fmt: skip
+    assert code in (0, 1)
+    return root / "runs"
+
+
+def test_the_degraded_cells_are_rejected_and_the_rest_is_the_domain(judged, tmp_path, capsys):
+    out = tmp_path / "odd"
+    code = main(["odd", str(judged), "-o", str(out), "--max-mae",
+                 "lead_gap__camera-gt_lead_gap=3"])  # fmt: skip
+    printed = capsys.readouterr().out
+    assert code == 0
+    report = json.loads((out / "odd.json").read_text())
+    assert report["by"] == ["environment.light", "environment.weather"]  # what varies
+    cells = {(c["conditions"]["environment.weather"], c["conditions"]["environment.light"]): c
+             for c in report["cells"]}  # fmt: skip
+    assert set(cells) == {("clear", "day"), ("rain", "day"), ("fog", "day"), ("rain", "night")}
+    assert {k for k, c in cells.items() if c["accepted"]} == {("clear", "day"), ("rain", "day")}
+    fog = cells[("fog", "day")]
+    assert fog["rejected_by"][:1] == ["Sn1"] and fog["formulas"]["Sn1"]["rate"] > 0.5
+    assert fog["mae"]["lead_gap__camera-gt_lead_gap"]["mae"] > 3
+    assert cells[("clear", "day")]["mae"]["lead_gap__camera-gt_lead_gap"]["mae"] < 1
+    sn1 = fog["formulas"]["Sn1"]
+    assert sn1["runs_judged"] == 2 and sn1["interval"] == "runs"
+    assert sn1["violated_ticks"] <= sn1["judged_ticks"] and sn1["low"] <= sn1["rate"] <= sn1["high"]
+    assert "4 of 4 cells agree" in printed
+    domain = parse_odd(yaml.safe_load((out / "accepted-odd.yaml").read_text()))
+    assert domain.attributes == {"environment.light": ["day"],
+                                 "environment.weather": ["clear", "rain"]}
+    assert domain.combinations == []  # the accepted cells are the whole product
+    html = (out / "odd.html").read_text()
+    assert "Heatmap" in html and "detection_accuracy" in html and "rejected" in html
+
+
+def test_the_odd_gates_what_the_case_claims(judged, tmp_path):
+    """The example case states the accepted ODD on its root goal's context: a fog drive is
+    outside it on every tick, a clear one inside."""
+    for name, expected in (("odd-highway-fog-day-r0", "outside"),
+                           ("odd-highway-clear-day-r0", "inside")):  # fmt: skip
+        result = json.loads((judged / name / "result.json").read_text())
+        (odd,) = result["odd"]
+        assert odd[expected] == 251 and odd["node_id"] == "C1"
+        statuses = {s["node_id"]: s["ticks"] for s in result["status"]}
+        assert ("outside-odd" in statuses["C1"]) == (expected == "outside")
+
+
+def test_strict_criterion_and_gating_subsets(judged, tmp_path, capsys):
+    code = main(["odd", str(judged), "-o", str(tmp_path / "o"), "--formulas", "Sn3",
+                 "--criterion", "upper", "--by", "environment.weather"])  # fmt: skip
+    assert code == 0  # lane keeping holds everywhere: every weather is accepted
+    report = json.loads((tmp_path / "o" / "odd.json").read_text())
+    assert report["gating"] == ["Sn3"] and all(c["accepted"] for c in report["cells"])
+    assert "rain" in {c["conditions"]["environment.weather"] for c in report["cells"]}
+    capsys.readouterr()
+    # by light alone, each cell holds a degraded condition (fog by day, rain at night)
+    code = main(["odd", str(judged), "-o", str(tmp_path / "none"), "--by", "environment.light",
+                 "--formulas", "Sn1"])  # fmt: skip
+    assert code == 1 and not (tmp_path / "none" / "accepted-odd.yaml").exists()
+    assert "no cell accepted" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    ("extra", "words"),
+    [
+        (["--max-mae", "lead_gap__camera"], "expected SIGNAL=BOUND"),
+        (["--max-mae", "nope=1"], "saved no signal 'nope'"),
+        (["--formulas", "Sn7"], "no formula Sn7"),
+        (["--max-violation-rate", "5"], "between 0 and 1"),
+        (["--by", "weather"], "--by weather"),
+    ],
+)
+def test_refusals(judged, tmp_path, capsys, extra, words):
+    assert main(["odd", str(judged), "-o", str(tmp_path / "o"), *extra]) == 2
+    err = capsys.readouterr().err
+    assert words in err and "Traceback" not in err
+
+
+def test_a_folder_without_runs_is_refused(tmp_path, capsys):
+    assert main(["odd", str(tmp_path), "-o", str(tmp_path / "o")]) == 2
+    assert "neither a run folder" in capsys.readouterr().err
