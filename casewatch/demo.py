@@ -9,6 +9,10 @@ Runs exactly what a user would type:
     python -m casewatch.nominal out/demo      # each SPI's false alarms on nominal driving
     python -m examples.sim.stack_timing examples/data/highway-tailgating.jsonl.gz \
         --out out/demo-bags                   # as a ROS 2 bag with a real stack's timing
+    casewatch run examples/odd/contracts-case.yaml examples/data/odd-grid --jobs 2 \
+        --format none --quiet -o out/demo-odd-runs   # contracts over the ODD grid
+    casewatch odd out/demo-odd-runs --by road.type,environment.weather,environment.light \
+        -o out/demo-odd                       # the accepted domain, against the known degradation
     python -m examples.sim.heldout            # the same on fresh generator seeds (needs SUMO)
 
 The last step runs only when the simulator extra is installed (`pip install -e .[sim]`, which
@@ -32,6 +36,11 @@ STUDY = REPO / "examples" / "study-case.yaml"
 OUT = Path("out") / "demo"
 OUT_STUDY = Path("out") / "demo-study"
 OUT_BAGS = Path("out") / "demo-bags"
+ODD_CASE = REPO / "examples" / "odd" / "contracts-case.yaml"
+ODD_GRID = DATA / "odd-grid"
+OUT_ODD_RUNS = Path("out") / "demo-odd-runs"
+OUT_ODD = Path("out") / "demo-odd"
+ODD_BY = "road.type,environment.weather,environment.light"
 
 
 def score_text(row: dict) -> str:
@@ -83,7 +92,24 @@ def main() -> int:
     from examples.sim.stack_timing import main as stack_timing  # the repository's examples
 
     stack_timing([str(drive), "--out", str(OUT_BAGS)])
+    code = odd_demo()
+    if code not in (0, 1):
+        return code
     return heldout()
+
+
+def odd_demo() -> int:
+    """Contracts over the bundled ODD grid, and the domain they support (docs/odd.md)."""
+    print(f"\n$ casewatch run {ODD_CASE.relative_to(REPO)} {ODD_GRID.relative_to(REPO)} "
+          f"--jobs 2 --format none --quiet -o {OUT_ODD_RUNS}")
+    code = cli(["run", str(ODD_CASE), str(ODD_GRID), "--jobs", "2", "--format", "none",
+                "--quiet", "-o", str(OUT_ODD_RUNS)])  # fmt: skip
+    if code not in (0, 1):
+        return code
+    print(f"\n$ casewatch odd {OUT_ODD_RUNS} --by {ODD_BY} -o {OUT_ODD}")
+    code = cli(["odd", str(OUT_ODD_RUNS), "--by", ODD_BY, "-o", str(OUT_ODD)])
+    print(f"ODD heatmap: {(OUT_ODD / 'odd.html').resolve()}")
+    return code
 
 
 def heldout() -> int:

@@ -45,6 +45,42 @@ def _trace(paths: list[list[TraceStep]]) -> list[str]:
     ]
 
 
+def _contracts(result: RunResult) -> list[str]:
+    """The contracts (docs/contracts.md): judged only where their assumption held."""
+    rows = [f for f in result.formulas if f.assumption is not None]
+    if not rows:
+        return []
+    return ["", "## Contracts", "",
+            "Judged only where the assumption holds; elsewhere *outside assumption*, neither a "
+            "pass nor a violation.", "",
+            *_table(["node", "library", "assume", "guarantee", "violated / judged",
+                     "outside assumption", "no data"],
+                    [[f"**{md_escape(f.node_id)}** {md_escape(f.node_text)}",
+                      md_code(f.contract_use) if f.contract_use else "",
+                      md_code(f.assumption), md_code(f.source),
+                      f"{f.ticks_violated:,} / {f.ticks_evaluated:,}",
+                      f"{f.ticks_outside_assumption:,}", f"{f.ticks_no_data:,}"]
+                     for f in rows], ["l", "l", "l", "l", "r", "r", "r"])]  # fmt: skip
+
+
+def _odd(result: RunResult) -> list[str]:
+    """How the run stood against each ODD (docs/odd.md)."""
+    if not result.odd:
+        return []
+
+    def by(counts: dict[str, int]) -> str:
+        return ", ".join(f"{md_code(k)} {v:,}" for k, v in counts.items())
+
+    return ["", "## Operational design domain", "",
+            "Outside the ODD the argument claims nothing: what would be satisfied there is "
+            "*outside ODD*; violations stay violations.", "",
+            *_table(["context", "ODD", "inside", "outside", "not reported", "outside by",
+                     "not reported"],
+                    [[md_escape(o.node_id), md_escape(o.name), f"{o.inside:,}",
+                      f"{o.outside:,}", f"{o.unknown:,}", by(o.outside_by), by(o.unknown_by)]
+                     for o in result.odd], ["l", "l", "r", "r", "r", "l", "l"])]  # fmt: skip
+
+
 def render_markdown(result: RunResult) -> str:
     """The complete Markdown report of `result`."""
     view = build_view(result)
@@ -114,6 +150,8 @@ def render_markdown(result: RunResult) -> str:
         )
     else:
         out.append("The case binds no SPI.")
+    out += _contracts(result)
+    out += _odd(result)
     out += ["", "## Hazards", ""]
     if view.hazard_rows:
         labelled = view.labels_path is not None

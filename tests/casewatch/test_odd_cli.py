@@ -107,3 +107,17 @@ def test_refusals(judged, tmp_path, capsys, extra, words):
 def test_a_folder_without_runs_is_refused(tmp_path, capsys):
     assert main(["odd", str(tmp_path), "-o", str(tmp_path / "o")]) == 2
     assert "neither a run folder" in capsys.readouterr().err
+
+
+def test_reports_show_the_contracts_and_the_odd(judged):
+    from reports.html import render_html
+    from reports.markdown import render_markdown
+    from reports.render import load_result
+
+    result = load_result(judged / "odd-highway-fog-day-r0" / "result.json")
+    md = render_markdown(result)
+    assert "## Contracts" in md and "`gt_lead_gap < 60.0`" in md
+    assert "| C1 | accepted | 0 | 251 | 0 | `environment.weather` 251 |" in md
+    html = render_html(result)
+    assert "Operational design domain" in html and "outside ODD" in html
+    assert "library contract <code>detection_accuracy</code>" in html
