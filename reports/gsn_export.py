@@ -18,7 +18,15 @@ from typing import Any
 
 import yaml
 
-from safety_case.model import Case, HazardBinding, MonitorConfig, Node, SpiBinding
+from safety_case.model import (
+    Case,
+    ContractBinding,
+    HazardBinding,
+    MonitorConfig,
+    Node,
+    SpiBinding,
+)
+from safety_case.odd import odd_to_data
 
 #: Worst status -> stroke and fill of its nodes in the exported CSS.
 STATUS_STYLE: dict[str, tuple[str, str]] = {
@@ -64,6 +72,23 @@ def _hazard(hazard: HazardBinding) -> dict[str, Any]:
     out: dict[str, Any] = {"when": hazard.when}
     for key in ("merge_gap", "min_duration", "warn"):
         if (value := getattr(hazard, key)) is not None:
+            out[key] = float(value)
+    return out
+
+
+def _contract(contract: ContractBinding) -> dict[str, Any]:
+    """As written: a library contract by name and (resolved) parameters, plus what the case
+    wrote over it; or the hand-written pair."""
+    out: dict[str, Any] = {}
+    if contract.use is not None:
+        out["use"] = contract.use
+        out["params"] = dict(contract.params)
+    if contract.assume is not None and not contract.assume_from_library:
+        out["assume"] = contract.assume
+    if not contract.guarantee_from_library:
+        out["guarantee"] = contract.guarantee
+    for key in ("merge_gap", "min_duration", "warn"):
+        if (value := getattr(contract, key)) is not None:
             out[key] = float(value)
     return out
 
@@ -120,6 +145,10 @@ def gsn_document(case: Case, statuses: dict[str, str] | None = None) -> dict[str
             bindings[node.id] = {"spi": _spi(node.spi)}
         elif node.hazard is not None:
             bindings[node.id] = {"hazard": _hazard(node.hazard)}
+        elif node.contract is not None:
+            bindings[node.id] = {"contract": _contract(node.contract)}
+        elif node.odd is not None:  # the domain itself, whether it came from a file or not
+            bindings[node.id] = {"odd": odd_to_data(node.odd)["odd"]}
     if bindings:
         kept["bindings"] = bindings
     if kept:

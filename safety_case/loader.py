@@ -758,7 +758,7 @@ def _casewatch_info(entry: object) -> dict:
     bindings = kept.entries().get("bindings")
     if bindings is not None and bindings.value.kind == "map":
         out["bindings"] = {node_id: {k: e for k, e in b.value.entries().items()
-                                     if k in ("spi", "hazard")}
+                                     if k in ("spi", "hazard", "contract", "odd")}
                            for node_id, b in bindings.value.entries().items()
                            if b.value.kind == "map"}  # fmt: skip
     return out

@@ -127,3 +127,28 @@ def test_kept_bindings_and_used_files_that_cannot_be_read(tmp_path: Path) -> Non
     found = {(f.code, f.line) for f in findings}
     assert ("CW028", 4) in found  # latin1.gsn.yaml is not UTF-8
     assert ("CW030", 8) in found  # a kept binding for a node that does not exist
+
+
+def test_contracts_and_odds_survive_an_export_to_gsn2x(tmp_path: Path) -> None:
+    """export-gsn keeps `contract:` (library name and parameters, or the written pair) and
+    `odd:` (the domain itself, read from its file) for casewatch; reading the export back gives
+    the same contracts and domain."""
+    from reports.gsn_export import write_gsn
+    from safety_case.loader import load_case
+
+    source = Path(__file__).resolve().parents[2] / "examples" / "odd" / "contracts-case.yaml"
+    case, findings = load_case(source)
+    assert case is not None, findings
+    (written,) = write_gsn(case, tmp_path)
+    again, findings = load_case(written)
+    assert again is not None, [f.format() for f in findings]
+    for node_id, node in case.nodes.items():
+        other = again.nodes[node_id]
+        assert (other.contract is None) == (node.contract is None), node_id
+        if node.contract is not None:
+            assert (other.contract.use, other.contract.params, other.contract.assume,
+                    other.contract.guarantee) == (node.contract.use, node.contract.params,
+                                                  node.contract.assume, node.contract.guarantee)
+        if node.odd is not None:
+            assert other.odd.attributes == node.odd.attributes
+            assert other.odd.combinations == node.odd.combinations
