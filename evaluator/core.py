@@ -27,6 +27,7 @@ from evaluator.result import (
     FormulaTally,
     NearMiss,
     NodeStatus,
+    OddChange,
     OddSummary,
     Series,
     StatusInterval,
@@ -48,7 +49,7 @@ NO_CONDITIONS: Mapping[str, OddValue] = {}
 WARMING_UP = "(sum window filling)"
 
 #: Receives each episode at its onset and when it closes, and each data gap when it closes.
-EventSink = Callable[[Episode | EpisodeOpen | NearMiss | DataGap], None]
+EventSink = Callable[[Episode | EpisodeOpen | NearMiss | DataGap | OddChange], None]
 
 
 def rtamt_monitor(formula: CompiledFormula, period: float) -> Any:
@@ -148,7 +149,13 @@ class Evaluator:
         for state in self.states:
             verdicts[state.formula.id] = self._judge(state, t, values)
         self._tally(t, conditions, verdicts)
-        odd = {c.node_id: c.judge(conditions, values) for c in self.odd_checks}
+        odd = {}
+        for check in self.odd_checks:
+            before = check.last[0]  # "inside" before the first tick
+            odd[check.node_id] = check.judge(conditions, values)
+            if check.last[0] != before and self.on_event is not None:
+                self.on_event(OddChange(node_id=check.node_id, t=round(t, 6),
+                                        state=check.last[0], because=check.last[1]))  # fmt: skip
         statuses = self.propagator.statuses(verdicts, odd)
         for node_id, status in statuses.items():
             self.timelines[node_id].add(t, status)

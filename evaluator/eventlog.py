@@ -11,9 +11,9 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from evaluator.result import DataGap, Episode, EpisodeOpen, NearMiss
+from evaluator.result import DataGap, Episode, EpisodeOpen, NearMiss, OddChange
 
-Event = Episode | EpisodeOpen | NearMiss | DataGap
+Event = Episode | EpisodeOpen | NearMiss | DataGap | OddChange
 
 
 def event_record(event: Event) -> dict[str, object]:
@@ -23,6 +23,8 @@ def event_record(event: Event) -> dict[str, object]:
         kind = "episode_open"
     elif isinstance(event, NearMiss):
         kind = "near_miss"
+    elif isinstance(event, OddChange):
+        kind = "odd_change"
     else:
         kind = "data_gap"
     return {"event": kind, **event.model_dump()}

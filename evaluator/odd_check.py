@@ -40,6 +40,7 @@ class OddCheck:
         self.layered = [a for a in spec.attributes if "." in a]
         self.signals = [a for a in spec.attributes if "." not in a]
         self.counts = {"inside": 0, "outside": 0, "unknown": 0}
+        self.last: tuple[Verdict, str | None] = ("inside", None)  # what the latest tick was
         self.outside_by: dict[str, int] = {}
         self.unknown_by: dict[str, int] = {}
         self._memo_key: int | None = None
@@ -75,6 +76,7 @@ class OddCheck:
                     verdict, why = "outside", name
                     break
         self.counts[verdict] += 1
+        self.last = (verdict, why)
         if verdict == "outside" and why is not None:
             self.outside_by[why] = self.outside_by.get(why, 0) + 1
         elif verdict == "unknown" and why is not None:

@@ -167,6 +167,16 @@ class EpisodeOpen(_Record):
     trace: list[list[TraceStep]]
 
 
+class OddChange(_Record):
+    """The drive left an ODD (`outside`), its conditions stopped being reported (`unknown`) or
+    it came back (`inside`), at tick `t` (docs/odd.md); `because` names the attribute."""
+
+    node_id: str
+    t: float
+    state: Literal["inside", "outside", "unknown"]
+    because: str | None = None
+
+
 class DataGap(_Record):
     """Ticks where a formula could not be evaluated because an input had no value."""
 

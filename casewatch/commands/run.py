@@ -26,7 +26,7 @@ from casewatch.dask_engine import EngineError
 from evaluator.eventlog import Event
 from evaluator.ground_truth import LabelsError
 from evaluator.policy import FAIL_ON, gated
-from evaluator.result import DataGap, Episode, EpisodeOpen, NearMiss, RunResult
+from evaluator.result import DataGap, Episode, EpisodeOpen, NearMiss, OddChange, RunResult
 from evaluator.session import DEFAULT_MAX_NO_DATA, InputError, RunOptions, evaluate_stream
 from evaluator.signal_store import FILE_NAME as SIGNALS_FILE
 from evaluator.stl_engines import ENGINES, EngineMismatch
@@ -116,6 +116,11 @@ def event_line(event: Event) -> str:
         return (f"NEAR     {event.node_id}  {event.start:.1f}-{event.end:.1f} s  robustness down "
                 f"to {event.least_robustness:.3f} at {event.t_least:.1f} s (margin "
                 f"{event.warn:g}; not a violation)")
+    if isinstance(event, OddChange):
+        what = {"outside": "OUTSIDE the ODD", "unknown": "conditions NOT REPORTED",
+                "inside": "inside the ODD again"}[event.state]  # fmt: skip
+        because = f" ({event.because})" if event.because else ""
+        return f"ODD      {event.node_id}  {what} from {event.t:.1f} s{because}"
     if isinstance(event, DataGap):
         return (f"NO DATA  {event.node_id}  {event.start:.1f}-{event.end:.1f} s  "
                 f"({event.ticks} ticks; missing {', '.join(event.missing)})")
@@ -154,7 +159,8 @@ def _run_single(args, case, spec, formats: tuple[str, ...]) -> int:
     labels = batch.labels_for(stream, args.labels)
 
     def on_event(event: Event) -> None:
-        if live and not args.quiet and isinstance(event, Episode | EpisodeOpen | NearMiss):
+        if live and not args.quiet and isinstance(event,
+                                                  Episode | EpisodeOpen | NearMiss | OddChange):
             print(event_line(event), flush=True)
 
     def progress(frames: int, t: float) -> None:

@@ -257,3 +257,24 @@ def test_the_accepted_odd_is_a_product_or_its_combinations():
     assert len(partial.combinations) == 3
     assert parse_odd(odd_to_data(partial)) == partial  # what casewatch odd writes reads back
     assert accepted_odd(report([("fog", "day", False)])) is None
+
+
+def test_leaving_and_reentering_the_odd_are_events():
+    from casewatch.commands.run import event_line
+    from evaluator.eventlog import event_record
+    from evaluator.result import OddChange
+
+    result = load_text(CASE, "case.yaml")
+    spec, _ = compile_case(result.case)
+    seen: list = []
+    ev = Evaluator(result.case, spec, on_event=seen.append)
+    values = rows(*[(0.1, 3.5, 10)] * 5)
+    clear, fog = dict(CLEAR), dict(FOG)
+    run(ev, values, [clear, fog, fog, {}, clear])
+    changes = [e for e in seen if isinstance(e, OddChange)]
+    assert [(e.t, e.state, e.because) for e in changes] == [
+        (0.1, "outside", "environment.weather"), (0.3, "unknown", "environment.weather"),
+        (0.4, "inside", None)]
+    assert event_line(changes[0]) == ("ODD      C1  OUTSIDE the ODD from 0.1 s "
+                                      "(environment.weather)")
+    assert event_record(changes[2])["event"] == "odd_change"
