@@ -382,6 +382,7 @@ class Evaluator:
                 assumption=s.formula.assumption.source if s.formula.assumption else None,
                 contract_use=s.formula.contract_use,
                 ticks_outside_assumption=s.ticks_outside,
+                rule=s.formula.rule,
             )
             for s in self.states
         ]

@@ -212,6 +212,7 @@ class FormulaStats(_Record):
     assumption: str | None = None
     contract_use: str | None = None
     ticks_outside_assumption: int = 0
+    rule: str | None = None  # the traffic rule a hazard instantiates (docs/traffic-rules.md)
 
 
 class FormulaTally(_Record):

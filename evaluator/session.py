@@ -45,6 +45,7 @@ from monitor.bags.reader import BagError, BagReader, is_bag, read_bag
 from monitor.engine import MetricEngine
 from monitor.frames import Coverage, Header
 from monitor.reader import StreamError, read_stream
+from monitor.world import condition_values
 from safety_case.model import Case, NodeType
 from spec.model import CompiledFormula, CompiledSpec
 
@@ -163,6 +164,7 @@ def evaluate_stream(
                 if frame.odd:
                     conditions = {**conditions, **frame.odd}
                 values = engine.step(frame)
+                values.update(condition_values(conditions))
                 if recorder is not None:
                     recorder.add(frame.t, values)
                 t2 = time.perf_counter()

@@ -34,6 +34,7 @@ from monitor.situation import (
     neighbours,
     time_to_collision,
 )
+from monitor.world import WORLD_SIGNALS
 from safety_case.model import MetricParams
 from safety_case.signals import (
     PAIR_METRICS,
@@ -192,8 +193,12 @@ class MetricEngine:
         self._timed("comfort", self._comfort, frame.t, states, out)
         self._timed("situation", self._situation, frame.t, states, out)
         self._timed("safety_score", self._safety, frame.t, states, out)
+        if frame.world is not None:
+            out.update(frame.world)
         for key, val in frame.signals.items():
-            if key not in out:
+            # a world input may also come as a scalar signal (a bag topic, a script), unless
+            # the frame's `world` reported it
+            if key not in out or (key in WORLD_SIGNALS and out[key] is None):
                 out[key] = val
         return out
 

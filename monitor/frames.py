@@ -212,6 +212,8 @@ class Frame:
     #: conditions that change at this tick (flattened `odd`: `environment.weather` -> "fog"),
     #: kept until a later frame changes them again; None: no change (docs/odd.md)
     odd: dict[str, str | float | bool] | None = None
+    #: the world inputs as signal values (monitor.world); None: the frame reports no world
+    world: dict[str, float | None] | None = None
 
 
 @dataclass(frozen=True, slots=True)

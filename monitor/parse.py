@@ -27,6 +27,7 @@ from monitor.frames import (
     is_convex,
 )
 from monitor.jit import kernel
+from monitor.world import WorldError, parse_world
 from safety_case.model import OddValue
 from safety_case.odd import OddError, flatten_conditions
 
@@ -413,7 +414,13 @@ def parse_frame(obj: Any, known_channels: Iterable[str] | None = None, line: int
             odd = flatten_conditions(d["odd"], "odd")
         except OddError as exc:
             raise FrameDefect("wrong-type", str(exc)) from None
-    return Frame(t=t, channels=channels, signals=signals, line=line, odd=odd)
+    world = None
+    if d.get("world") is not None:
+        try:
+            world = parse_world(d["world"])
+        except WorldError as exc:
+            raise FrameDefect("wrong-type", str(exc)) from None
+    return Frame(t=t, channels=channels, signals=signals, line=line, odd=odd, world=world)
 
 
 def parse_header(obj: Any) -> Header:

@@ -1,10 +1,12 @@
-"""The contract library: named assume-guarantee contracts a case instantiates with `use:`.
+"""The libraries of named formulas a case instantiates with `use:`: assume-guarantee contracts
+(`contract: {use: ...}`, libraries/contracts.yaml) and traffic rules (`hazard: {use: ...}`,
+libraries/traffic-rules.yaml).
 
-The library is data (`libraries/contracts.yaml`, shipped in the package): each contract has a
-text, parameters with defaults and bounds, the stream signals it needs declared, and an
-assume/guarantee pair of formula templates. Expanding one substitutes the parameters into the
-templates, so what the compiler sees is an ordinary formula: one language, one checker, one
-evaluator for library and hand-written contracts alike.
+A library is data shipped in the package: each entry has a text, parameters with defaults and
+bounds, the stream signals it needs declared, and formula templates (`assume`/`guarantee`, or
+`when`). Expanding one substitutes the parameters into the templates, so what the compiler sees
+is an ordinary formula: one language, one checker, one evaluator for library and hand-written
+formulas alike.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ import yaml
 from spec.emit import number_text
 
 LIBRARY = "contracts"
+RULES = "traffic-rules"
 _PLACE = re.compile(r"\{([A-Za-z_][A-Za-z0-9_]*)(?::([a-z]+))?\}")
 _IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 
@@ -48,32 +51,47 @@ class Param:
     description: str
 
 
+#: The formula templates an entry of each library has (the others are its data).
+FORMULA_KEYS = ("assume", "guarantee", "when")
+
+
 @dataclass(frozen=True)
 class Template:
     name: str
     text: str
     needs: dict[str, str]  # declared stream signals it reads -> what they are
     params: dict[str, Param]
-    assume: str | None
-    guarantee: str
+    formulas: dict[str, str]  # assume / guarantee (contracts) or when (rules) -> template
+    data: dict[str, Any]  # the rest of the entry (a rule's durations and penalties)
+
+    @property
+    def assume(self) -> str | None:
+        return self.formulas.get("assume")
+
+    @property
+    def guarantee(self) -> str:
+        return self.formulas["guarantee"]
 
 
 @cache
-def library() -> dict[str, Template]:
-    """Every contract of the shipped library, by name."""
+def library(name: str = LIBRARY) -> dict[str, Template]:
+    """Every entry of the shipped library `name` (contracts, traffic-rules), by name."""
     raw = yaml.safe_load(
-        resources.files("safety_case").joinpath("libraries", "contracts.yaml").read_text("utf-8")
+        resources.files("safety_case").joinpath("libraries", f"{name}.yaml").read_text("utf-8")
     )
     out: dict[str, Template] = {}
-    for name, entry in raw["contracts"].items():
+    for key, entry in raw["entries"].items():
         params = {
             p: Param(p, spec.get("kind", "number"), spec.get("default"), spec.get("min"),
                      spec.get("max"), bool(spec.get("integer", False)), spec.get("unit", ""),
                      spec.get("description", ""))
             for p, spec in (entry.get("params") or {}).items()
         }
-        out[name] = Template(name, entry["text"], dict(entry.get("needs") or {}), params,
-                             entry.get("assume"), entry["guarantee"])  # fmt: skip
+        formulas = {k: entry[k] for k in FORMULA_KEYS if entry.get(k)}
+        data = {k: v for k, v in entry.items()
+                if k not in (*FORMULA_KEYS, "text", "needs", "params")}  # fmt: skip
+        out[key] = Template(key, entry["text"], dict(entry.get("needs") or {}), params,
+                            formulas, data)  # fmt: skip
     return out
 
 
@@ -140,26 +158,35 @@ def substitute(text: str, values: dict[str, float | str], period: float) -> str:
     return _PLACE.sub(fill, text)
 
 
-def expand(use: str, given: dict[str, Any], channels: list[str], declared: dict[str, str],
-           period: float) -> tuple[Template, dict[str, float | str], str | None, str]:  # fmt: skip
-    """(template, resolved parameters, assume text, guarantee text) for `use: NAME`; raises
-    `ContractError` for an unknown contract, parameter or undeclared needed signal."""
-    contracts = library()
-    name = use.removeprefix(f"{LIBRARY}/")
-    template = contracts.get(name)
+def instantiate(use: str, given: dict[str, Any], channels: list[str], declared: dict[str, str],
+                period: float, name: str = LIBRARY
+                ) -> tuple[Template, dict[str, float | str], dict[str, str]]:  # fmt: skip
+    """(template, resolved parameters, formula texts by key) for `use: ENTRY` of library
+    `name`; raises `ContractError` for an unknown entry, parameter or undeclared signal."""
+    entries = library(name)
+    key = use.removeprefix(f"{name}/")
+    template = entries.get(key)
+    what = "contract" if name == LIBRARY else "rule"
     if template is None:
         import difflib
 
-        close = difflib.get_close_matches(name, list(contracts), n=1)
+        close = difflib.get_close_matches(key, list(entries), n=1)
         mean = f"; did you mean {close[0]!r}?" if close else ""
-        raise ContractError(f"no contract {use!r} in the contract library{mean}", "use",
-                            f"the library's contracts: {', '.join(contracts)}")  # fmt: skip
+        raise ContractError(f"no {what} {use!r} in the {name} library{mean}", "use",
+                            f"the library's {what}s: {', '.join(entries)}")  # fmt: skip
     missing = [s for s in template.needs if s not in declared]
     if missing:
         lines = ", ".join(f"{s}: {template.needs[s]}" for s in missing)
-        raise ContractError(f"contract {name} reads the stream signal(s) {', '.join(missing)}, "
+        raise ContractError(f"{what} {key} reads the stream signal(s) {', '.join(missing)}, "
                             "which monitor.signals does not declare", "use",
                             f"declare them: monitor: {{signals: {{{lines}}}}}")  # fmt: skip
     values = resolve_params(template, given, channels)
-    assume = substitute(template.assume, values, period) if template.assume else None
-    return template, values, assume, substitute(template.guarantee, values, period)
+    texts = {k: substitute(v, values, period) for k, v in template.formulas.items()}
+    return template, values, texts
+
+
+def expand(use: str, given: dict[str, Any], channels: list[str], declared: dict[str, str],
+           period: float) -> tuple[Template, dict[str, float | str], str | None, str]:  # fmt: skip
+    """(template, resolved parameters, assume text, guarantee text) for a library contract."""
+    template, values, texts = instantiate(use, given, channels, declared, period)
+    return template, values, texts.get("assume"), texts["guarantee"]

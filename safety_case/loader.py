@@ -24,7 +24,7 @@ from pathlib import Path
 from pydantic import BaseModel, ValidationError
 
 from safety_case.codes import finding
-from safety_case.contracts import ContractError, expand
+from safety_case.contracts import RULES, ContractError, expand, instantiate
 from safety_case.findings import CaseError, Finding, has_errors
 from safety_case.model import (
     Case,
@@ -474,7 +474,7 @@ class _Builder:
                 undeveloped=raw.undeveloped,
                 url=raw.url,
                 spi=self.spi(raw, entries),
-                hazard=self.hazard(raw, entries),
+                hazard=self.hazard(node_id, raw, entries),
                 contract=self.contract(node_id, raw, entries),
                 odd=self.odd(node_id, raw, entries),
                 gsn={k: v for k in GSN_NODE_ATTRIBUTES if (v := getattr(raw, k)) is not None},
@@ -516,18 +516,57 @@ class _Builder:
             formula_mark=spi_entries[formula_key].value.content_mark,
         )
 
-    def hazard(self, raw: RawNode, entries: dict) -> HazardBinding | None:
+    def hazard(self, node_id: str, raw: RawNode, entries: dict) -> HazardBinding | None:
         if raw.hazard is None:
             return None
+        h = raw.hazard
         hazard_entries = entries["hazard"].value.entries()
+        if h.use is None:
+            return HazardBinding(
+                when=h.when or "",
+                merge_gap=h.merge_gap,
+                min_duration=h.min_duration,
+                warn=h.warn,
+                mark=entries["hazard"].key_mark,
+                formula_mark=hazard_entries["when"].value.content_mark,
+            )
+        use_mark = hazard_entries["use"].value.content_mark
+        monitor = self.monitor_config
+        if monitor is None:
+            if not self.monitor_given:
+                self.add("CW008", f"node {node_id}: a library rule needs the `monitor` block of "
+                         "its file", use_mark)  # fmt: skip
+            self.invalid.add(node_id)
+            return None
+        try:
+            template, values, texts = instantiate(h.use, dict(h.params), list(monitor.channels),
+                                                  monitor.signals, monitor.period,
+                                                  RULES)  # fmt: skip
+        except ContractError as exc:
+            self.add("CW008", f"node {node_id}: {exc}", self._param_mark(exc, hazard_entries,
+                                                                         use_mark), exc.hint)
+            self.invalid.add(node_id)
+            return None
+        data = template.data
         return HazardBinding(
-            when=raw.hazard.when,
-            merge_gap=raw.hazard.merge_gap,
-            min_duration=raw.hazard.min_duration,
-            warn=raw.hazard.warn,
-            mark=entries["hazard"].key_mark,
-            formula_mark=hazard_entries["when"].value.content_mark,
-        )
+            when=texts["when"], use=template.name, params=values, from_library=True,
+            merge_gap=h.merge_gap if h.merge_gap is not None else data.get("merge_gap"),
+            min_duration=(h.min_duration if h.min_duration is not None
+                          else data.get("min_duration")),
+            warn=h.warn, mark=entries["hazard"].key_mark, formula_mark=use_mark,
+        )  # fmt: skip
+
+    @staticmethod
+    def _param_mark(exc: ContractError, keyed: dict, fallback: Mark) -> Mark:
+        """Where a library error points: the offending parameter (its key for an unknown one,
+        its value otherwise), else `fallback` (the `use:` value)."""
+        if not exc.key.startswith("params") or "params" not in keyed:
+            return fallback
+        name = exc.key.partition(".")[2]
+        params = keyed["params"].value.entries() if keyed["params"].value.kind == "map" else {}
+        if name in params:
+            return params[name].key_mark if exc.at_key else params[name].value.mark
+        return keyed["params"].key_mark
 
     def contract(self, node_id: str, raw: RawNode, entries: dict) -> ContractBinding | None:
         """`contract:`, a library contract expanded with its parameters (CW008 when it cannot
@@ -559,16 +598,8 @@ class _Builder:
             _, values, assume, guarantee = expand(c.use, dict(c.params), list(monitor.channels),
                                                   monitor.signals, monitor.period)  # fmt: skip
         except ContractError as exc:
-            where = at("use")
-            if exc.key.startswith("params") and "params" in keyed:
-                name = exc.key.partition(".")[2]
-                params = keyed["params"].value.entries() if keyed["params"].value.kind == "map" \
-                    else {}  # fmt: skip
-                if name in params:
-                    where = params[name].key_mark if exc.at_key else params[name].value.mark
-                else:
-                    where = keyed["params"].key_mark
-            self.add("CW008", f"node {node_id}: {exc}", where, exc.hint)
+            self.add("CW008", f"node {node_id}: {exc}", self._param_mark(exc, keyed, at("use")),
+                     exc.hint)
             self.invalid.add(node_id)
             return None
         use_mark = at("use")

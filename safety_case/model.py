@@ -109,7 +109,10 @@ class HazardBinding(BaseModel):
     min_duration: float | None = None
     warn: float | None = None  # near-miss margin (robustness units of `not when`)
     mark: Mark = Mark()
-    formula_mark: Mark = Mark()  # position of the `when` value
+    formula_mark: Mark = Mark()  # position of the `when` value (of `use` for a library rule)
+    use: str | None = None  # the traffic rule of the library it instantiates
+    params: dict[str, int | float | str] = {}  # that rule's parameters, resolved
+    from_library: bool = False  # `when` came from the library: findings point at `use`
 
 
 class ContractBinding(BaseModel):

@@ -217,13 +217,27 @@ class RawSpi(BaseModel):
 
 
 class RawHazard(BaseModel):
-    """`hazard:` as written."""
+    """`hazard:` as written: a `when` condition, or a traffic rule from the library (`use`,
+    with `params`)."""
 
     model_config = ConfigDict(extra="forbid")
-    when: Text
+    when: Text | None = None
+    use: Text | None = None
+    params: dict[StrictStr, StrictStr | StrictInt | float] = {}
     merge_gap: OptionalDuration = None
     min_duration: OptionalDuration = None
     warn: OptionalMargin = None
+
+    @model_validator(mode="after")
+    def _shape(self) -> RawHazard:
+        if self.use is None and self.params:
+            raise PydanticCustomError(
+                "spi_shape", "`params` set the parameters of a library rule: add `use`")
+        if (self.when is None) == (self.use is None):
+            raise PydanticCustomError(
+                "spi_shape", "a hazard needs `when` (a condition) or `use` (a traffic rule of "
+                "the library, docs/traffic-rules.md), not both")
+        return self
 
 
 class RawContract(BaseModel):

@@ -65,6 +65,27 @@ GLOBAL_METRICS: dict[str, str] = {
     "crpps_mean": "Cross-Channel Planned Path Similarity from the mean Frechet distance",
 }
 
+#: World inputs (a frame's `world`, monitor/world.py) and condition signals (meta.odd): one
+#: value per tick, no channel. Kept in step with monitor.world by a test.
+WORLD_METRICS: dict[str, str] = {
+    "speed_limit": "speed limit of the ego's lane [m/s]",
+    "tl_state": "next traffic light: 0 none or off, 1 green, 2 yellow, 3 red",
+    "tl_distance": "distance to the traffic light's stop line [m] (1000: none ahead)",
+    "stop_distance": "distance to the next stop sign's stop line [m] (1000: none ahead)",
+    "marking": "lane marking being crossed: 0 none, 1 broken, 2 solid, 3 double solid",
+    "indicator": "indicator: 0 off, 1 left, 2 right",
+    "low_beam": "low beam: 1 on, 0 off",
+    "fog_lights": "fog lights: 1 on, 0 off",
+    "collision_at_fault": "contacts this tick with the ego at fault",
+    "collision_victim": "contacts this tick with the other party at fault",
+    "collision_party": "first at-fault contact: 0 none, 1 pedestrian, 2 vehicle, 3 two-wheeler, "
+    "4 object",
+    "route_progress": "distance driven along the route [m]",
+    "route_length": "length of the route [m]",
+    "night": "1 when the conditions say environment.light is night",
+    "fog": "1 when the conditions say environment.weather is fog",
+}
+
 SAFETY_SCORE = "ss"
 SAFETY_SCORE_NAME = "Safety score (time to collision and post-encroachment time)"
 
@@ -106,6 +127,8 @@ def builtin_signals(channels: list[str] | tuple[str, ...]) -> dict[str, SignalIn
             out[name] = SignalInfo(name, metric, "pair", (a, b), f"{desc}, {a} vs {b}")
     for metric, desc in GLOBAL_METRICS.items():
         out[metric] = SignalInfo(metric, metric, "global", chans, desc)
+    for metric, desc in WORLD_METRICS.items():
+        out[metric] = SignalInfo(metric, metric, "global", (), f"{desc} (world input)")
     for metric, desc in CHANNEL_METRICS.items():
         out[metric] = SignalInfo(metric, metric, "channel", chans, f"{desc}, worst channel")
         for c in chans:

@@ -171,6 +171,7 @@ def _hazard_source(node: Node, hazard: HazardBinding) -> _Source:
         merge_gap=hazard.merge_gap,
         min_duration=hazard.min_duration,
         warn=hazard.warn,
+        fixed=hazard.from_library,
     )
 
 
@@ -390,6 +391,7 @@ def _compile_one(
         horizon=float(past_horizon(monitored, period) * period),
         future_horizon=float(future_depth(monitored, period) * period),
         warmup_ticks=sum_warmup(monitored, period),
+        rule=src.node.hazard.use if src.kind == "hazard" and src.node.hazard else None,
     )
     return compiled, findings
 

@@ -47,6 +47,7 @@ class CompiledFormula(BaseModel):
     #: "outside assumption" where it fails (docs/contracts.md). Its id is `<id>.assume`.
     assumption: CompiledFormula | None = None
     contract_use: str | None = None  # the library contract instantiated (`use:`), if any
+    rule: str | None = None  # the traffic rule a hazard instantiates (`hazard: {use: ...}`)
 
     def monitored(self) -> list[CompiledFormula]:
         """This formula and its assumption: every formula a monitor judges for it."""

@@ -1,0 +1,154 @@
+"""World inputs: what a simulator (or the vehicle) says about the ego's situation at a tick, as
+signals the traffic rules read (docs/streams.md "World inputs", docs/traffic-rules.md).
+
+A frame's `world` describes speed limits, signals, stop signs, the lane marking being crossed,
+the indicator and lights, contacts and route progress. Inside a reported `world`, an absent
+traffic light, stop sign, marking or contact list means *there is none* (the signals read
+their "none" values: nothing to run is not missing data), while an absent speed limit,
+indicator, lights or route means *not reported* (no value: a rule reading it has a data gap).
+A frame without `world` reports nothing.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+#: Distance [m] a traffic light or stop line reads when there is none ahead (the rules compare
+#: distances, so "none" must be a number far away, like the situation signals' GAP_CAP).
+NONE_AHEAD = 1000.0
+
+LIGHT_STATES = {"off": 0.0, "green": 1.0, "yellow": 2.0, "red": 3.0}
+MARKINGS = {"broken": 1.0, "solid": 2.0, "double_solid": 3.0}
+INDICATOR = {"off": 0.0, "left": 1.0, "right": 2.0}
+PARTIES = {"pedestrian": 1.0, "vehicle": 2.0, "two_wheeler": 3.0, "object": 4.0}
+
+#: The world signals, name -> meaning (the catalogue `safety_case.signals` lists them too).
+WORLD_SIGNALS: dict[str, str] = {
+    "speed_limit": "speed limit of the ego's lane [m/s]",
+    "tl_state": "state of the next traffic light: 0 none or off, 1 green, 2 yellow, 3 red",
+    "tl_distance": f"distance to its stop line [m] (negative once past; {NONE_AHEAD:g}: none)",
+    "stop_distance": f"distance to the next stop line of a stop sign [m] ({NONE_AHEAD:g}: none)",
+    "marking": "lane marking the ego crosses: 0 none, 1 broken, 2 solid, 3 double solid",
+    "indicator": "indicator: 0 off, 1 left, 2 right",
+    "low_beam": "low beam on: 1, off: 0",
+    "fog_lights": "fog lights on: 1, off: 0",
+    "collision_at_fault": "contacts this tick where the ego is at fault",
+    "collision_victim": "contacts this tick where the other party is at fault",
+    "collision_party": "party of the first at-fault contact: 0 none, 1 pedestrian, 2 vehicle, "
+    "3 two-wheeler, 4 object",
+    "route_progress": "distance driven along the route [m]",
+    "route_length": "length of the route [m]",
+}
+
+
+class WorldError(ValueError):
+    """A `world` entry that cannot be read; the message names the key."""
+
+
+@dataclass(frozen=True, slots=True)
+class Contact:
+    other: str
+    party: str
+    ego_at_fault: bool
+
+
+def _num(v: Any, where: str, allow_negative: bool = True) -> float:
+    if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+        raise WorldError(f"{where}: expected a finite number, got {v!r:.40}")
+    if not allow_negative and v < 0:
+        raise WorldError(f"{where}: expected a number >= 0, got {v!r}")
+    return float(v)
+
+
+def _choice(v: Any, choices: dict[str, float], where: str) -> float:
+    if v not in choices:
+        raise WorldError(f"{where}: expected one of {', '.join(choices)}, got {v!r:.40}")
+    return choices[v]
+
+
+def _bool(v: Any, where: str) -> float:
+    if not isinstance(v, bool):
+        raise WorldError(f"{where}: expected true or false, got {v!r:.40}")
+    return 1.0 if v else 0.0
+
+
+def _map(v: Any, where: str) -> dict:
+    if not isinstance(v, dict):
+        raise WorldError(f"{where}: expected an object, got {v!r:.40}")
+    return v
+
+
+KEYS = ("speed_limit", "traffic_light", "stop_sign", "marking", "indicator", "lights",
+        "collisions", "route")  # fmt: skip
+
+
+def parse_world(raw: Any) -> dict[str, float | None]:
+    """A frame's `world` as world-signal values (see the module docstring); `WorldError` for
+    anything malformed."""
+    w = _map(raw, "world")
+    unknown = sorted(set(w) - set(KEYS))
+    if unknown:
+        raise WorldError(f"world.{unknown[0]}: unknown key (known: {', '.join(KEYS)})")
+    out: dict[str, float | None] = dict.fromkeys(WORLD_SIGNALS)
+    if w.get("speed_limit") is not None:
+        out["speed_limit"] = _num(w["speed_limit"], "world.speed_limit", allow_negative=False)
+    light = w.get("traffic_light")
+    out["tl_state"], out["tl_distance"] = 0.0, NONE_AHEAD
+    if light is not None:
+        light = _map(light, "world.traffic_light")
+        out["tl_state"] = _choice(light.get("state"), LIGHT_STATES, "world.traffic_light.state")
+        out["tl_distance"] = _num(light.get("distance"), "world.traffic_light.distance")
+    stop = w.get("stop_sign")
+    out["stop_distance"] = NONE_AHEAD
+    if stop is not None:
+        out["stop_distance"] = _num(_map(stop, "world.stop_sign").get("distance"),
+                                    "world.stop_sign.distance")  # fmt: skip
+    marking = w.get("marking")
+    out["marking"] = 0.0 if marking is None else _choice(marking, MARKINGS, "world.marking")
+    if w.get("indicator") is not None:
+        out["indicator"] = _choice(w["indicator"], INDICATOR, "world.indicator")
+    if w.get("lights") is not None:
+        lights = _map(w["lights"], "world.lights")
+        if lights.get("low_beam") is not None:
+            out["low_beam"] = _bool(lights["low_beam"], "world.lights.low_beam")
+        if lights.get("fog") is not None:
+            out["fog_lights"] = _bool(lights["fog"], "world.lights.fog")
+    contacts = w.get("collisions") or []
+    if not isinstance(contacts, list):
+        raise WorldError(f"world.collisions: expected a list, got {contacts!r:.40}")
+    at_fault = victim = 0
+    party = 0.0
+    for k, c in enumerate(contacts):
+        where = f"world.collisions[{k}]"
+        c = _map(c, where)
+        kind = _choice(c.get("with"), PARTIES, f"{where}.with")
+        if _bool(c.get("ego_at_fault"), f"{where}.ego_at_fault"):
+            at_fault += 1
+            party = party or kind
+        else:
+            victim += 1
+    out["collision_at_fault"], out["collision_victim"] = float(at_fault), float(victim)
+    out["collision_party"] = party
+    if w.get("route") is not None:
+        route = _map(w["route"], "world.route")
+        out["route_progress"] = _num(route.get("progress"), "world.route.progress")
+        out["route_length"] = _num(route.get("length"), "world.route.length",
+                                   allow_negative=False)  # fmt: skip
+    return out
+
+
+#: Condition signals: what the conditions (meta.odd, frame odd) say, as numbers rules read.
+CONDITION_SIGNALS: dict[str, str] = {
+    "night": "1 when the conditions say environment.light is night, else 0",
+    "fog": "1 when the conditions say environment.weather is fog, else 0",
+}
+
+
+def condition_values(conditions: dict) -> dict[str, float | None]:
+    """`night` and `fog` from the reported conditions (no value when not reported)."""
+    light = conditions.get("environment.light")
+    weather = conditions.get("environment.weather")
+    return {"night": None if light is None else float(light == "night"),
+            "fog": None if weather is None else float(weather == "fog")}  # fmt: skip

@@ -1,0 +1,105 @@
+"""The traffic-rule library: each rule instantiated on a hazard node and judged on hand-made
+tick sequences (one event per contact, the crossing tick of a red light, a stop before a stop
+line), and its errors."""
+
+from __future__ import annotations
+
+from evaluator.core import Evaluator
+from safety_case.contracts import RULES, library
+from safety_case.loader import load_text
+from spec.compiler import compile_case
+
+HEAD = """\
+module: {name: rules}
+monitor: {channels: [lav, tfuse], merge_gap: 1s}
+G1:
+  text: the ego obeys the traffic rules
+  supportedBy: [Sn1]
+Sn1: {text: the monitors ran}
+CSn1:
+  text: the rule
+  challenges: G1
+"""
+
+
+def events(hazard: str, ticks: list[dict[str, float | None]]) -> list[tuple[float, float]]:
+    """(start, end) of each hazard event over `ticks` (0.1 s apart)."""
+    result = load_text(HEAD + f"  hazard: {hazard}\n", "rules.yaml")
+    assert result.case is not None, [f.format() for f in result.findings]
+    spec, findings = compile_case(result.case)
+    assert spec is not None, [f.format() for f in findings]
+    ev = Evaluator(result.case, spec)
+    for i, values in enumerate(ticks):
+        ev.step(round(0.1 * i, 6), values)
+    ev.finish()
+    return [(e.start, e.end) for e in ev.episodes]
+
+
+def test_red_light_is_the_crossing_tick_under_red():
+    # the stop line is crossed between ticks 2 and 3 (red) and between 7 and 8 (green)
+    dist = [3.0, 2.0, 0.5, -0.5, -1.5, 3.0, 1.0, 0.2, -0.8, -2.0]
+    state = [3, 3, 3, 3, 3, 1, 1, 1, 1, 1]
+    ticks = [{"tl_state": s, "tl_distance": d} for s, d in zip(state, dist, strict=True)]
+    assert events("{use: red_light}", ticks) == [(0.3, 0.3)]
+
+
+def test_a_stop_sign_passed_without_stopping_and_one_passed_after_a_stop():
+    # first line: approached at 5 m/s, never below 0.3 m/s, passed at tick 4; second: stopped
+    # (0.1 m/s) 2 m before the line at tick 12, passed at tick 15
+    speed = [5, 5, 5, 5, 5, 5, 5, 3, 2, 1, 0.5, 0.2, 0.1, 1, 2, 3, 4]
+    dist = [4, 3.5, 3, 1, -0.5, -1, 20, 12, 8, 5, 3, 2.2, 2, 1.5, 0.4, -0.3, -1]
+    ticks = [{"ego_speed": v, "stop_distance": d} for v, d in zip(speed, dist, strict=True)]
+    assert events("{use: stop_sign}", ticks) == [(0.4, 0.4)]
+
+
+def test_one_collision_event_per_contact():
+    # contact 1 lasts three ticks, a gap of one tick, then contact 2 (merge_gap 0 for the rule)
+    at_fault = [0, 1, 1, 1, 0, 1, 0, 0]
+    ticks = [{"collision_at_fault": c} for c in at_fault]
+    assert events("{use: collision}", ticks) == [(0.1, 0.3), (0.5, 0.5)]
+    # a victim is no at-fault collision
+    ticks = [{"collision_at_fault": 0, "collision_victim": 1}] * 3
+    assert events("{use: collision}", ticks) == []
+    assert events("{use: collision_victim}", ticks) == [(0.0, 0.2)]
+
+
+def test_speeding_bands_last_half_a_second():
+    # limit 10 m/s: 10.5 (light) for 6 ticks, 12.5 (heavy) for 6 ticks, 10.5 for 2 ticks
+    speed = [10.0] + [10.5] * 6 + [12.5] * 6 + [10.5] * 2 + [9.0] * 12
+    ticks = [{"ego_speed": v, "speed_limit": 10.0} for v in speed]
+    # the two light stretches are 0.6 s apart, within the case's 1 s merge_gap: one event
+    assert events("{use: speeding_light}", ticks) == [(0.1, 1.4)]
+    assert events("{use: speeding_heavy}", ticks) == [(0.7, 1.2)]
+    assert events("{use: speeding_heavy, params: {heavy: 0.3}}", ticks) == []
+
+
+def test_markings_indicator_and_lights():
+    ticks = [{"marking": m, "indicator": i} for m, i in
+             [(0, 0), (1, 0), (1, 0), (0, 0), (1, 1), (2, 1), (3, 0), (0, 0)]]  # fmt: skip
+    assert events("{use: broken_no_indicator}", ticks) == [(0.1, 0.2)]
+    assert events("{use: solid_line}", ticks) == [(0.5, 0.5)]
+    assert events("{use: double_solid}", ticks) == [(0.6, 0.6)]
+    night = [{"night": 1, "low_beam": 0, "ego_speed": 5}] * 6 + [
+        {"night": 1, "low_beam": 1, "ego_speed": 5}] * 4 + [
+        {"night": 0, "low_beam": 0, "ego_speed": 5}] * 4
+    assert events("{use: no_headlights}", night) == [(0.0, 0.5)]
+
+
+def test_unknown_rules_and_parameters():
+    result = load_text(HEAD + "  hazard: {use: red_lite}\n", "rules.yaml")
+    (f,) = [f for f in result.findings if f.code == "CW008"]
+    assert "no rule 'red_lite' in the traffic-rules library; did you mean 'red_light'" in f.message
+    assert (f.line, f.col) == (10, 17)
+    result = load_text(HEAD + "  hazard: {use: stop_sign, params: {zone: 0}}\n", "rules.yaml")
+    assert "must lie in [0.5, 50] m" in result.findings[0].message
+    result = load_text(HEAD + "  hazard: {use: red_light, when: \"x > 1\"}\n", "rules.yaml")
+    assert result.findings[0].code == "CW018"
+
+
+def test_every_rule_has_its_penalties():
+    for rule in library(RULES).values():
+        data = rule.data
+        assert ("penalty" in data) != ("penalty_by_party" in data), rule.name
+        assert ("carla" in data) != ("carla_by_party" in data), rule.name
+        pairs = data.get("penalty_by_party", {"": data.get("penalty")}).values()
+        assert all(len(p) == 2 and 0 <= p[0] <= p[1] for p in pairs), rule.name
