@@ -135,6 +135,9 @@ class Episode(_Record):
     worst_robustness: float
     t_worst: float
     trace: list[list[TraceStep]]  # every path from node_id up to the root goal
+    # the ego's position at `start` (the trusted channel's estimate, docs/results.md)
+    x: float | None = None
+    y: float | None = None
 
 
 class NearMiss(_Record):
@@ -365,4 +368,8 @@ class RunResult(_Record):
     fail_on: Literal["any", "hazard", "spi", "never"] = "any"
     root_no_data: RootNoData | None = None  # None in results written before it existed
     conditions: list[ConditionStats] = []  # per combination of reported conditions
+    # the ego's driven path, [t, x, y] (the trusted channel's estimate), at most TRACK_POINTS
+    track: list[list[float]] = []
+    # penalty and CARLA scores of the traffic-rule events (evaluator.scoring); None: no rules
+    scores: dict | None = None
     odd: list[OddSummary] = []  # per context node with an `odd:` specification

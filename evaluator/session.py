@@ -17,6 +17,7 @@ from pathlib import Path
 
 from casewatch import __version__
 from evaluator.core import Evaluator, rtamt_monitor
+from evaluator.drive_log import DriveLog
 from evaluator.eventlog import Event, EventLog
 from evaluator.ground_truth import read_labels, score_events
 from evaluator.inputs import open_hashed, path_digest
@@ -30,6 +31,7 @@ from evaluator.result import (
     StreamInfo,
     Timings,
 )
+from evaluator.scoring import score_run
 from evaluator.signal_store import Columns, SignalRecorder
 from evaluator.stl_engines import (
     ENGINES,
@@ -133,6 +135,7 @@ def evaluate_stream(
     evaluator = Evaluator(case, spec, on_event=emit, series_points=options.series_points)
     columns = Columns(input_names(spec)) if whole_log else None
     conditions: dict = {}  # the stream's conditions (docs/odd.md), one mapping per change
+    where = DriveLog()  # the ego's position and what the scores read, per tick
     tick_conditions: list[dict] = []  # per tick, for the whole-log replay
     engine = MetricEngine(case.monitor.metrics, list(case.monitor.channels))
     recorder = None
@@ -175,6 +178,7 @@ def evaluate_stream(
                     evaluator.step(frame.t, values, conditions)
                 t3 = time.perf_counter()
                 arbitration.add(frame.t, engine.last_arbitration)
+                where.add(frame, engine.last_arbitration, values)
                 clock.metrics += t2 - t1
                 clock.judge += t3 - t2
                 if t_first is None:
@@ -220,6 +224,7 @@ def evaluate_stream(
         dropouts=dict(reader.dropouts),
         topics=reader.topic_report() if bag else {},
     )
+    where.place(evaluator.episodes)
     statuses = evaluator.node_statuses()
     root = next(s for s in statuses if s.node_id == spec.root_id)
     root_ticks = sum(root.ticks.values())
@@ -269,6 +274,9 @@ def evaluate_stream(
         ),
         conditions=evaluator.condition_stats(),
         odd=evaluator.odd_summaries(),
+        track=where.track(),
+        scores=score_run(evaluator.episodes, evaluator.formula_stats(), where.times(),
+                         where.columns(), case.monitor.period, case.monitor.scoring),
     )
 
 

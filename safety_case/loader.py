@@ -36,6 +36,7 @@ from safety_case.model import (
     Node,
     NodeType,
     OddSpec,
+    ScoringParams,
     SpiBinding,
 )
 from safety_case.odd import OddError, parse_odd, read_odd_file
@@ -83,7 +84,7 @@ _BOUND_ERRORS = frozenset(
     {"greater_than", "greater_than_equal", "less_than", "less_than_equal", "finite_number"}
 )
 #: Our own CW012 errors whose message already says everything.
-_OWN_MESSAGES = frozenset({"max_gap_below_period"})
+_OWN_MESSAGES = frozenset({"max_gap_below_period", "unknown_rule"})
 
 _EXPECTED = {
     "string_type": "text",
@@ -387,7 +388,8 @@ class _Builder:
                 "to monitor it, add e.g. `monitor: {channels: [lav, tfuse], period: 0.1s}`",
             )
             return None
-        levels = {(): MONITOR_KEYS, ("metrics",): METRIC_KEYS}
+        levels = {(): MONITOR_KEYS, ("metrics",): METRIC_KEYS,
+                  ("scoring",): tuple(ScoringParams.model_fields)}
         raw = self.validate(RawMonitor, entry.value, entry.key_mark, "`monitor`", levels)
         if not isinstance(raw, RawMonitor):
             return None
@@ -400,6 +402,7 @@ class _Builder:
             merge_gap=raw.merge_gap,
             min_duration=raw.min_duration,
             topics=raw.topics,
+            scoring=raw.scoring,
             mark=entry.key_mark,
         )
 

@@ -215,6 +215,27 @@ class ChannelCoverage(BaseModel):
     )
 
 
+class ScoringParams(BaseModel):
+    """`monitor.scoring:` the parameters of the penalty score and of the CARLA Leaderboard
+    score of a drive's traffic-rule events (docs/traffic-rules.md). Penalties and coefficients
+    default to the traffic-rules library's; these override them per rule (`collision` per party:
+    `collision.pedestrian`)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    c: float = Field(100.0, gt=0, le=1e6, description="scale of the time term")
+    alpha: float = Field(0.2, ge=0, le=10, description="slack on the reference time")
+    gamma: float = Field(0.7, ge=0, le=1e3, description="weight of the penalties")
+    v_avg: float | None = Field(
+        None, gt=0, le=100, description="reference speed [m/s]; none: the mean speed limit")
+    standstill: float = Field(0.3, ge=0, le=5, description="speed [m/s] counted as stopped")
+    stop_zone: float = Field(10.0, gt=0, le=100, description="stops this near [m] a red light "
+                             "or stop line count as stop time")
+    neither: float = Field(50.0, ge=0, le=1e4, description="penalty for neither low beam at "
+                           "night nor fog lights in fog at once (instead of both penalties)")
+    penalties: dict[str, tuple[float, float]] = {}  # rule -> (base, while speeding)
+    carla: dict[str, float] = {}  # rule -> CARLA infraction coefficient in (0, 1]
+
+
 class MonitorConfig(BaseModel):
     """The `monitor:` block: what is observed and how often."""
 
@@ -229,6 +250,7 @@ class MonitorConfig(BaseModel):
     #: the topic mapping for ROS 2 bags, as written: a path relative to the case, or inline
     #: (checked when a bag is read: monitor.bags.mapping, docs/bags.md); None: not given
     topics: str | dict | None = None
+    scoring: ScoringParams = ScoringParams()
     mark: Mark = Mark()
 
 

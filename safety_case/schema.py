@@ -26,7 +26,7 @@ from pydantic import (
 )
 from pydantic_core import PydanticCustomError
 
-from safety_case.model import ChannelCoverage, MetricParams, Threshold
+from safety_case.model import ChannelCoverage, MetricParams, ScoringParams, Threshold
 from safety_case.signals import SEP, builtin_signals
 
 # [0-9], not \d: \d also matches digits of other scripts, which float() reads (U+0661 -> 1.0)
@@ -408,6 +408,29 @@ def bounds_text(name: str) -> str:
     return f"{low}, {high}"
 
 
+def _check_scoring(scoring: ScoringParams) -> ScoringParams:
+    """Overrides name rules of the traffic-rules library, with sane values."""
+    from safety_case.contracts import RULES, library
+
+    rules = library(RULES)
+    names = {f"{r}.{party}" if by else r for r, t in rules.items()
+             for by in [t.data.get("penalty_by_party")] for party in (by or [None])}
+    for table, what in ((scoring.penalties, "penalties"), (scoring.carla, "carla")):
+        for name, value in table.items():
+            if name not in names:
+                raise PydanticCustomError(
+                    "unknown_rule", "scoring.{what}: no rule {name} (the rules: {known})",
+                    {"what": what, "name": repr(name), "known": ", ".join(sorted(names))})
+            values = value if isinstance(value, tuple) else (value,)
+            if any(not math.isfinite(v) or v < 0 for v in values) or (
+                    what == "carla" and not 0 < value <= 1):  # fmt: skip
+                raise PydanticCustomError(
+                    "unknown_rule", "scoring.{what}.{name}: {got} is no {expected}",
+                    {"what": what, "name": name, "got": repr(value), "expected":
+                     "coefficient in (0, 1]" if what == "carla" else "pair of penalties >= 0"})
+    return scoring
+
+
 class RawMonitor(BaseModel):
     """`monitor:` as written."""
 
@@ -422,6 +445,7 @@ class RawMonitor(BaseModel):
     # how ROS 2 bags feed the channels: a topics file (relative to the case) or the mapping
     # itself; its content is checked when a bag is read (monitor.bags.mapping, docs/bags.md)
     topics: StrictStr | dict | None = None
+    scoring: Annotated[ScoringParams, AfterValidator(_check_scoring)] = ScoringParams()
 
     @model_validator(mode="after")
     def _gap_covers_a_period(self) -> RawMonitor:
