@@ -19,6 +19,7 @@ import difflib
 import hashlib
 import re
 from dataclasses import dataclass, field
+from importlib import resources
 from pathlib import Path
 
 from pydantic import BaseModel, ValidationError
@@ -64,6 +65,12 @@ NODE_ID_RE = re.compile(r"^(CSn|CG|Sn|G|S|C|A|J)([0-9][A-Za-z0-9_.\-]*)$")
 #: gsn2x's other spelling: the prefix, `-` or `_`, then any name (`G-TopLevelGoal`)
 GSN2X_ID_RE = re.compile(r"^(CSn|CG|Sn|G|S|C|A|J)[-_]([A-Za-z0-9_.\-]+)$")
 RESERVED_KEYS: tuple[str, ...] = ("module", "monitor")
+#: Modules shipped with casewatch that `module.uses` finds by name when no file of that name
+#: lies next to the using file.
+PACKAGED_MODULES: dict[str, Path] = {
+    "traffic-rules": Path(str(resources.files("safety_case").joinpath(
+        "libraries", "traffic-rules.gsn.yaml"))),
+}
 RELATIONS: tuple[str, ...] = ("supportedBy", "inContextOf", "challenges")
 COUNTER_TYPES = frozenset({NodeType.COUNTER_GOAL, NodeType.COUNTER_SOLUTION})
 _TOP = Mark(line=1, col=1)  # where file-level findings (a missing block) point
@@ -203,9 +210,11 @@ def load_text(
     digest: str | None = None,
     used_by: tuple[str, ...] = (),
     loaded: set[str] | None = None,
+    monitor: MonitorConfig | None = None,
 ) -> LoadResult:
     """Compose, validate and build the case from `text`. `used_by`: the chain of modules that
-    `uses` this one (empty for the case file itself), for cycles and file names in findings."""
+    `uses` this one (empty for the case file itself), for cycles and file names in findings;
+    `monitor`: the using case's, which a module without its own monitors under."""
     if digest is None:
         digest = hashlib.sha256(text.encode("utf-8", "surrogatepass")).hexdigest()
     tree, findings = compose(text, path, marks_name_file=bool(used_by))
@@ -225,7 +234,7 @@ def load_text(
             )
         )
         return LoadResult(None, None, findings)
-    return _Builder(path, digest, findings, used_by, loaded).build(tree)
+    return _Builder(path, digest, findings, used_by, loaded, monitor).build(tree)
 
 
 class _Builder:
@@ -236,7 +245,9 @@ class _Builder:
         findings: list[Finding],
         used_by: tuple[str, ...] = (),
         loaded: set[str] | None = None,
+        inherited: MonitorConfig | None = None,
     ) -> None:
+        self.inherited = inherited
         self.path = path
         self.digest = digest
         self.findings = findings
@@ -259,8 +270,8 @@ class _Builder:
         module = self.module(entries.get("module"))
         monitor_entry = entries.get("monitor") or kept.get("monitor")
         monitor = None if self.used_by and monitor_entry is None else self.monitor(monitor_entry)
-        self.monitor_config = monitor
-        self.monitor_given = monitor_entry is not None  # written, though perhaps invalid
+        self.monitor_config = monitor if monitor is not None else self.inherited
+        self.monitor_given = monitor_entry is not None or self.inherited is not None
         nodes: dict[str, Node] = {}
         skipped: dict[str, Mark] = {}
         for key, entry in entries.items():
@@ -311,6 +322,8 @@ class _Builder:
         for k, name in enumerate(module.uses):
             mark = items[k].mark if k < len(items) else entry.key_mark  # type: ignore[attr-defined]
             target = Path(self.path).parent / name
+            if not target.exists() and name in PACKAGED_MODULES:
+                target = PACKAGED_MODULES[name]  # shipped with casewatch (traffic-rules)
             if str(target.resolve()) in chain:
                 self.add("CW028", f"module `uses` {name}, which uses this module again (a cycle: "
                          f"{' -> '.join(Path(c).name for c in chain)} -> {target.name})", mark)
@@ -331,7 +344,7 @@ class _Builder:
                          f"offset {exc.start})", mark, "save it as UTF-8")  # fmt: skip
                 continue
             used = load_text(text, str(target), hashlib.sha256(data).hexdigest(), chain,
-                             self.loaded)  # fmt: skip
+                             self.loaded, self.monitor_config)  # fmt: skip
             self.findings.extend(used.findings)
             if used.partial is None:
                 digest.update(hashlib.sha256(data).digest())

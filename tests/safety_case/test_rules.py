@@ -4,6 +4,8 @@ line), and its errors."""
 
 from __future__ import annotations
 
+import pytest
+
 from evaluator.core import Evaluator
 from safety_case.contracts import RULES, library
 from safety_case.loader import load_text
@@ -103,3 +105,25 @@ def test_every_rule_has_its_penalties():
         assert ("carla" in data) != ("carla_by_party" in data), rule.name
         pairs = data.get("penalty_by_party", {"": data.get("penalty")}).values()
         assert all(len(p) == 2 and 0 <= p[0] <= p[1] for p in pairs), rule.name
+
+
+def test_the_traffic_rules_module_is_included_by_name(tmp_path):
+    """`module.uses: [traffic-rules]` brings every rule under G_traffic_rules, expanded with
+    the using case's monitor (the module has none of its own)."""
+    from casewatch import api
+
+    case = tmp_path / "case.yaml"
+    case.write_text("module: {name: drive, uses: [traffic-rules]}\n"
+                    "monitor: {channels: [lav, tfuse], period: 50ms}\n"
+                    "G1:\n  text: The ego drives safely\n  supportedBy: [G_traffic_rules]\n")
+    c, spec = api.prepare(case)
+    rules = {f.rule for f in spec.formulas}
+    assert rules == set(library(RULES))
+    assert all(f.node_id == f"CSn_{f.rule}" for f in spec.formulas)
+    assert c.nodes["CSn_red_light"].challenges == ["G_traffic_rules"]
+    # stop_sign's `once[0:30]` is counted at the case's 50 ms period
+    assert next(f for f in spec.formulas if f.rule == "stop_sign").horizon == pytest.approx(30.0)
+    # a file of that name next to the case wins over the shipped module
+    (tmp_path / "traffic-rules").write_text("G_traffic_rules: {text: local, undeveloped: true}\n")
+    c, spec = api.prepare(case)
+    assert c.nodes["G_traffic_rules"].text == "local" and spec.formulas == []
