@@ -20,6 +20,7 @@ from typing import Any
 
 import yaml
 
+from safety_case.signals import available_signals
 from spec.emit import number_text
 
 LIBRARY = "contracts"
@@ -181,6 +182,15 @@ def instantiate(use: str, given: dict[str, Any], channels: list[str], declared: 
                             "which monitor.signals does not declare", "use",
                             f"declare them: monitor: {{signals: {{{lines}}}}}")  # fmt: skip
     values = resolve_params(template, given, channels)
+    known = available_signals(channels, declared)
+    for pname, param in template.params.items():
+        if param.kind == "signal" and values[pname] not in known:
+            where = f"params.{pname}" if pname in given else "use"
+            raise ContractError(
+                f"{what} {key} reads `{pname}` = {values[pname]!r}, which is no signal of this "
+                f"case ({param.description})", where,
+                f"declare it under monitor.signals, or set params.{pname} to a signal the case "
+                "has, e.g. lead_gap__<channel>")  # fmt: skip
     texts = {k: substitute(v, values, period) for k, v in template.formulas.items()}
     return template, values, texts
 

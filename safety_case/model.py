@@ -227,7 +227,7 @@ class ScoringParams(BaseModel):
     gamma: float = Field(0.7, ge=0, le=1e3, description="weight of the penalties")
     v_avg: float | None = Field(
         None, gt=0, le=100, description="reference speed [m/s]; none: the mean speed limit")
-    standstill: float = Field(0.3, ge=0, le=5, description="speed [m/s] counted as stopped")
+    standstill: float = Field(0.1, ge=0, le=5, description="speed [m/s] counted as stopped")
     stop_zone: float = Field(10.0, gt=0, le=100, description="stops this near [m] a red light "
                              "or stop line count as stop time")
     neither: float = Field(50.0, ge=0, le=1e4, description="penalty for neither low beam at "

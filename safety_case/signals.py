@@ -68,6 +68,7 @@ GLOBAL_METRICS: dict[str, str] = {
 #: World inputs (a frame's `world`, monitor/world.py) and condition signals (meta.odd): one
 #: value per tick, no channel. Kept in step with monitor.world by a test.
 WORLD_METRICS: dict[str, str] = {
+    "vehicle_speed": "the ego's speed from the vehicle (speedometer, simulator) [m/s]",
     "speed_limit": "speed limit of the ego's lane [m/s]",
     "tl_state": "next traffic light: 0 none or off, 1 green, 2 yellow, 3 red",
     "tl_distance": "distance to the traffic light's stop line [m] (1000: none ahead)",

@@ -119,6 +119,12 @@ def main(args: argparse.Namespace) -> int:
                              "in the streams (header meta.odd, docs/odd.md)")  # fmt: skip
         by = varying_attributes(runs) if args.by is None else \
             [b.strip() for b in args.by.split(",") if b.strip()]  # fmt: skip
+        if not by:  # every run under the same conditions: one cell, named by all of them
+            by = sorted({k for run in runs for c in run.result.conditions for k in c.attributes})
+        if not by:
+            raise UsageError("the runs report no conditions (every meta.odd is empty): there "
+                             "is no domain to tell apart; report them in the streams' header "
+                             "meta.odd (docs/odd.md)")  # fmt: skip
         for name in by:
             problem = attribute_problem(name, None)
             if problem or "." not in name:

@@ -121,3 +121,15 @@ def test_reports_show_the_contracts_and_the_odd(judged):
     html = render_html(result)
     assert "Operational design domain" in html and "outside ODD" in html
     assert "library contract <code>detection_accuracy</code>" in html
+
+
+def test_runs_under_one_condition_make_one_cell_named_by_all(judged, tmp_path, capsys):
+    one = tmp_path / "one"
+    one.mkdir()
+    for k in (0, 1):
+        shutil.copytree(judged / f"odd-highway-clear-day-r{k}", one / f"r{k}")
+    assert main(["odd", str(one / "r0"), str(one / "r1"), "-o", str(tmp_path / "o")]) == 0
+    domain = parse_odd(yaml.safe_load((tmp_path / "o" / "accepted-odd.yaml").read_text()))
+    assert domain.attributes["environment.weather"] == ["clear"]
+    assert domain.attributes["road.type"] == ["highway"]
+    assert "ACCEPTED" in capsys.readouterr().out

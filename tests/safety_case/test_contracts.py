@@ -59,8 +59,8 @@ def test_static_safety_hand_computed():
     f = compiled("{use: static_safety}")
     assert robustness(f, [{"lead_gap": 1.5}]) == [pytest.approx(-0.5)]  # margin 2 m
     # no leader (the cap) is outside the assumption, not a pass by 198 m
-    assert robustness(f.assumption, [{"lead_gap": GAP_CAP}]) == [0.0]
-    assert robustness(f.assumption, [{"lead_gap": 50.0}]) == [pytest.approx(150.0)]
+    assert robustness(f.assumption, [{"lead_gap": GAP_CAP}]) == [-1.0]
+    assert robustness(f.assumption, [{"lead_gap": 50.0}]) == [pytest.approx(149.0)]
 
 
 def test_passive_safety_hand_computed():
@@ -123,11 +123,12 @@ def test_a_hand_written_contract_and_an_override():
     assert g.source == "abs(lane_offset) < (lane_width - 1.9) / 2"
 
 
-def test_the_library_no_leader_bound_is_the_situation_cap():
-    """`lead_gap < 200` in the library means "there is a leader": 200 m is GAP_CAP."""
+def test_the_library_no_leader_bound_sits_below_the_situation_cap():
+    """`lead_gap < 199` in the library means "there is a leader": with none the gap reads
+    GAP_CAP (200 m), where `< 200` would hold with robustness 0."""
     for template in library().values():
         if template.assume and "lead_gap <" in template.assume:
-            assert f"lead_gap < {GAP_CAP:g}" in template.assume
+            assert f"lead_gap < {GAP_CAP - 1:g}" in template.assume
 
 
 def test_every_library_parameter_has_bounds_or_a_kind():
