@@ -15,7 +15,7 @@ from casewatch import __version__
 from casewatch.crash import report_crash
 
 COMMANDS = ("check", "compile", "run", "report", "tune", "calibrate", "diff", "export_scenarios",
-            "convert", "export_gsn", "odd")
+            "convert", "export_gsn", "odd", "compare")
 
 
 def build_parser() -> tuple[argparse.ArgumentParser, dict[str, object]]:

@@ -36,8 +36,8 @@ from safety_case.model import ScoringParams
 PARTY_NAMES = {v: k for k, v in PARTIES.items()}
 
 #: What the scores read per tick (besides the episodes).
-TICK_SIGNALS = ("ego_speed", "speed_limit", "route_progress", "route_length", "tl_state",
-                "tl_distance", "stop_distance", "collision_party")  # fmt: skip
+TICK_SIGNALS = ("vehicle_speed", "ego_speed", "speed_limit", "route_progress", "route_length",
+                "tl_state", "tl_distance", "stop_distance", "collision_party")  # fmt: skip
 
 
 def rule_penalty(rule: str, party: str | None, params: ScoringParams) -> tuple[float, float]:
@@ -66,7 +66,10 @@ def score_run(episodes: list[Episode], formulas: list[FormulaStats], t: np.ndarr
         return None
     events = sorted((e for e in episodes if e.formula_id in rule_of), key=lambda e: e.start)
     n = len(t)
-    speed, limit = ticks["ego_speed"], ticks["speed_limit"]
+    # the vehicle's own speed; a channel's estimate where the vehicle reports none
+    speed = np.where(np.isfinite(ticks["vehicle_speed"]), ticks["vehicle_speed"],
+                     ticks["ego_speed"])  # fmt: skip
+    limit = ticks["speed_limit"]
 
     def tick(time: float) -> int:
         return min(int(np.searchsorted(t, time - 1e-9)), n - 1)

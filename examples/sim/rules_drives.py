@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import shutil
 import sys
 import tempfile
 import time
@@ -769,6 +770,9 @@ def main(argv: list[str] | None = None) -> int:
                "agents": [a.name for a in AGENTS], "scenarios": [s.name for s in SCENARIOS],
                "label_totals": totals, "drives": index}
         (args.out / "index.json").write_text(json.dumps(doc, indent=1) + "\n")
+        # the road network, for the violation map of casewatch compare (--net)
+        shutil.copy(build_rules_net(args.out / ".net-build"), args.out / "rules.net.xml")
+        shutil.rmtree(args.out / ".net-build")
     for r, n in totals.items():
         print(f"{r:28s} {n:3d}")
     total = sum(e["bytes"] for e in index)
