@@ -5,8 +5,9 @@
     score = c * min(t_o / t, 1) * d - gamma * sum(penalties)
     t_o   = s / v_avg * (1 + alpha) + sum(stop times)
 
-`t` the drive's duration, `s` the route length, `d` the route completion (progress / length
-at the end), `v_avg` the reference speed (the time-mean speed limit unless the case sets it),
+`t` the drive's duration, `s` the distance driven along the route (its progress over the
+drive: `t_o` is the reference time for what was driven), `d` the route completion (progress /
+length at the end), `v_avg` the reference speed (the time-mean speed limit unless the case sets it),
 stop times the time the ego stood (speed below `standstill`) within `stop_zone` metres before
 a red light or a stop line. Each rule event adds its penalty, the "while speeding" one when the
 ego was above the speed limit at the event's first tick; an at-fault collision's penalty
@@ -125,9 +126,10 @@ def score_run(episodes: list[Episode], formulas: list[FormulaStats], t: np.ndarr
         out["per_rule"] = per_rule
         out["penalty_sum"] = total
         return out
-    last = int(np.flatnonzero(reported)[-1])
-    s = float(length[last])
-    d = float(np.clip(progress[last] / s, 0.0, 1.0))
+    first, last = (int(k) for k in np.flatnonzero(reported)[[0, -1]])
+    route = float(length[last])
+    d = float(np.clip(progress[last] / route, 0.0, 1.0))
+    s = max(float(progress[last] - progress[first]), 0.0)
     near_red = (ticks["tl_state"] > 2.5) & (ticks["tl_distance"] >= 0) & (
         ticks["tl_distance"] <= params.stop_zone)
     near_stop = (ticks["stop_distance"] >= 0) & (ticks["stop_distance"] <= params.stop_zone)
@@ -137,7 +139,8 @@ def score_run(episodes: list[Episode], formulas: list[FormulaStats], t: np.ndarr
     score = params.c * min(t_o / duration, 1.0) * d - params.gamma * total
     out["penalty"] = {
         "score": round(score, 6), "c": params.c, "t": round(duration, 6), "t_o": round(t_o, 6),
-        "d": round(d, 6), "route_length": s, "v_avg": round(v_avg, 6),
+        "d": round(d, 6), "route_length": route, "distance": round(s, 6),
+        "v_avg": round(v_avg, 6),
         "stop_time": round(stop_time, 6), "alpha": params.alpha, "gamma": params.gamma,
         "penalty_sum": total, "per_rule": per_rule,
     }  # fmt: skip

@@ -81,6 +81,29 @@ def _odd(result: RunResult) -> list[str]:
                      for o in result.odd], ["l", "l", "r", "r", "r", "l", "l"])]  # fmt: skip
 
 
+def _scores(result: RunResult) -> list[str]:
+    """The traffic-rule scores (docs/traffic-rules.md)."""
+    sc = result.scores
+    if not sc:
+        return []
+    out = ["", "## Traffic rules: scores", ""]
+    p, c = sc.get("penalty"), sc.get("carla")
+    if p is None:
+        out.append(f"No score: {md_escape(sc.get('reason'))}.")
+    else:
+        out += [f"- penalty score **{p['score']:.2f}** = {p['c']:g} x min({p['t_o']:.1f} s / "
+                f"{p['t']:.1f} s, 1) x {p['d']:.3f} - {p['gamma']:g} x {p['penalty_sum']:g}",
+                f"- CARLA driving score **{c['driving_score']:.2f}** = 100 x "
+                f"{c['route_completion']:.3f} x {c['infraction_penalty']:.3f}"]
+    rules = (p or sc).get("per_rule") or {}
+    if rules:
+        out += ["", *_table(["rule", "events", "while speeding", "penalty"],
+                            [[md_escape(k), str(r["events"]), str(r["while_speeding"]),
+                              f"{r['penalty']:g}"] for k, r in rules.items()],
+                            ["l", "r", "r", "r"])]  # fmt: skip
+    return out
+
+
 def render_markdown(result: RunResult) -> str:
     """The complete Markdown report of `result`."""
     view = build_view(result)
@@ -152,6 +175,7 @@ def render_markdown(result: RunResult) -> str:
         out.append("The case binds no SPI.")
     out += _contracts(result)
     out += _odd(result)
+    out += _scores(result)
     out += ["", "## Hazards", ""]
     if view.hazard_rows:
         labelled = view.labels_path is not None

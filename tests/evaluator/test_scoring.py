@@ -33,7 +33,7 @@ def ticks(n: int = 100) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     speed[30] = 12.0
     tl_state = np.where(t < 1.0, 3.0, 0.0)
     return t, {
-        "ego_speed": speed, "speed_limit": np.full(n, 10.0),
+        "vehicle_speed": speed, "ego_speed": np.full(n, np.nan), "speed_limit": np.full(n, 10.0),
         "route_progress": np.linspace(0.0, 80.0, n), "route_length": np.full(n, 100.0),
         "tl_state": tl_state, "tl_distance": np.where(t < 1.0, 5.0, 1000.0),
         "stop_distance": np.full(n, 1000.0), "collision_party": np.where(t >= 5.0, 1.0, 0.0),
@@ -45,8 +45,10 @@ def test_penalty_and_carla_scores_hand_computed():
     events = [event("R", 3.0), event("C", 5.0, 5.2), event("S", 7.0)]
     out = score_run(events, FORMULAS, t, cols, 0.1, ScoringParams())
     p = out["penalty"]
-    # t_o = 100 / 10 * 1.2 + 1.0 s standing at the red light = 13 s > t = 10 s: capped at 1
-    assert (p["t"], p["t_o"], p["stop_time"], p["d"], p["v_avg"]) == (10.0, 13.0, 1.0, 0.8, 10.0)
+    # 80 m driven: t_o = 80 / 10 * 1.2 + 1.0 s standing at the red light = 10.6 s > t = 10 s:
+    # capped at 1
+    assert (p["t"], p["t_o"], p["stop_time"], p["d"], p["v_avg"], p["distance"]) == (
+        10.0, 10.6, 1.0, 0.8, 10.0, 80.0)
     # red light while speeding 100, pedestrian collision 600, stop sign 40: 740
     assert p["penalty_sum"] == 740.0
     assert p["per_rule"]["red_light"] == {"events": 1, "while_speeding": 1, "penalty": 100.0}
@@ -68,8 +70,8 @@ def test_overrides_and_neither_light():
     # red light while speeding: 7; no headlights 30 + no fog lights 10 at once -> neither 50
     assert p["penalty_sum"] == 7.0 + 50.0
     assert p["per_rule"]["neither_light"]["penalty"] == 10.0
-    # t_o = 100 / 10 + 1.0 = 11 s over 10 s: capped; 10 * 1 * 0.8 - 57
-    assert p["score"] == pytest.approx(8.0 - 57.0)
+    # t_o = 80 / 10 + 1.0 = 9 s over 10 s: 10 * 0.9 * 0.8 - 57
+    assert p["score"] == pytest.approx(7.2 - 57.0)
     assert out["carla"]["driving_score"] == pytest.approx(100 * 0.8 * 0.5)
 
 
