@@ -34,8 +34,8 @@ _TABLE: tuple[tuple[str, Severity, str], ...] = (
         "unsupported YAML construct (alias, explicit tag, complex key, deep nesting)",
     ),
     ("CW007", "error", "number in a YAML 1.1-only notation (1_000, 1:30, 0b101, 017)"),
-    ("CW008", "error", "library contract cannot be expanded (unknown contract or parameter, "
-     "parameter out of range, undeclared signal)"),
+    ("CW008", "error", "library contract or rule cannot be expanded (unknown entry or "
+     "parameter, parameter out of range, undeclared signal)"),
     ("CW009", "error", "ODD specification cannot be used (unreadable, malformed, misplaced)"),
     ("CW010", "error", "missing `module` block"),
     ("CW011", "warning", "no `monitor` block: a pure argument, nothing to judge at run time"),
