@@ -13,6 +13,10 @@ Runs exactly what a user would type:
         --format none --quiet -o out/demo-odd-runs   # contracts over the ODD grid
     casewatch odd out/demo-odd-runs --by road.type,environment.weather,environment.light \
         -o out/demo-odd                       # the accepted domain, against the known degradation
+    casewatch run examples/rules/rules-case.yaml examples/data/rules --labels auto --jobs 2 \
+        --format none --quiet -o out/demo-rules    # traffic rules against SUMO's truth
+    casewatch compare out/demo-rules --net examples/data/rules/rules.net.xml \
+        -o out/demo-compare                   # drivers x scenarios, scores, violation map
     python -m examples.sim.heldout            # the same on fresh generator seeds (needs SUMO)
 
 The last step runs only when the simulator extra is installed (`pip install -e .[sim]`, which
@@ -41,6 +45,10 @@ ODD_GRID = DATA / "odd-grid"
 OUT_ODD_RUNS = Path("out") / "demo-odd-runs"
 OUT_ODD = Path("out") / "demo-odd"
 ODD_BY = "road.type,environment.weather,environment.light"
+RULES_CASE = REPO / "examples" / "rules" / "rules-case.yaml"
+RULES_DATA = DATA / "rules"
+OUT_RULES = Path("out") / "demo-rules"
+OUT_COMPARE = Path("out") / "demo-compare"
 
 
 def score_text(row: dict) -> str:
@@ -95,7 +103,29 @@ def main() -> int:
     code = odd_demo()
     if code not in (0, 1):
         return code
+    code = rules_demo()
+    if code not in (0, 1):
+        return code
     return heldout()
+
+
+def rules_demo() -> int:
+    """The traffic rules on the bundled SUMO rule drives, and the drivers compared."""
+    print(f"\n$ casewatch run {RULES_CASE.relative_to(REPO)} {RULES_DATA.relative_to(REPO)} "
+          f"--labels auto --jobs 2 --format none --quiet -o {OUT_RULES}")
+    code = cli(["run", str(RULES_CASE), str(RULES_DATA), "--labels", "auto", "--jobs", "2",
+                "--format", "none", "--quiet", "-o", str(OUT_RULES)])  # fmt: skip
+    if code not in (0, 1):
+        return code
+    truth = json.loads((OUT_RULES / "summary.json").read_text())["ground_truth"]
+    print("\nTraffic rules against SUMO's ground truth (all rule drives):")
+    for row in [*truth["per_hazard"], truth["overall"]]:
+        print(f"  {row['hazard']:>24}  {score_text(row)}")
+    net = RULES_DATA / "rules.net.xml"
+    print(f"\n$ casewatch compare {OUT_RULES} --net {net.relative_to(REPO)} -o {OUT_COMPARE}")
+    code = cli(["compare", str(OUT_RULES), "--net", str(net), "-o", str(OUT_COMPARE)])
+    print(f"Comparison and violation map: {(OUT_COMPARE / 'compare.html').resolve()}")
+    return code
 
 
 def odd_demo() -> int:
