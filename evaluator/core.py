@@ -275,6 +275,8 @@ class Evaluator:
             )
             state.ticks_no_data += skipped
             state.fresh = True
+            if state.assume is not None:  # a contract's assumption restarts too
+                state.assume.fresh = True
         for timeline in self.timelines.values():
             timeline.add_span(last_t + self.period, t - self.period, "no-data", skipped)
 

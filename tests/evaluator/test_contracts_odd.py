@@ -278,3 +278,24 @@ def test_leaving_and_reentering_the_odd_are_events():
     assert event_line(changes[0]) == ("ODD      C1  OUTSIDE the ODD from 0.1 s "
                                       "(environment.weather)")
     assert event_record(changes[2])["event"] == "odd_change"
+
+
+@pytest.mark.parametrize("engine", ["rtamt", "numpy", "both"])
+def test_an_assumption_restarts_after_a_stream_gap(tmp_path, engine):
+    """`once[0:1s](lane_width > 3)` must not reach across a gap in the frames: after it, the
+    narrow lane is outside the assumption at once, with every engine."""
+    case = tmp_path / "case.yaml"
+    case.write_text(CASE.replace('contract: {assume: "lane_width > 3"',
+                                 'contract: {assume: "once[0:1s] (lane_width > 3)"'))
+    stream = tmp_path / "s.jsonl"
+    lines = []
+    for i in [*range(10), *range(20, 30)]:  # frames at 0.0-0.9 s and 2.0-2.9 s
+        frame = stream_line(i)
+        frame.pop("odd", None)
+        frame["signals"]["lane_width"] = 3.5 if i < 10 else 2.5
+        lines.append(json.dumps(frame))
+    stream.write_text("\n".join(lines) + "\n")
+    c, spec = api.prepare(case)
+    result = evaluate_stream(c, spec, stream, RunOptions(stl_engine=engine))
+    (sn1,) = [f for f in result.formulas if f.id == "Sn1"]
+    assert (sn1.ticks_evaluated, sn1.ticks_outside_assumption) == (10, 10)
