@@ -1,8 +1,9 @@
 """World inputs: what a simulator (or the vehicle) says about the ego's situation at a tick, as
 signals the traffic rules read (docs/streams.md "World inputs", docs/traffic-rules.md).
 
-A frame's `world` describes speed limits, signals, stop signs, the lane marking being crossed,
-the indicator and lights, contacts and route progress. Inside a reported `world`, an absent
+A frame's `world` describes the ego's own speed (the vehicle's, not a channel's estimate), speed
+limits, signals, stop signs, the lane marking being crossed, the indicator and lights, contacts
+and route progress. Inside a reported `world`, an absent
 traffic light, stop sign, marking or contact list means *there is none* (the signals read
 their "none" values: nothing to run is not missing data), while an absent speed limit,
 indicator, lights or route means *not reported* (no value: a rule reading it has a data gap).
@@ -26,6 +27,7 @@ PARTIES = {"pedestrian": 1.0, "vehicle": 2.0, "two_wheeler": 3.0, "object": 4.0}
 
 #: The world signals, name -> meaning (the catalogue `safety_case.signals` lists them too).
 WORLD_SIGNALS: dict[str, str] = {
+    "vehicle_speed": "the ego's speed from the vehicle (its speedometer, a simulator) [m/s]",
     "speed_limit": "speed limit of the ego's lane [m/s]",
     "tl_state": "state of the next traffic light: 0 none or off, 1 green, 2 yellow, 3 red",
     "tl_distance": f"distance to its stop line [m] (negative once past; {NONE_AHEAD:g}: none)",
@@ -80,7 +82,7 @@ def _map(v: Any, where: str) -> dict:
     return v
 
 
-KEYS = ("speed_limit", "traffic_light", "stop_sign", "marking", "indicator", "lights",
+KEYS = ("speed", "speed_limit", "traffic_light", "stop_sign", "marking", "indicator", "lights",
         "collisions", "route")  # fmt: skip
 
 
@@ -92,6 +94,8 @@ def parse_world(raw: Any) -> dict[str, float | None]:
     if unknown:
         raise WorldError(f"world.{unknown[0]}: unknown key (known: {', '.join(KEYS)})")
     out: dict[str, float | None] = dict.fromkeys(WORLD_SIGNALS)
+    if w.get("speed") is not None:
+        out["vehicle_speed"] = _num(w["speed"], "world.speed", allow_negative=False)
     if w.get("speed_limit") is not None:
         out["speed_limit"] = _num(w["speed_limit"], "world.speed_limit", allow_negative=False)
     light = w.get("traffic_light")
