@@ -3,10 +3,10 @@ signals the traffic rules read (docs/streams.md "World inputs", docs/traffic-rul
 
 A frame's `world` describes the ego's own speed (the vehicle's, not a channel's estimate), speed
 limits, signals, stop signs, the lane marking being crossed, the indicator and lights, contacts
-and route progress. Inside a reported `world`, an absent
-traffic light, stop sign, marking or contact list means *there is none* (the signals read
-their "none" values: nothing to run is not missing data), while an absent speed limit,
-indicator, lights or route means *not reported* (no value: a rule reading it has a data gap).
+and route progress. Inside a reported `world`, an absent traffic light, stop sign, marking or
+contact list means *there is none* (the signals read their "none" values: nothing to run is not
+missing data), while an absent speed, speed limit, indicator, lights or route means *not
+reported* (no value: a rule reading it has a data gap).
 A frame without `world` reports nothing.
 """
 
