@@ -13,6 +13,7 @@ from __future__ import annotations
 import gzip
 import json
 import math
+import sys
 from collections.abc import Iterable, Iterator
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -81,6 +82,13 @@ def frames(sc: Scenario, gt: GroundTruth) -> Iterator[dict[str, Any]]:
 
 def _dump(obj: dict[str, Any]) -> str:
     return json.dumps(obj, separators=(",", ":"), allow_nan=False)
+
+
+def print_bundle(index: list[dict[str, Any]], seconds: float, out: Path) -> None:
+    """The last line of a generator: how many drives, how many bytes, how long, where."""
+    total = sum(e["bytes"] for e in index)
+    print(f"{len(index)} drives, {total / 1e6:.1f} MB, {seconds:.0f} s -> {out}",
+          file=sys.stderr)  # fmt: skip
 
 
 def write_stream(

@@ -45,7 +45,7 @@ import numpy as np
 
 from examples.sim import labels as lab
 from examples.sim.channels import CAMERA_STACK, LIDAR_STACK, ChannelModel, ChannelParams
-from examples.sim.frames import header, write_stream
+from examples.sim.frames import header, print_bundle, write_stream
 from examples.sim.scenarios import (
     HW,
     Action,
@@ -383,9 +383,7 @@ def main(argv: list[str] | None = None) -> int:
     doc = {"generator": "python -m examples.sim.odd_grid", "seed": args.seed,
            "runs": args.runs, "duration": args.duration, "agent": AGENT, "drives": index}
     (args.out / "index.json").write_text(json.dumps(doc, indent=1) + "\n")
-    total = sum(e["bytes"] for e in index)
-    print(f"{len(index)} drives, {total / 1e6:.1f} MB, {time.perf_counter() - start:.0f} s "
-          f"-> {args.out}", file=sys.stderr)
+    print_bundle(index, time.perf_counter() - start, args.out)
     return 0
 
 

@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from examples.sim.frames import write_jsonl, write_stream
+from examples.sim.frames import print_bundle, write_jsonl, write_stream
 from examples.sim.odd_grid import CHANNELS, apply_effect, effects
 from examples.sim.rules_net import EXEMPT_CLASS, MAIN, build_rules_net
 from examples.sim.simulate import LANE_CHANGE_DURATION, STEP, GroundTruth, sumo_to_centre
@@ -775,9 +775,7 @@ def main(argv: list[str] | None = None) -> int:
         shutil.rmtree(args.out / ".net-build")
     for r, n in totals.items():
         print(f"{r:28s} {n:3d}")
-    total = sum(e["bytes"] for e in index)
-    print(f"{len(index)} drives, {total / 1e6:.1f} MB, {time.perf_counter() - start:.0f} s "
-          f"-> {args.out}", file=sys.stderr)
+    print_bundle(index, time.perf_counter() - start, args.out)
     return 0
 
 
