@@ -13,7 +13,7 @@ from safety_case.signals import WORLD_METRICS
 
 def test_a_full_world_as_signals():
     values = parse_world({
-        "speed_limit": 13.9, "traffic_light": {"state": "red", "distance": 12.5},
+        "speed": 14.2, "speed_limit": 13.9, "traffic_light": {"state": "red", "distance": 12.5},
         "stop_sign": {"distance": -0.4}, "marking": "double_solid", "indicator": "left",
         "lights": {"low_beam": True, "fog": False},
         "collisions": [{"id": "p1", "with": "pedestrian", "ego_at_fault": True},
@@ -21,7 +21,8 @@ def test_a_full_world_as_signals():
         "route": {"progress": 120.0, "length": 800.0},
     })  # fmt: skip
     assert values == {
-        "speed_limit": 13.9, "tl_state": 3.0, "tl_distance": 12.5, "stop_distance": -0.4,
+        "vehicle_speed": 14.2, "speed_limit": 13.9, "tl_state": 3.0, "tl_distance": 12.5,
+        "stop_distance": -0.4,
         "marking": 3.0, "indicator": 1.0, "low_beam": 1.0, "fog_lights": 0.0,
         "collision_at_fault": 1.0, "collision_victim": 1.0, "collision_party": 1.0,
         "route_progress": 120.0, "route_length": 800.0,
@@ -36,8 +37,8 @@ def test_none_ahead_is_not_missing_but_unreported_is():
     assert (values["marking"], values["collision_at_fault"], values["collision_party"]) == (
         0.0, 0.0, 0.0)
     # no speed limit, indicator, lights or route reported: no value
-    assert [values[k] for k in ("speed_limit", "indicator", "low_beam", "fog_lights",
-                                "route_progress")] == [None] * 5  # fmt: skip
+    assert [values[k] for k in ("vehicle_speed", "speed_limit", "indicator", "low_beam",
+                                "fog_lights", "route_progress")] == [None] * 6  # fmt: skip
 
 
 @pytest.mark.parametrize(

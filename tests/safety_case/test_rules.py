@@ -46,11 +46,11 @@ def test_red_light_is_the_crossing_tick_under_red():
 
 
 def test_a_stop_sign_passed_without_stopping_and_one_passed_after_a_stop():
-    # first line: approached at 5 m/s, never below 0.3 m/s, passed at tick 4; second: stopped
-    # (0.1 m/s) 2 m before the line at tick 12, passed at tick 15
-    speed = [5, 5, 5, 5, 5, 5, 5, 3, 2, 1, 0.5, 0.2, 0.1, 1, 2, 3, 4]
+    # first line: approached at 5 m/s, never below 0.1 m/s, passed at tick 4; second: stopped
+    # (0.05 m/s) 2 m before the line at tick 12, passed at tick 15
+    speed = [5, 5, 5, 5, 5, 5, 5, 3, 2, 1, 0.5, 0.2, 0.05, 1, 2, 3, 4]
     dist = [4, 3.5, 3, 1, -0.5, -1, 20, 12, 8, 5, 3, 2.2, 2, 1.5, 0.4, -0.3, -1]
-    ticks = [{"ego_speed": v, "stop_distance": d} for v, d in zip(speed, dist, strict=True)]
+    ticks = [{"vehicle_speed": v, "stop_distance": d} for v, d in zip(speed, dist, strict=True)]
     assert events("{use: stop_sign}", ticks) == [(0.4, 0.4)]
 
 
@@ -68,9 +68,9 @@ def test_one_collision_event_per_contact():
 def test_speeding_bands_last_half_a_second():
     # limit 10 m/s: 10.5 (light) for 6 ticks, 12.5 (heavy) for 6 ticks, 10.5 for 2 ticks
     speed = [10.0] + [10.5] * 6 + [12.5] * 6 + [10.5] * 2 + [9.0] * 12
-    ticks = [{"ego_speed": v, "speed_limit": 10.0} for v in speed]
-    # the two light stretches are 0.6 s apart, within the case's 1 s merge_gap: one event
-    assert events("{use: speeding_light}", ticks) == [(0.1, 1.4)]
+    ticks = [{"vehicle_speed": v, "speed_limit": 10.0} for v in speed]
+    # each excursion is its own event (merge_gap 0); the second light one lasts 0.2 s: dropped
+    assert events("{use: speeding_light}", ticks) == [(0.1, 0.6)]
     assert events("{use: speeding_heavy}", ticks) == [(0.7, 1.2)]
     assert events("{use: speeding_heavy, params: {heavy: 0.3}}", ticks) == []
 
@@ -81,9 +81,9 @@ def test_markings_indicator_and_lights():
     assert events("{use: broken_no_indicator}", ticks) == [(0.1, 0.2)]
     assert events("{use: solid_line}", ticks) == [(0.5, 0.5)]
     assert events("{use: double_solid}", ticks) == [(0.6, 0.6)]
-    night = [{"night": 1, "low_beam": 0, "ego_speed": 5}] * 6 + [
-        {"night": 1, "low_beam": 1, "ego_speed": 5}] * 4 + [
-        {"night": 0, "low_beam": 0, "ego_speed": 5}] * 4
+    night = [{"night": 1, "low_beam": 0, "vehicle_speed": 5}] * 6 + [
+        {"night": 1, "low_beam": 1, "vehicle_speed": 5}] * 4 + [
+        {"night": 0, "low_beam": 0, "vehicle_speed": 5}] * 4
     assert events("{use: no_headlights}", night) == [(0.0, 0.5)]
 
 

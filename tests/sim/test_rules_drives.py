@@ -42,7 +42,8 @@ def test_index_matches_files() -> None:
     assert len(DRIVES) == len(AGENTS) * len(SCENARIOS)
     pairs = {(d["scenario"], d["agent"]) for d in DRIVES}
     assert pairs == {(s.name, a.name) for s in SCENARIOS for a in AGENTS}
-    listed = {d["stream"] for d in DRIVES} | {d["labels"] for d in DRIVES} | {"index.json"}
+    listed = {d["stream"] for d in DRIVES} | {d["labels"] for d in DRIVES}
+    listed |= {"index.json", "rules.net.xml"}
     assert {p.name for p in DATA.iterdir()} == listed
     for d in DRIVES:
         assert (DATA / d["stream"]).stat().st_size == d["bytes"]
