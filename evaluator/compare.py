@@ -14,15 +14,12 @@ them and `reports.roadmap` adds the road-network check.
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 import shapely
-
-from evaluator.result import RESULT_FORMAT, RESULT_VERSION
 
 COMPARE_FORMAT = "casewatch-compare"
 COMPARE_VERSION = 1
@@ -33,57 +30,10 @@ NONE = "(none)"
 TRACK_TOLERANCE_M = 1.0
 
 
-class RunReadError(ValueError):
-    """A run folder whose `result.json` cannot be compared; the message says why and where."""
-
-
 def _number(v: object) -> float | None:
     if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
         return None
     return float(v)
-
-
-def read_run(folder: Path) -> dict:
-    """A run's `result.json` as a dict, checked for what `compare` reads.
-
-    The new keys (`track`, `scores`, `episodes[].x/y`, `formulas[].rule`, `stream.meta.agent`
-    and `.scenario`) may be absent; present ones must have their documented shape.
-    """
-    path = Path(folder) / "result.json"
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise RunReadError(f"{folder}: no result.json (not the output folder of casewatch run)")\
-            from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise RunReadError(f"{path}: cannot read: {exc}") from None
-    except json.JSONDecodeError as exc:
-        raise RunReadError(f"{path}:{exc.lineno}:{exc.colno}: not valid JSON: {exc.msg}") from None
-    except RecursionError:
-        raise RunReadError(f"{path}: JSON nested too deeply to be a casewatch result") from None
-    if not isinstance(data, dict) or data.get("format") != RESULT_FORMAT:
-        found = data.get("format") if isinstance(data, dict) else type(data).__name__
-        raise RunReadError(f"{path}: 'format' is {found!r}, expected {RESULT_FORMAT!r} "
-                           "(is this the result.json of a casewatch run?)")  # fmt: skip
-    if data.get("version") != RESULT_VERSION:
-        raise RunReadError(f"{path}: result version {data.get('version')!r}; this casewatch "
-                           f"reads version {RESULT_VERSION}")  # fmt: skip
-    for key, kind in (("stream", dict), ("formulas", list), ("episodes", list)):
-        if not isinstance(data.get(key), kind):
-            raise RunReadError(f"{path}: '{key}' must be a JSON {kind.__name__ if kind is list else 'object'}")  # noqa: E501
-    meta = data["stream"].get("meta", {})
-    if not isinstance(meta, dict):
-        raise RunReadError(f"{path}: 'stream.meta' must be a JSON object")
-    track = data.get("track") or []
-    if not isinstance(track, list) or not all(
-        isinstance(p, list) and len(p) == 3 and all(_number(v) is not None for v in p)
-        for p in track
-    ):
-        raise RunReadError(f"{path}: 'track' must be a list of [t, x, y] numbers")
-    scores = data.get("scores")
-    if scores is not None and not isinstance(scores, dict):
-        raise RunReadError(f"{path}: 'scores' must be a JSON object or null")
-    return data
 
 
 def _score(scores: dict | None, system: str, key: str) -> float | None:

@@ -19,8 +19,9 @@ import sys
 from pathlib import Path
 
 from casewatch.commands.common import UsageError, run_folders
-from evaluator.compare import RunReadError, compare_runs, read_run, unknown_keys
+from evaluator.compare import compare_runs, unknown_keys
 from reports.compare import check_lines, render_compare_html, render_compare_md, stat_text
+from reports.render import ResultError, load_result
 from reports.roadmap import NetworkError, check_markers, read_opendrive, read_sumo_net
 
 
@@ -46,6 +47,15 @@ def _unique_names(folders: list[Path]) -> list[str]:
     return [f"{f.parent.name}/{f.name}" if names.count(f.name) > 1 else f.name for f in folders]
 
 
+def read_run(folder: Path) -> dict:
+    """A run's `result.json`, validated as a `RunResult` (the one schema of results; keys added
+    since, such as `track`, `scores`, `episodes[].x/y`, default when absent), as plain data."""
+    path = Path(folder) / "result.json"
+    if not path.is_file():
+        raise UsageError(f"{folder}: no result.json (not the output folder of casewatch run)")
+    return load_result(path).model_dump()
+
+
 def main(args: argparse.Namespace) -> int:
     by = [k.strip() for k in args.by.split(",") if k.strip()]
     try:
@@ -69,7 +79,7 @@ def main(args: argparse.Namespace) -> int:
             network = read_sumo_net(args.net)
         elif args.xodr is not None:
             network = read_opendrive(args.xodr)
-    except (UsageError, RunReadError, NetworkError) as exc:
+    except (UsageError, ResultError, NetworkError) as exc:
         print(f"casewatch compare: {exc}", file=sys.stderr)
         return 2
     report = compare_runs(runs, by)
