@@ -135,6 +135,7 @@ def evaluate_stream(
     evaluator = Evaluator(case, spec, on_event=emit, series_points=options.series_points)
     columns = Columns(input_names(spec)) if whole_log else None
     conditions: dict = {}  # the stream's conditions (docs/odd.md), one mapping per change
+    as_signals = condition_values(conditions)  # their `night` and `fog` signals
     where = DriveLog()  # the ego's position and what the scores read, per tick
     tick_conditions: list[dict] = []  # per tick, for the whole-log replay
     engine = MetricEngine(case.monitor.metrics, list(case.monitor.channels))
@@ -164,10 +165,12 @@ def evaluate_stream(
                     engine.coverage = channel_coverage(case, reader.header)
                     if reader.header is not None:
                         conditions = dict(reader.header.conditions)
+                    as_signals = condition_values(conditions)
                 if frame.odd:
                     conditions = {**conditions, **frame.odd}
+                    as_signals = condition_values(conditions)  # only when they change
                 values = engine.step(frame)
-                values.update(condition_values(conditions))
+                values.update(as_signals)
                 if recorder is not None:
                     recorder.add(frame.t, values)
                 t2 = time.perf_counter()
