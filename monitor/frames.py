@@ -242,3 +242,6 @@ class Header:
     coverage: dict[str, Coverage] = field(default_factory=dict)
     #: the stream's conditions at its start (`meta.odd`, flattened: `environment.weather`)
     conditions: dict[str, str | float | bool] = field(default_factory=dict)
+    #: why `meta.odd` could not be read (a `bad-header` defect; the rest of the header stands
+    #: and no condition is reported), None when it could
+    conditions_problem: str | None = None

@@ -449,15 +449,16 @@ def parse_header(obj: Any) -> Header:
     if not isinstance(meta, dict):
         raise FrameDefect("bad-header", "header.meta: expected an object")
     conditions: dict[str, OddValue] = {}
+    conditions_problem = None
     if meta.get("odd") is not None:
         try:
             conditions = flatten_conditions(meta["odd"], "header.meta.odd")
-        except OddError as exc:
-            raise FrameDefect("bad-header", str(exc)) from None
+        except OddError as exc:  # the rest of the header stands; no condition is reported
+            conditions_problem = str(exc)
     return Header(
         format=fmt, version=version, channels=list(chans), period=float(period), meta=meta,
         coverage=parse_coverage(h.get("coverage", {}), "header.coverage"),
-        conditions=conditions,
+        conditions=conditions, conditions_problem=conditions_problem,
     )
 
 

@@ -210,6 +210,8 @@ class StreamReader:
                 except FrameDefect as d:
                     self._defect(lineno, d.kind, d.message)
                     continue
+                if self.header.conditions_problem is not None:
+                    self._defect(lineno, "bad-header", self.header.conditions_problem)
                 self._adopt_header(lineno)
                 continue
             first_content = False

@@ -188,8 +188,9 @@ def test_conditions_in_streams_are_checked():
         "road.type": "highway", "road.lanes": 3.0}
     header = parse_header({"header": {"meta": {"odd": {"environment": {"weather": "rain"}}}}})
     assert header.conditions == {"environment.weather": "rain"}
-    with pytest.raises(FrameDefect, match=r"header.meta.odd.wether: unknown layer"):
-        parse_header({"header": {"meta": {"odd": {"wether": {"rain": True}}}}})
+    bad = parse_header({"header": {"period": 0.2, "meta": {"odd": {"wether": {"rain": True}}}}})
+    assert bad.period == 0.2 and bad.conditions == {}  # the rest of the header stands
+    assert bad.conditions_problem.startswith("header.meta.odd.wether: unknown layer")
     frame = {"t": 0.0, "channels": {}, "odd": {"environment": {"weather": "fog"}}}
     assert parse_frame(frame).odd == {"environment.weather": "fog"}
     with pytest.raises(FrameDefect, match=r"odd.environment.weather: expected a text"):
@@ -299,3 +300,19 @@ def test_an_assumption_restarts_after_a_stream_gap(tmp_path, engine):
     result = evaluate_stream(c, spec, stream, RunOptions(stl_engine=engine))
     (sn1,) = [f for f in result.formulas if f.id == "Sn1"]
     assert (sn1.ticks_evaluated, sn1.ticks_outside_assumption) == (10, 10)
+
+
+def test_unreadable_conditions_are_a_defect_and_report_nothing(tmp_path):
+    from monitor.reader import StreamReader
+
+    stream = tmp_path / "s.jsonl"
+    header = {"header": {"channels": ["lav", "tfuse"], "period": 0.1,
+                         "meta": {"odd": {"environment": {"weather": ["fog"]}}}}}
+    stream.write_text("".join(json.dumps(x) + "\n" for x in
+                              [header, *(stream_line(i) for i in range(3))]))  # fmt: skip
+    reader = StreamReader(stream)
+    assert len(list(reader)) == 3
+    (defect,) = reader.defects
+    assert (defect.line, defect.kind) == (1, "bad-header")
+    assert "header.meta.odd.environment.weather: expected a text" in defect.message
+    assert reader.header.channels == ["lav", "tfuse"] and reader.header.conditions == {}
