@@ -25,6 +25,7 @@ from evaluator.intervals import RunLength
 from evaluator.result import (
     ArbitrationInterval,
     CaseInfo,
+    Episode,
     RootNoData,
     RunResult,
     StreamDefect,
@@ -125,8 +126,11 @@ def evaluate_stream(
         except OSError as exc:
             raise InputError(f"{source}: cannot read stream: {exc.strerror or exc}") from None
     log = EventLog(options.events_path) if options.events_path else None
+    where = DriveLog()  # the ego's position and what the scores read, per tick
 
     def emit(event: Event) -> None:
+        if isinstance(event, Episode):
+            where.place([event])  # its position, in events.jsonl as in result.json
         if log is not None:
             log.write(event)
         if options.on_event is not None:
@@ -136,7 +140,6 @@ def evaluate_stream(
     columns = Columns(input_names(spec)) if whole_log else None
     conditions: dict = {}  # the stream's conditions (docs/odd.md), one mapping per change
     as_signals = condition_values(conditions)  # their `night` and `fog` signals
-    where = DriveLog()  # the ego's position and what the scores read, per tick
     tick_conditions: list[dict] = []  # per tick, for the whole-log replay
     engine = MetricEngine(case.monitor.metrics, list(case.monitor.channels))
     recorder = None
@@ -171,6 +174,7 @@ def evaluate_stream(
                     as_signals = condition_values(conditions)  # only when they change
                 values = engine.step(frame)
                 values.update(as_signals)
+                where.add(frame, engine.last_arbitration, values)  # before any episode closes
                 if recorder is not None:
                     recorder.add(frame.t, values)
                 t2 = time.perf_counter()
@@ -181,7 +185,6 @@ def evaluate_stream(
                     evaluator.step(frame.t, values, conditions)
                 t3 = time.perf_counter()
                 arbitration.add(frame.t, engine.last_arbitration)
-                where.add(frame, engine.last_arbitration, values)
                 clock.metrics += t2 - t1
                 clock.judge += t3 - t2
                 if t_first is None:
@@ -227,7 +230,6 @@ def evaluate_stream(
         dropouts=dict(reader.dropouts),
         topics=reader.topic_report() if bag else {},
     )
-    where.place(evaluator.episodes)
     statuses = evaluator.node_statuses()
     root = next(s for s in statuses if s.node_id == spec.root_id)
     root_ticks = sum(root.ticks.values())
