@@ -9,14 +9,12 @@ inline CSS, no script and nothing fetched from the network.
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
-import jinja2
 import numpy as np
 
+from reports.page import render_page
 from reports.roadmap import MapTransform, RoadNetwork, fit_transform
 
-TEMPLATES = Path(__file__).parent / "templates"
 #: Colours of the traffic rules (docs/traffic-rules.md); other rules take the palette in turn.
 RULE_COLOURS = {
     "collision": "#b71c1c", "collision_victim": "#f06292", "red_light": "#e53935",
@@ -325,11 +323,6 @@ def render_compare_md(report: dict) -> str:
 def render_compare_html(report: dict, tracks: dict[str, list],
                         network: RoadNetwork | None = None) -> str:  # fmt: skip
     """The page; `tracks` is {run name: [[t, x, y], ...]} (the runs' `track`)."""
-    env = jinja2.Environment(loader=jinja2.FileSystemLoader(TEMPLATES), autoescape=True,
-                             undefined=jinja2.StrictUndefined)  # fmt: skip
-    env.filters["stat"] = stat_text
-    env.filters["tally"] = _tally
-    env.filters["marker"] = _marker_line
-    return env.get_template("compare.html.j2").render(
-        v=compare_view(report, tracks, network), checks=check_lines(report),
-        css=(TEMPLATES / "report.css").read_text())
+    return render_page("compare.html.j2",
+                       {"stat": stat_text, "tally": _tally, "marker": _marker_line},
+                       v=compare_view(report, tracks, network), checks=check_lines(report))

@@ -6,11 +6,7 @@ autoescaping, inline CSS, no script.
 
 from __future__ import annotations
 
-from pathlib import Path
-
-import jinja2
-
-TEMPLATES = Path(__file__).parent / "templates"
+from reports.page import render_page
 
 
 def _span(s: dict) -> str:
@@ -55,9 +51,4 @@ def render_diff_md(report: dict) -> str:
 
 
 def render_diff_html(report: dict) -> str:
-    env = jinja2.Environment(loader=jinja2.FileSystemLoader(TEMPLATES), autoescape=True,
-                             undefined=jinja2.StrictUndefined)  # fmt: skip
-    env.filters["span"] = _span
-    env.filters["rate"] = _rate
-    return env.get_template("diff.html.j2").render(
-        r=report, css=(TEMPLATES / "report.css").read_text())
+    return render_page("diff.html.j2", {"span": _span, "rate": _rate}, r=report)

@@ -12,9 +12,8 @@ import os
 import re
 from pathlib import Path
 
-import jinja2
+from reports.page import render_page
 
-TEMPLATES = Path(__file__).parent / "templates"
 #: Logs listed under "worst logs".
 WORST = 10
 
@@ -65,7 +64,4 @@ def fleet_view(summary: dict, folder: Path) -> dict:
 
 
 def render_fleet(summary: dict, folder: Path) -> str:
-    env = jinja2.Environment(loader=jinja2.FileSystemLoader(TEMPLATES), autoescape=True,
-                             undefined=jinja2.StrictUndefined)  # fmt: skip
-    return env.get_template("fleet.html.j2").render(
-        v=fleet_view(summary, folder), css=(TEMPLATES / "report.css").read_text())
+    return render_page("fleet.html.j2", v=fleet_view(summary, folder))

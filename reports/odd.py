@@ -7,11 +7,7 @@ jinja2 with autoescaping, inline CSS, no script.
 
 from __future__ import annotations
 
-from pathlib import Path
-
-import jinja2
-
-TEMPLATES = Path(__file__).parent / "templates"
+from reports.page import render_page
 
 
 def pct(v: float | None) -> str:
@@ -52,12 +48,7 @@ def cell_label(conditions: dict) -> str:
 
 
 def render_odd_html(report: dict) -> str:
-    env = jinja2.Environment(loader=jinja2.FileSystemLoader(TEMPLATES), autoescape=True,
-                             undefined=jinja2.StrictUndefined)  # fmt: skip
-    env.filters["pct"] = pct
-    env.filters["label"] = cell_label
-    return env.get_template("odd.html.j2").render(
-        r=report, heat=heat, css=(TEMPLATES / "report.css").read_text())
+    return render_page("odd.html.j2", {"pct": pct, "label": cell_label}, r=report, heat=heat)
 
 
 def render_odd_text(report: dict) -> list[str]:

@@ -8,13 +8,9 @@ autoescaping; it reads only the plain values `evaluator.tuning.tune` returns.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
-
-import jinja2
 
 from evaluator.tuning import pr_text
-
-TEMPLATES = Path(__file__).parent / "templates"
+from reports.page import render_page
 
 
 @dataclass(frozen=True)
@@ -62,8 +58,6 @@ def _plot(result: dict) -> dict:
 
 def render_tuning(report: dict) -> str:
     """HTML of a tuning report (`casewatch tune`'s `tuning.json` value)."""
-    env = jinja2.Environment(loader=jinja2.FileSystemLoader(TEMPLATES), autoescape=True,
-                             undefined=jinja2.StrictUndefined)  # fmt: skip
     rows = []
     for r in report["rules"]:
         rows.append({
@@ -78,8 +72,8 @@ def render_tuning(report: dict) -> str:
     skipped: dict[str, list[str]] = {}
     for s in report["skipped"]:
         skipped.setdefault(s["reason"], []).append(s["formula"])
-    return env.get_template("tuning.html.j2").render(
-        case_name=report["case"], logs=report["logs"], hours=report["hours"],
+    return render_page(
+        "tuning.html.j2", case_name=report["case"], logs=report["logs"], hours=report["hours"],
         labels=sum(r["labels"] for r in report["rules"]), objective=report["objective"],
-        rows=rows, skipped=list(skipped.items()), css=(TEMPLATES / "report.css").read_text(),
+        rows=rows, skipped=list(skipped.items()),
     )  # fmt: skip
