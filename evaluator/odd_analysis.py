@@ -120,8 +120,8 @@ def analyse(runs: list[RunInput], by: list[str], formulas: list[str] | None, max
     truth: dict[tuple, set] = {}
     mae_sums: dict[tuple, dict[str, list[float]]] = {}
     for run in runs:
-        degraded = (run.result.stream.meta.get("odd_truth") or {}).get("degraded") \
-            if isinstance(run.result.stream.meta.get("odd_truth"), dict) else None  # fmt: skip
+        truth_meta = run.result.stream.meta.get("odd_truth")
+        degraded = truth_meta.get("degraded") if isinstance(truth_meta, dict) else None
         signals = None
         for cond in run.result.conditions:
             cell = _cell_of(cond.attributes, by)
@@ -133,18 +133,14 @@ def analyse(runs: list[RunInput], by: list[str], formulas: list[str] | None, max
             for fid, tally in cond.formulas.items():
                 row = rows.setdefault(fid, {"violated": [], "judged": [], "outside": [],
                                             "no_data": [], "runs": []})  # fmt: skip
-                if row["runs"] and row["runs"][-1] == run.folder:
-                    k = -1  # the same run again under this cell (conditions came back)
-                    row["violated"][k] += tally.violated
-                    row["judged"][k] += tally.evaluated
-                    row["outside"][k] += tally.outside_assumption
-                    row["no_data"][k] += tally.no_data
-                else:
-                    row["runs"].append(run.folder)
-                    row["violated"].append(tally.violated)
-                    row["judged"].append(tally.evaluated)
-                    row["outside"].append(tally.outside_assumption)
-                    row["no_data"].append(tally.no_data)
+                if not row["runs"] or row["runs"][-1] != run.folder:  # else: the same run
+                    row["runs"].append(run.folder)  # under this cell again (conditions came back)
+                    for key in ("violated", "judged", "outside", "no_data"):
+                        row[key].append(0)
+                row["violated"][-1] += tally.violated
+                row["judged"][-1] += tally.evaluated
+                row["outside"][-1] += tally.outside_assumption
+                row["no_data"][-1] += tally.no_data
             if max_mae:
                 if signals is None:
                     assert load_signals is not None
