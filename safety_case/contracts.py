@@ -193,10 +193,3 @@ def instantiate(use: str, given: dict[str, Any], channels: list[str], declared: 
                 "has, e.g. lead_gap__<channel>")  # fmt: skip
     texts = {k: substitute(v, values, period) for k, v in template.formulas.items()}
     return template, values, texts
-
-
-def expand(use: str, given: dict[str, Any], channels: list[str], declared: dict[str, str],
-           period: float) -> tuple[Template, dict[str, float | str], str | None, str]:  # fmt: skip
-    """(template, resolved parameters, assume text, guarantee text) for a library contract."""
-    template, values, texts = instantiate(use, given, channels, declared, period)
-    return template, values, texts.get("assume"), texts["guarantee"]

@@ -25,7 +25,7 @@ from pathlib import Path
 from pydantic import BaseModel, ValidationError
 
 from safety_case.codes import finding
-from safety_case.contracts import RULES, ContractError, expand, instantiate
+from safety_case.contracts import LIBRARY, RULES, ContractError, Template, instantiate
 from safety_case.findings import CaseError, Finding, has_errors
 from safety_case.model import (
     Case,
@@ -547,22 +547,10 @@ class _Builder:
                 formula_mark=hazard_entries["when"].value.content_mark,
             )
         use_mark = hazard_entries["use"].value.content_mark
-        monitor = self.monitor_config
-        if monitor is None:
-            if not self.monitor_given:
-                self.add("CW008", f"node {node_id}: a library rule needs the `monitor` block of "
-                         "its file", use_mark)  # fmt: skip
-            self.invalid.add(node_id)
+        found = self._instantiate(node_id, h.use, h.params, hazard_entries, use_mark, RULES)
+        if found is None:
             return None
-        try:
-            template, values, texts = instantiate(h.use, dict(h.params), list(monitor.channels),
-                                                  monitor.signals, monitor.period,
-                                                  RULES)  # fmt: skip
-        except ContractError as exc:
-            self.add("CW008", f"node {node_id}: {exc}", self._param_mark(exc, hazard_entries,
-                                                                         use_mark), exc.hint)
-            self.invalid.add(node_id)
-            return None
+        template, values, texts = found
         data = template.data
         return HazardBinding(
             when=texts["when"], use=template.name, params=values, from_library=True,
@@ -571,6 +559,27 @@ class _Builder:
                           else data.get("min_duration")),
             warn=h.warn, mark=entries["hazard"].key_mark, formula_mark=use_mark,
         )  # fmt: skip
+
+    def _instantiate(self, node_id: str, use: str, params: dict, keyed: dict, use_mark: Mark,
+                     library: str) -> tuple[Template, dict, dict[str, str]] | None:  # fmt: skip
+        """A library entry (`use:`) expanded against this file's monitor (or the using
+        case's); None after a CW008 (none when the monitor block is invalid: reported already)."""
+        monitor = self.monitor_config
+        what = "contract" if library == LIBRARY else "rule"
+        if monitor is None:
+            if not self.monitor_given:
+                self.add("CW008", f"node {node_id}: a library {what} needs the `monitor` block "
+                         "of its file (its channels, period and signals)", use_mark)  # fmt: skip
+            self.invalid.add(node_id)
+            return None
+        try:
+            return instantiate(use, dict(params), list(monitor.channels), monitor.signals,
+                               monitor.period, library)  # fmt: skip
+        except ContractError as exc:
+            self.add("CW008", f"node {node_id}: {exc}", self._param_mark(exc, keyed, use_mark),
+                     exc.hint)  # fmt: skip
+            self.invalid.add(node_id)
+            return None
 
     @staticmethod
     def _param_mark(exc: ContractError, keyed: dict, fallback: Mark) -> Mark:
@@ -602,23 +611,12 @@ class _Builder:
             return ContractBinding(guarantee=c.guarantee or "", assume=c.assume,
                                    guarantee_mark=at("guarantee"), assume_mark=at("assume"),
                                    **common)  # fmt: skip
-        monitor = self.monitor_config
-        if monitor is None:
-            if not self.monitor_given:  # an invalid block is reported already
-                self.add("CW008", f"node {node_id}: a library contract needs the `monitor` "
-                         "block of its file (its channels, period and signals)",
-                         at("use"))  # fmt: skip
-            self.invalid.add(node_id)
-            return None
-        try:
-            _, values, assume, guarantee = expand(c.use, dict(c.params), list(monitor.channels),
-                                                  monitor.signals, monitor.period)  # fmt: skip
-        except ContractError as exc:
-            self.add("CW008", f"node {node_id}: {exc}", self._param_mark(exc, keyed, at("use")),
-                     exc.hint)
-            self.invalid.add(node_id)
-            return None
         use_mark = at("use")
+        found = self._instantiate(node_id, c.use, c.params, keyed, use_mark, LIBRARY)
+        if found is None:
+            return None
+        _, values, texts = found
+        assume, guarantee = texts.get("assume"), texts["guarantee"]
         own_guarantee, own_assume = c.guarantee is not None, c.assume is not None
         return ContractBinding(
             guarantee=c.guarantee if own_guarantee else guarantee,
