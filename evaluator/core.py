@@ -47,6 +47,9 @@ NO_CONDITIONS: Mapping[str, OddValue] = {}
 
 #: What a data gap names while a `sum` window fills after a restart (docs/formulas.md).
 WARMING_UP = "(sum window filling)"
+#: What a data gap names at a violated tick of an SPI whose `for:` has not yet passed since
+#: the (re)start: the violation has not lasted `for:` of data (docs/formulas.md).
+PERSISTING = "(for window filling)"
 
 #: Receives each episode at its onset and when it closes, and each data gap when it closes.
 EventSink = Callable[[Episode | EpisodeOpen | NearMiss | DataGap | OddChange], None]
@@ -164,8 +167,9 @@ class Evaluator:
     def _feed(self, feed: Feed | FormulaState, values: Mapping[str, float | None]
               ) -> tuple[float, list[str]]:  # fmt: skip
         """Update one monitor with this tick's inputs: (robustness, []) or, when an input has
-        no value (the monitor is not updated and restarts when data returns) or a `sum`
-        window is still filling after a restart (it is updated), (nan, what is missing)."""
+        no value (the monitor is not updated and restarts when data returns), a `sum`
+        window is still filling after a restart, or a violation has not yet lasted the SPI's
+        `for:` since the restart (it is updated), (nan, what is missing)."""
         inputs: list[tuple[str, float]] = []
         missing: list[str] = []
         for name in feed.formula.signals:
@@ -187,6 +191,8 @@ class Evaluator:
         feed.index += 1
         if feed.index <= feed.formula.warmup_ticks:
             return math.nan, [WARMING_UP]
+        if robustness < 0 and feed.index <= feed.formula.persist_ticks:
+            return math.nan, [PERSISTING]
         return robustness, []
 
     def _judge(self, state: FormulaState, t: float, values: Mapping[str, float | None]) -> Verdict:

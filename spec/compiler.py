@@ -391,9 +391,17 @@ def _compile_one(
         horizon=float(past_horizon(monitored, period) * period),
         future_horizon=float(future_depth(monitored, period) * period),
         warmup_ticks=sum_warmup(monitored, period),
+        persist_ticks=_persist_ticks(spi, period),
         rule=src.node.hazard.use if src.kind == "hazard" and src.node.hazard else None,
     )
     return compiled, findings
+
+
+def _persist_ticks(spi: SpiBinding | None, period: Fraction) -> int:
+    """An SPI's `for:` in sampling periods (0 without one); CW043 has checked it is whole."""
+    if spi is None or spi.stl is not None or not spi.for_seconds or spi.for_seconds <= 0:
+        return 0
+    return round(Fraction(repr(float(spi.for_seconds))) / period)
 
 
 def compile_case(case: Case, mode: Mode = "online") -> tuple[CompiledSpec | None, list[Finding]]:

@@ -42,6 +42,10 @@ class CompiledFormula(BaseModel):
     # seconds the formula looks ahead (0 online; offline, a verdict at t needs data to t + this)
     future_horizon: float = 0.0
     warmup_ticks: int = 0  # samples after a reset whose verdict is undefined (`sum` incomplete)
+    #: an SPI's `for:` in samples: after a (re)start a violation counts only once it has
+    #: lasted `for:` of data, so a violated verdict at the first `persist_ticks` samples
+    #: is no data (the window is shorter than written), never a violation (docs/formulas.md)
+    persist_ticks: int = 0
     #: a contract's assumption (`contract:` on a solution), judged by its own monitor: the
     #: contract is violated only where it holds and this formula (the guarantee) fails, and is
     #: "outside assumption" where it fails (docs/contracts.md). Its id is `<id>.assume`.

@@ -172,3 +172,36 @@ def reference_robustness(
 ) -> list[float]:
     """Robustness of `formula` at every sample of `trace` (see the module docstring)."""
     return ReferenceEvaluator(trace, period).series(formula)
+
+
+def reference_verdicts(
+    formula: Formula,
+    trace: Mapping[str, Sequence[float]],
+    period: float,
+    warmup_ticks: int = 0,
+    persist_ticks: int = 0,
+) -> list[float]:
+    """The value the evaluator judges at every sample, NaN where it has no verdict, by the
+    rules of docs/results.md and docs/formulas.md written out plainly: a sample where an input
+    is not a finite number is a gap; every run of samples between gaps is evaluated as a trace
+    of its own (the monitor restarts); its first `warmup_ticks` samples have no verdict (a
+    `sum` window filling); and a violation (negative) at its first `persist_ticks` samples has
+    none either, because it has not yet lasted an SPI's `for:` of data."""
+    names = sorted(trace)
+    n = len(trace[names[0]]) if names else 0
+    present = [all(math.isfinite(trace[k][i]) for k in names) for i in range(n)]
+    out = [math.nan] * n
+    i = 0
+    while i < n:
+        if not present[i]:
+            i += 1
+            continue
+        end = i
+        while end < n and present[end]:
+            end += 1
+        segment = {k: list(trace[k][i:end]) for k in names}
+        for k, value in enumerate(ReferenceEvaluator(segment, period).series(formula)):
+            settled = k >= warmup_ticks and (value >= 0 or k >= persist_ticks)
+            out[i + k] = value if settled else math.nan
+        i = end
+    return out
