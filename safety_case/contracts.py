@@ -73,6 +73,17 @@ class Template:
     def guarantee(self) -> str:
         return self.formulas["guarantee"]
 
+    @property
+    def source(self) -> str:
+        """The equation of the source document the entry implements (`eq. 3.25`), or
+        `casewatch` for casewatch's own variants."""
+        return str(self.data.get("source", ""))
+
+    @property
+    def deviation(self) -> str:
+        """How and why a casewatch variant departs from its source ('' when it follows it)."""
+        return str(self.data.get("deviation", ""))
+
 
 @cache
 def library(name: str = LIBRARY) -> dict[str, Template]:
