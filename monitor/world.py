@@ -8,6 +8,13 @@ contact list means *there is none* (the signals read their "none" values: nothin
 missing data), while an absent speed, speed limit, indicator, lights or route means *not
 reported* (no value: a rule reading it has a data gap).
 A frame without `world` reports nothing.
+
+Besides the world signals that rules read, a `world` can carry what the CARLA Leaderboard 2.0
+scores and no rule reads (`LEADERBOARD_INPUTS`: driving outside the route's lanes, route
+deviation, blocked, timeouts, an emergency vehicle not yielded to, the surrounding traffic's
+speed) and the side a marking is crossed to (`crossing_side`, which a case declares under
+monitor.signals to use the `broken_wrong_indicator` rule). They are all *not reported* when
+absent: the Leaderboard score then names the infraction "not scored", never "none".
 """
 
 from __future__ import annotations
@@ -43,6 +50,26 @@ WORLD_SIGNALS: dict[str, str] = {
     "route_progress": "distance driven along the route [m]",
     "route_length": "length of the route [m]",
 }
+
+
+#: What the Leaderboard score reads besides the world signals (evaluator/scoring.py): values
+#: per tick, no value when the stream does not report them.
+LEADERBOARD_INPUTS: dict[str, str] = {
+    "route_outside_lanes": "1 while the ego drives outside the lanes of its route, else 0",
+    "route_deviated": "1 once the ego has left its route (the Leaderboard ends the route), else 0",
+    "blocked": "1 while the simulator reports the ego blocked (it ends the route), else 0",
+    "route_timeout": "1 once the route's time is up (it ends the route), else 0",
+    "scenario_timeout": "1 while a scenario of the route has timed out, else 0",
+    "yield_failed": "1 while the ego fails to yield to an emergency vehicle behind it, else 0",
+    "traffic_speed": "mean speed of the surrounding traffic [m/s]",
+    "collision_victim_party": "party of the first contact with the other at fault: 0 none, "
+    "1 pedestrian, 2 vehicle, 3 two-wheeler, 4 object",
+}
+
+#: The side the ego crosses a marking to (a case declares it under monitor.signals to use
+#: `broken_wrong_indicator`): 0 not crossing, 1 left, 2 right (the indicator's codes).
+CROSSING_SIDE = "crossing_side"
+SIDES = {"left": 1.0, "right": 2.0}
 
 
 class WorldError(ValueError):
@@ -82,8 +109,11 @@ def _map(v: Any, where: str) -> dict:
     return v
 
 
-KEYS = ("speed", "speed_limit", "traffic_light", "stop_sign", "marking", "indicator", "lights",
-        "collisions", "route")  # fmt: skip
+KEYS = ("speed", "speed_limit", "traffic_light", "stop_sign", "marking", "crossing",
+        "indicator", "lights", "collisions", "route", "blocked", "timeouts",
+        "emergency_vehicle", "traffic_speed")  # fmt: skip
+ROUTE_KEYS = ("progress", "length", "outside_lanes", "deviated")
+TIMEOUT_KEYS = ("route", "scenario")
 
 
 def parse_world(raw: Any) -> dict[str, float | None]:
@@ -93,7 +123,8 @@ def parse_world(raw: Any) -> dict[str, float | None]:
     unknown = sorted(set(w) - set(KEYS))
     if unknown:
         raise WorldError(f"world.{unknown[0]}: unknown key (known: {', '.join(KEYS)})")
-    out: dict[str, float | None] = dict.fromkeys(WORLD_SIGNALS)
+    out: dict[str, float | None] = dict.fromkeys((*WORLD_SIGNALS, *LEADERBOARD_INPUTS,
+                                                  CROSSING_SIDE))  # fmt: skip
     if w.get("speed") is not None:
         out["vehicle_speed"] = _num(w["speed"], "world.speed", allow_negative=False)
     if w.get("speed_limit") is not None:
@@ -111,6 +142,13 @@ def parse_world(raw: Any) -> dict[str, float | None]:
                                     "world.stop_sign.distance")  # fmt: skip
     marking = w.get("marking")
     out["marking"] = 0.0 if marking is None else _choice(marking, MARKINGS, "world.marking")
+    if w.get("crossing") is not None:
+        if marking is None:
+            raise WorldError("world.crossing: a side without a marking being crossed "
+                             "(world.marking)")  # fmt: skip
+        out[CROSSING_SIDE] = _choice(w["crossing"], SIDES, "world.crossing")
+    elif marking is None:
+        out[CROSSING_SIDE] = 0.0  # nothing crossed: no side to report
     if w.get("indicator") is not None:
         out["indicator"] = _choice(w["indicator"], INDICATOR, "world.indicator")
     if w.get("lights") is not None:
@@ -123,7 +161,7 @@ def parse_world(raw: Any) -> dict[str, float | None]:
     if not isinstance(contacts, list):
         raise WorldError(f"world.collisions: expected a list, got {contacts!r:.40}")
     at_fault = victim = 0
-    party = 0.0
+    party = victim_party = 0.0
     for k, c in enumerate(contacts):
         where = f"world.collisions[{k}]"
         c = _map(c, where)
@@ -133,13 +171,42 @@ def parse_world(raw: Any) -> dict[str, float | None]:
             party = party or kind
         else:
             victim += 1
+            victim_party = victim_party or kind
     out["collision_at_fault"], out["collision_victim"] = float(at_fault), float(victim)
-    out["collision_party"] = party
+    out["collision_party"], out["collision_victim_party"] = party, victim_party
     if w.get("route") is not None:
         route = _map(w["route"], "world.route")
+        unknown = sorted(set(route) - set(ROUTE_KEYS))
+        if unknown:
+            raise WorldError(f"world.route.{unknown[0]}: unknown key (known: "
+                             f"{', '.join(ROUTE_KEYS)})")  # fmt: skip
         out["route_progress"] = _num(route.get("progress"), "world.route.progress")
         out["route_length"] = _num(route.get("length"), "world.route.length",
                                    allow_negative=False)  # fmt: skip
+        for key, name in (("outside_lanes", "route_outside_lanes"), ("deviated", "route_deviated")):
+            if route.get(key) is not None:
+                out[name] = _bool(route[key], f"world.route.{key}")
+    if w.get("blocked") is not None:
+        out["blocked"] = _bool(w["blocked"], "world.blocked")
+    if w.get("timeouts") is not None:
+        timeouts = _map(w["timeouts"], "world.timeouts")
+        unknown = sorted(set(timeouts) - set(TIMEOUT_KEYS))
+        if unknown:
+            raise WorldError(f"world.timeouts.{unknown[0]}: unknown key (known: "
+                             f"{', '.join(TIMEOUT_KEYS)})")  # fmt: skip
+        for key in TIMEOUT_KEYS:
+            if timeouts.get(key) is not None:
+                out[f"{key}_timeout"] = _bool(timeouts[key], f"world.timeouts.{key}")
+    if w.get("emergency_vehicle") is not None:
+        ev = _map(w["emergency_vehicle"], "world.emergency_vehicle")
+        if set(ev) - {"failed_to_yield"}:
+            raise WorldError("world.emergency_vehicle: expected {\"failed_to_yield\": true|false}, "
+                             f"got keys {', '.join(sorted(ev))}")  # fmt: skip
+        out["yield_failed"] = _bool(ev.get("failed_to_yield"),
+                                    "world.emergency_vehicle.failed_to_yield")  # fmt: skip
+    if w.get("traffic_speed") is not None:
+        out["traffic_speed"] = _num(w["traffic_speed"], "world.traffic_speed",
+                                    allow_negative=False)  # fmt: skip
     return out
 
 

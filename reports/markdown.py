@@ -88,13 +88,14 @@ def _scores(result: RunResult) -> list[str]:
         return []
     out = ["", "## Traffic rules: scores", ""]
     p, c = sc.get("penalty"), sc.get("carla")
-    if p is None:
-        out.append(f"No score: {md_escape(sc.get('reason'))}.")
-    else:
-        out += [f"- penalty score **{p['score']:.2f}** = {p['c']:g} x min({p['t_o']:.1f} s / "
-                f"{p['t']:.1f} s, 1) x {p['d']:.3f} - {p['gamma']:g} x {p['penalty_sum']:g}",
-                f"- CARLA driving score **{c['driving_score']:.2f}** = 100 x "
-                f"{c['route_completion']:.3f} x {c['infraction_penalty']:.3f}"]
+    if p is not None:
+        out.append(f"- penalty score (eq. 6.1) **{p['score']:.2f}**, made of: "
+                   f"{md_escape(p.get('made_of', ''))}")
+    if c is not None:
+        out.append(f"- CARLA Leaderboard driving score **{c['driving_score']:.2f}**, made of: "
+                   f"{md_escape(c.get('made_of', ''))}")
+    if sc.get("reason"):
+        out.append(f"No {'penalty ' if c else ''}score: {md_escape(sc.get('reason'))}.")
     rules = (p or sc).get("per_rule") or {}
     if rules:
         out += ["", *_table(["rule", "events", "while speeding", "penalty"],

@@ -8,7 +8,7 @@ the source positions (`Mark`) that later stages need to point errors back into t
 from __future__ import annotations
 
 from enum import Enum
-from typing import Literal
+from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
@@ -70,6 +70,13 @@ class MetricParams(BaseModel):
     )
     lane_half_width: float = Field(
         1.75, gt=0, le=10, description="half width [m] of the corridor of the leader and follower"
+    )
+    lone_horizon: float = Field(
+        2.0, gt=0, le=60,
+        description="time [s] after which an unpaired object counts as a full disagreement",
+    )
+    plan_lat_horizon: float = Field(
+        2.0, gt=0, le=60, description="plan time [s] over which plan_lat compares the plans"
     )
 
 
@@ -216,24 +223,35 @@ class ChannelCoverage(BaseModel):
 
 
 class ScoringParams(BaseModel):
-    """`monitor.scoring:` the parameters of the penalty score and of the CARLA Leaderboard
-    score of a drive's traffic-rule events (docs/traffic-rules.md). Penalties and coefficients
-    default to the traffic-rules library's; these override them per rule (`collision` per party:
-    `collision.pedestrian`)."""
+    """`monitor.scoring:` the parameters of the penalty score (eqs. 6.1 and 6.3 of the CARLA
+    safety-monitor thesis, named and bounded as it does) and of the CARLA Leaderboard score of
+    a drive (docs/traffic-rules.md). Penalties and coefficients default to the traffic-rules
+    library's; these override them per rule (`collision` per party: `collision.pedestrian`)."""
 
     model_config = ConfigDict(extra="forbid", frozen=True)
-    c: float = Field(100.0, gt=0, le=1e6, description="scale of the time term")
-    alpha: float = Field(0.2, ge=0, le=10, description="slack on the reference time")
-    gamma: float = Field(0.7, ge=0, le=1e3, description="weight of the penalties")
-    v_avg: float | None = Field(
-        None, gt=0, le=100, description="reference speed [m/s]; none: the mean speed limit")
-    standstill: float = Field(0.1, ge=0, le=5, description="speed [m/s] counted as stopped")
-    stop_zone: float = Field(10.0, gt=0, le=100, description="stops this near [m] a red light "
-                             "or stop line count as stop time")
+    d: float = Field(100.0, ge=0, le=1000, description="d: difficulty of the scenario, 0 to 1000 "
+                     "(eq. 6.1; a stream has no scenario file, so the case sets it)")
+    alpha: float = Field(0.2, ge=0, le=1, description="alpha: intensity of traffic, 0 (empty "
+                         "road) to 1 (gridlock) (eq. 6.3)")
+    gamma: float = Field(0.7, gt=0, le=1, description="gamma: discount factor of the penalties, "
+                         "(0, 1] (eq. 6.1)")
+    v_avg: float | None = Field(None, gt=0, le=100, description="v_avg: average speed limit "
+                                "over the route [m/s]; none: from the stream's speed limits")
+    route_length: float | None = Field(None, gt=0, le=1e7, description="s: length of the route "
+                                       "[m]; none: the stream's world.route.length")
+    stop_allowance: float = Field(12.0, ge=0, le=3600, description="t_avg: time [s] allowed at "
+                                  "each stop line passed (the thesis' evaluation: 12 s a junction)")
+    stops: list[Annotated[float, Field(ge=0, le=3600)]] | None = Field(
+        None, max_length=10000, description="t_avg of every stop of the route [s], instead of "
+        "stop_allowance per stop line passed")
+    timeliness_cap: bool = Field(False, description="casewatch's variant: cap t_o / t at 1 "
+                                 "(no points for beating the optimal time)")
     neither: float = Field(50.0, ge=0, le=1e4, description="penalty for neither low beam at "
                            "night nor fog lights in fog at once (instead of both penalties)")
     penalties: dict[str, tuple[float, float]] = {}  # rule -> (base, while speeding)
     carla: dict[str, float] = {}  # rule -> CARLA infraction coefficient in (0, 1]
+    min_speed_checkpoints: int = Field(4, ge=1, le=100, description="stretches of the route the "
+                                       "Leaderboard's minimum-speed test compares speeds over")
 
 
 class MonitorConfig(BaseModel):

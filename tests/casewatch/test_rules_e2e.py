@@ -42,7 +42,10 @@ def test_the_careful_driver_breaks_no_rule_and_is_not_blamed(judged):
         assert result["scores"]["penalty"]["penalty_sum"] == 0.0
     hit = json.loads((judged / "rear-end-careful" / "result.json").read_text())
     assert {e["node_id"] for e in hit["episodes"]} == {"CSn_collision_victim"}
-    assert hit["scores"]["carla"]["infraction_penalty"] == 1.0  # the victim is not penalised
+    assert hit["scores"]["penalty"]["penalty_sum"] == 0.0  # the victim is not penalised here,
+    # but the Leaderboard counts every collision: a vehicle, 0.6
+    assert hit["scores"]["carla"]["per_infraction"] == {
+        "collisions_vehicle": {"events": 1, "coefficient": 0.6}}
 
 
 def test_every_event_is_placed_on_the_road(judged, tmp_path, capsys):

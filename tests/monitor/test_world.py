@@ -6,7 +6,13 @@ import pytest
 
 from monitor.engine import MetricEngine
 from monitor.parse import FrameDefect, parse_frame
-from monitor.world import NONE_AHEAD, WORLD_SIGNALS, condition_values, parse_world
+from monitor.world import (
+    LEADERBOARD_INPUTS,
+    NONE_AHEAD,
+    WORLD_SIGNALS,
+    condition_values,
+    parse_world,
+)
 from safety_case.model import MetricParams
 from safety_case.signals import WORLD_METRICS
 
@@ -26,7 +32,29 @@ def test_a_full_world_as_signals():
         "marking": 3.0, "indicator": 1.0, "low_beam": 1.0, "fog_lights": 0.0,
         "collision_at_fault": 1.0, "collision_victim": 1.0, "collision_party": 1.0,
         "route_progress": 120.0, "route_length": 800.0,
+        # the Leaderboard's inputs: the victim contact's party; the rest not reported
+        "collision_victim_party": 2.0, "route_outside_lanes": None, "route_deviated": None,
+        "blocked": None, "route_timeout": None, "scenario_timeout": None,
+        "yield_failed": None, "traffic_speed": None, "crossing_side": None,
     }  # fmt: skip
+
+
+def test_the_leaderboard_inputs_and_the_crossing_side():
+    values = parse_world({
+        "marking": "broken", "crossing": "right", "indicator": "left",
+        "route": {"progress": 10.0, "length": 100.0, "outside_lanes": True, "deviated": False},
+        "blocked": False, "timeouts": {"route": False, "scenario": True},
+        "emergency_vehicle": {"failed_to_yield": True}, "traffic_speed": 8.5,
+    })  # fmt: skip
+    picked = {k: values[k] for k in (*LEADERBOARD_INPUTS, "crossing_side", "indicator")}
+    assert picked == {
+        "route_outside_lanes": 1.0, "route_deviated": 0.0, "blocked": 0.0,
+        "route_timeout": 0.0, "scenario_timeout": 1.0, "yield_failed": 1.0,
+        "traffic_speed": 8.5, "collision_victim_party": 0.0,
+        "crossing_side": 2.0, "indicator": 1.0,
+    }  # fmt: skip
+    # nothing crossed: the side is 0 (none), not a data gap
+    assert parse_world({})["crossing_side"] == 0.0
 
 
 def test_none_ahead_is_not_missing_but_unreported_is():
@@ -51,6 +79,13 @@ def test_none_ahead_is_not_missing_but_unreported_is():
         ({"collisions": [{"with": "vehicle", "ego_at_fault": "yes"}]}, "true or false"),
         ({"speed_limit": -3}, "world.speed_limit: expected a number >= 0"),
         ({"sped_limit": 3}, "world.sped_limit: unknown key"),
+        ({"crossing": "left"}, "world.crossing: a side without a marking being crossed"),
+        ({"marking": "broken", "crossing": "up"}, "world.crossing: expected one of left, right"),
+        ({"route": {"progress": 1, "length": 9, "offroad": True}},
+         "world.route.offroad: unknown key"),
+        ({"timeouts": {"route": 1}}, "world.timeouts.route: expected true or false"),
+        ({"emergency_vehicle": {"yielded": True}}, "world.emergency_vehicle: expected"),
+        ({"traffic_speed": -1}, "world.traffic_speed: expected a number >= 0"),
         ([], "world: expected an object"),
     ],
 )  # fmt: skip
