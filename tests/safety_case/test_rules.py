@@ -81,10 +81,47 @@ def test_markings_indicator_and_lights():
     assert events("{use: broken_no_indicator}", ticks) == [(0.1, 0.2)]
     assert events("{use: solid_line}", ticks) == [(0.5, 0.5)]
     assert events("{use: double_solid}", ticks) == [(0.6, 0.6)]
-    night = [{"night": 1, "low_beam": 0, "vehicle_speed": 5}] * 6 + [
-        {"night": 1, "low_beam": 1, "vehicle_speed": 5}] * 4 + [
-        {"night": 0, "low_beam": 0, "vehicle_speed": 5}] * 4
+    night = [{"night": 1, "fog": 0, "low_beam": 0, "vehicle_speed": 5}] * 6 + [
+        {"night": 1, "fog": 0, "low_beam": 1, "vehicle_speed": 5}] * 4 + [
+        {"night": 0, "fog": 0, "low_beam": 0, "vehicle_speed": 5}] * 4
     assert events("{use: no_headlights}", night) == [(0.0, 0.5)]
+
+
+def test_low_beam_in_fog():
+    # table A.3 "No beams" and sec. 6.2.2: in fog, as at night, the low beam must be on.
+    # Fog by day without the low beam for 0.6 s (6 ticks), then with it: one event 0-0.5 s;
+    # standing (0.3 m/s, below `moving` 0.5) without it is none
+    fog = [{"night": 0, "fog": 1, "low_beam": 0, "vehicle_speed": 5}] * 6 + [
+        {"night": 0, "fog": 1, "low_beam": 1, "vehicle_speed": 5}] * 4 + [
+        {"night": 0, "fog": 1, "low_beam": 0, "vehicle_speed": 0.3}] * 6
+    assert events("{use: no_headlights}", fog) == [(0.0, 0.5)]
+
+
+def test_the_indicator_must_point_the_way_of_a_broken_line_crossing():
+    # crossing_side 1 left, 2 right (world.crossing), the indicator's codes. Ticks: a broken
+    # line crossed to the left with the left indicator (fine), to the right with the left one
+    # (wrong: an event), to the right with none (broken_no_indicator's, not this rule's)
+    head = HEAD.replace("merge_gap: 1s}", "merge_gap: 1s, signals: {crossing_side: side}}")
+    ticks = [{"marking": m, "indicator": i, "crossing_side": c} for m, i, c in
+             [(0, 0, 0), (1, 1, 1), (0, 1, 0), (1, 1, 2), (1, 1, 2), (0, 0, 0), (1, 0, 2)]]
+    result = load_text(head + "  hazard: {use: broken_wrong_indicator}\n", "rules.yaml")
+    assert result.case is not None, [f.format() for f in result.findings]
+    spec, _ = compile_case(result.case)
+    ev = Evaluator(result.case, spec)
+    for i, values in enumerate(ticks):
+        ev.step(round(0.1 * i, 6), values)
+    ev.finish()
+    assert [(e.start, e.end) for e in ev.episodes] == [(0.3, 0.4)]
+    assert events("{use: broken_no_indicator}", ticks) == [(0.6, 0.6)]
+    # without the declared side the rule says what to declare
+    undeclared = load_text(HEAD + "  hazard: {use: broken_wrong_indicator}\n", "rules.yaml")
+    (f,) = [f for f in undeclared.findings if f.code == "CW008"]
+    assert "crossing_side" in f.message and "monitor.signals" in f.message
+
+
+def test_every_rule_names_its_source():
+    for rule in library(RULES).values():
+        assert rule.source, rule.name
 
 
 def test_unknown_rules_and_parameters():
@@ -118,7 +155,8 @@ def test_the_traffic_rules_module_is_included_by_name(tmp_path):
                     "G1:\n  text: The ego drives safely\n  supportedBy: [G_traffic_rules]\n")
     c, spec = api.prepare(case)
     rules = {f.rule for f in spec.formulas}
-    assert rules == set(library(RULES))
+    # every rule but the one that needs a declared signal (crossing_side)
+    assert rules == set(library(RULES)) - {"broken_wrong_indicator"}
     assert all(f.node_id == f"CSn_{f.rule}" for f in spec.formulas)
     assert c.nodes["CSn_red_light"].challenges == ["G_traffic_rules"]
     # stop_sign's `once[0:30]` is counted at the case's 50 ms period
