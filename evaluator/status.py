@@ -16,16 +16,22 @@ Statuses (architecture.md, "Verdicts and status"), worst first:
   every node in its scope (the goals and strategies naming it in `inContextOf`, and everything
   that supports them) that would be `satisfied` is `outside-odd` instead, and `no-data` when a
   condition is not reported: a pass outside the domain would extrapolate. Violations stay.
+
+`summarize` turns a node's statuses over a run into the one status a report colours it with
+(docs/reports.md, "Node colours"): findings (`violated`, `undermined`, `in-doubt`) from a
+single tick; any other status only when it holds on at least 1 % of the ticks after warm-up,
+so one warm-up tick or a short gap does not turn a 99.9 % satisfied node grey.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Literal
 
 import networkx as nx
 
-from evaluator.result import STATUS_SEVERITY
+from evaluator.result import STATUS_SEVERITY, NodeStatus
 from safety_case.model import Case, NodeType
 
 Verdict = Literal["ok", "violated", "no-data", "outside-assumption"]
@@ -154,3 +160,56 @@ def _worst(statuses: list[str]) -> str:
 def worst_status(statuses: list[str]) -> str:
     """The worst of several statuses (`external` when empty)."""
     return _worst(statuses) if statuses else "external"
+
+
+#: Statuses that are findings: they colour a node from a single tick.
+FINDINGS = ("violated", "undermined", "in-doubt")
+#: Any other status colours a node only on at least this share of its ticks after warm-up.
+SUMMARY_SHARE = 0.01
+#: The `no-data` stretch a run starts with counts as warm-up for at most this long (seconds):
+#: metrics that need history and windowed formulas have no value yet. Longer, the rest is a
+#: data gap like any other.
+WARMUP_MAX_S = 10.0
+
+
+@dataclass(frozen=True)
+class StatusSummary:
+    """A node's statuses over a run, and the one it is coloured with."""
+
+    status: str  # the colour (`summarize`'s rule)
+    worst: str  # the worst status of any tick (`NodeStatus.worst`)
+    ticks: dict[str, int]  # status -> ticks over the run
+    warmup_ticks: int  # of the `no-data` ticks, those of the warm-up
+
+    @property
+    def total(self) -> int:
+        return sum(self.ticks.values())
+
+
+def warmup_ticks(status: NodeStatus, period: float) -> int:
+    """The `no-data` ticks the node's run starts with, up to `WARMUP_MAX_S`, when a verdict
+    follows them (a node that never had data has no warm-up: it has no data)."""
+    timeline = status.timeline
+    if len(timeline) < 2 or timeline[0].status != "no-data":
+        return 0
+    most = round(WARMUP_MAX_S / period) + 1 if period > 0 else timeline[0].ticks
+    return min(timeline[0].ticks, most)
+
+
+def summarize(status: NodeStatus | None, period: float) -> StatusSummary:
+    """The colour of a node (module docstring): the worst finding of any tick; otherwise the
+    worst status holding on at least `SUMMARY_SHARE` of the ticks with warm-up left out; the
+    most frequent one when none does. A node without ticks has no data."""
+    if status is None or not sum(status.ticks.values()):
+        return StatusSummary("no-data", "no-data", {}, 0)
+    warmup = warmup_ticks(status, period)
+    counted = {name: n for name, n in status.ticks.items() if n}
+    counted["no-data"] = counted.get("no-data", 0) - warmup
+    total = sum(counted.values())
+    findings = [name for name in FINDINGS if counted.get(name)]
+    if findings:
+        colour = _worst(findings)
+    else:
+        eligible = [name for name, n in counted.items() if n > 0 and n >= SUMMARY_SHARE * total]
+        colour = _worst(eligible) if eligible else max(counted, key=counted.__getitem__)
+    return StatusSummary(colour, status.worst, dict(status.ticks), warmup)

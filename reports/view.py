@@ -26,6 +26,7 @@ from evaluator.result import (
     StreamDefect,
     TraceStep,
 )
+from evaluator.status import summarize
 
 #: Longest lists shown in full; the rest is counted ("and N more"), so reports stay readable
 #: and bounded in size however long the run.
@@ -300,12 +301,24 @@ class ReportView:
     arbitration: list[tuple[str, str]] = field(default_factory=list)  # (channel, share of ticks)
 
 
-def _shares(status: NodeStatus | None) -> list[tuple[str, str, str]]:
+def _shares(status: NodeStatus | None, period: float) -> list[tuple[str, str, str]]:
+    """(status, label, share of the run) worst first; the `no-data` share says how much of it
+    was warm-up (`evaluator.status.warmup_ticks`), e.g. `0.1 % (all warm-up)`."""
     if status is None or not status.ticks:
         return []
-    total = sum(status.ticks.values())
+    summary = summarize(status, period)
+    total = summary.total
     ordered = sorted(status.ticks.items(), key=lambda kv: -STATUS_SEVERITY.get(kv[0], -1))
-    return [(s, STATUS_LABELS.get(s, s), fmt_share(n, total)) for s, n in ordered if n]
+    out = []
+    for name, n in ordered:
+        if not n:
+            continue
+        share = fmt_share(n, total)
+        if name == "no-data" and summary.warmup_ticks:
+            share += (" (all warm-up)" if summary.warmup_ticks == n
+                      else f" (warm-up {fmt_share(summary.warmup_ticks, total)})")  # fmt: skip
+        out.append((name, STATUS_LABELS.get(name, name), share))
+    return out
 
 
 def _meta_text(value: object) -> str:
@@ -329,10 +342,9 @@ def build_view(result: RunResult) -> ReportView:
     """Collect what the reports show, in display form."""
     case, stream = result.case, result.stream
     status_by_node = {s.node_id: s for s in result.status}
-    status_of = {
-        n.id: status_by_node[n.id].worst if n.id in status_by_node else "no-data"
-        for n in case.nodes
-    }
+    # the colour of each node: evaluator.status.summarize's rule, not the worst tick's status
+    status_of = {n.id: summarize(status_by_node.get(n.id), case.period).status
+                 for n in case.nodes}  # fmt: skip
     text_of = {n.id: n.text for n in case.nodes}
     formula_of_node = {f.node_id: f for f in result.formulas}
     plotted = {s.formula_id for s in result.series}
@@ -362,7 +374,7 @@ def build_view(result: RunResult) -> ReportView:
         episodes_spi=sum(1 for e in result.episodes if e.kind == "spi"),
         episodes_hazard=sum(1 for e in result.episodes if e.kind == "hazard"),
         complete=result.complete,
-        root_shares=_shares(status_by_node.get(case.root_id)),
+        root_shares=_shares(status_by_node.get(case.root_id), case.period),
         meta=[(str(k), _meta_text(v)) for k, v in stream.meta.items()],
         channels=", ".join(case.channels),
         period=case.period,
@@ -464,7 +476,7 @@ def build_view(result: RunResult) -> ReportView:
             node=n,
             supports=supports.get(n.id, []),
             formula=formula_of_node.get(n.id),
-            shares=_shares(status_by_node.get(n.id)),
+            shares=_shares(status_by_node.get(n.id), case.period),
             episode_numbers=episodes_by_node.get(n.id, []),
             timeline=status_by_node[n.id].timeline if n.id in status_by_node else [],
         )

@@ -5,7 +5,8 @@ from __future__ import annotations
 import re
 from html.parser import HTMLParser
 
-from evaluator.result import RunResult
+from evaluator.result import NodeStatus, RunResult, StatusInterval
+from evaluator.status import summarize
 from reports.html import render_html
 
 
@@ -73,9 +74,10 @@ def test_every_episode_and_node_has_a_section(reference_result: RunResult) -> No
         assert f"diagram-{node.id}" in parsed.ids
 
 
-def test_diagram_nodes_link_to_sections_and_carry_worst_status(reference_result: RunResult) -> None:
+def test_diagram_nodes_link_to_sections_and_carry_their_status(reference_result: RunResult) -> None:
     html = render_html(reference_result)
-    worst = {s.node_id: s.worst for s in reference_result.status}
+    period = reference_result.case.period
+    worst = {s.node_id: summarize(s, period).status for s in reference_result.status}
     for node in reference_result.case.nodes:
         pattern = (
             rf'<a href="#node-{node.id}"><g class="gsn-node st-{worst[node.id]}'
@@ -128,3 +130,24 @@ def test_long_lists_are_capped_with_a_count(reference_result: RunResult) -> None
     many = reference_result.model_copy(update={"data_gaps": [gap] * 250})
     html = render_html(many)
     assert "and 50 more data gaps" in html  # 250 gaps, 200 shown
+
+
+def test_a_warm_up_tick_leaves_the_node_satisfied_and_the_share_says_so(
+    reference_result: RunResult,
+) -> None:
+    """Sn8 satisfied on all ticks but the first (warm-up): coloured satisfied, with the no-data
+    share marked as warm-up; a violation of a single tick still colours its node."""
+    first = reference_result.status[0].timeline[0]
+    total = sum(reference_result.status[0].ticks.values())
+    t_end = reference_result.status[0].timeline[-1].end
+    warm = NodeStatus(node_id="Sn8", worst="no-data", ticks={"no-data": 1, "satisfied": total - 1},
+                      timeline=[StatusInterval(status="no-data", start=first.start,
+                                               end=first.start, ticks=1),
+                                StatusInterval(status="satisfied", start=first.start + 0.1,
+                                               end=t_end, ticks=total - 1)])  # fmt: skip
+    status = [warm if s.node_id == "Sn8" else s for s in reference_result.status]
+    html = render_html(reference_result.model_copy(update={"status": status}))
+    assert re.search(r'<g class="gsn-node st-satisfied[^"]*" id="diagram-Sn8"', html)
+    section = html.split('id="node-Sn8"', 1)[1].split('id="node-', 1)[0]
+    assert "no data &lt;0.1 % (all warm-up) · satisfied 99.9 %" in section
+    assert "pill satisfied" in section.split("</h3>")[0]
