@@ -14,8 +14,10 @@ cell and formula:
 - the **runs violated**: runs with at least one violated tick, of the runs judged there.
 
 A cell is **accepted** when every gating formula's rate (its upper confidence bound with
-`criterion="upper"`) stays at or below `max_rate`, and every `max_mae` bound holds; the
-accepted cells are the domain. Plain values in, plain values out.
+`criterion="upper"`) stays below `max_rate` (the study's rule, "less than 5 %"; `strict=False`
+accepts a rate equal to it), and every `max_mae` bound holds (below it, likewise); the accepted
+cells are the domain. Continuous conditions (a fog density 0-100) can be binned (`Bins`: the
+study's light [0, 30], medium (30, 70], heavy (70, 100]). Plain values in, plain values out.
 """
 
 from __future__ import annotations
@@ -23,11 +25,12 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
+from itertools import pairwise
 
 import numpy as np
 
 from evaluator.result import RunResult
-from safety_case.model import OddSpec
+from safety_case.model import OddRange, OddSpec
 
 #: Two-sided 95 % quantiles of Student's t for 1-30 degrees of freedom (beyond: 1.96).
 _T95 = (12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179,
@@ -48,6 +51,76 @@ def wilson(successes: int, n: int, z: float = Z95) -> tuple[float, float]:
     centre = (p + z * z / (2 * n)) / (1 + z * z / n)
     half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
     return max(0.0, centre - half), min(1.0, centre + half)
+
+
+#: How each interval code of `cluster_rate` was computed, as the page names it.
+INTERVAL_METHODS = {
+    "runs": "cluster-robust ratio estimator over runs, Student t, 95 %",
+    "ticks": "Wilson score interval over the ticks of one run, 95 % (optimistic: ticks of one "
+    "drive are not independent)",
+    "none": "nothing judged",
+}
+
+
+@dataclass(frozen=True)
+class Bins:
+    """Bins of a continuous condition: `edges` e0 < e1 < ... < en make the bins [e0, e1],
+    (e1, e2], ..., (en-1, en] (the study's [0, 30], (30, 70], (70, 100]), named by `names` or
+    by their interval."""
+
+    attribute: str
+    edges: tuple[float, ...]
+    names: tuple[str, ...] = ()
+
+    def labels(self) -> list[str]:
+        if self.names:
+            return list(self.names)
+        e = self.edges
+        return [f"{'[' if k == 0 else '('}{e[k]:g}, {e[k + 1]:g}]" for k in range(len(e) - 1)]
+
+    def index(self, value: object) -> int | None:
+        """The bin of `value`; None for a value that is no number or outside every bin."""
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            return None
+        e = self.edges
+        if e[0] <= value <= e[1]:
+            return 0
+        for k in range(1, len(e) - 1):
+            if e[k] < value <= e[k + 1]:
+                return k
+        return None
+
+    def label(self, value: object) -> object:
+        k = self.index(value)
+        if k is not None:
+            return self.labels()[k]
+        if value is None or isinstance(value, bool) or not isinstance(value, int | float):
+            return value  # not reported, or a text the bins cannot place: as it is
+        return f"outside [{self.edges[0]:g}, {self.edges[-1]:g}]"
+
+    def to_data(self) -> dict:
+        return {"edges": list(self.edges), "labels": self.labels()}
+
+
+def parse_bins(text: str) -> Bins:
+    """`ATTR=e0,e1,...,en` or `ATTR=e0,...,en:name1,...` (one name per bin); ValueError with
+    what is wrong."""
+    name, sep, rest = text.partition("=")
+    edges_text, _, names_text = rest.partition(":")
+    try:
+        edges = tuple(float(x) for x in edges_text.split(","))
+    except ValueError:
+        edges = ()
+    if not sep or not name.strip() or len(edges) < 2 or any(not math.isfinite(e) for e in edges):
+        raise ValueError(f"{text!r}: expected ATTR=EDGE,EDGE[,...][:NAME,...], e.g. "
+                         "environment.fog=0,30,70,100:light,medium,heavy")  # fmt: skip
+    if any(b <= a for a, b in pairwise(edges)):
+        raise ValueError(f"{text!r}: the edges must increase ({edges_text})")
+    names = tuple(n.strip() for n in names_text.split(",")) if names_text else ()
+    if names and (len(names) != len(edges) - 1 or not all(names)):
+        raise ValueError(f"{text!r}: {len(edges) - 1} bins need {len(edges) - 1} names, got "
+                         f"{len(names)}")  # fmt: skip
+    return Bins(name.strip(), edges, names)
 
 
 def cluster_rate(violated: list[int], judged: list[int]) -> tuple[float | None, float, float, str]:
@@ -90,8 +163,9 @@ def varying_attributes(runs: Iterable[RunInput]) -> list[str]:
     return sorted(k for k, vals in seen.items() if len(vals) > 1)
 
 
-def _cell_of(attributes: dict, by: list[str]) -> tuple:
-    return tuple(attributes.get(name) for name in by)
+def _cell_of(attributes: dict, by: list[str], bins: dict[str, Bins]) -> tuple:
+    return tuple(bins[name].label(attributes.get(name)) if name in bins else attributes.get(name)
+                 for name in by)  # fmt: skip
 
 
 def _mae(spans: list[list[float]], t: np.ndarray, column: np.ndarray) -> tuple[float, int]:
@@ -106,10 +180,18 @@ def _mae(spans: list[list[float]], t: np.ndarray, column: np.ndarray) -> tuple[f
 
 def analyse(runs: list[RunInput], by: list[str], formulas: list[str] | None, max_rate: float,
             criterion: str = "estimate", max_mae: dict[str, float] | None = None,
-            load_signals: SignalLoader | None = None) -> dict:  # fmt: skip
+            load_signals: SignalLoader | None = None, bins: dict[str, Bins] | None = None,
+            strict: bool = True) -> dict:  # fmt: skip
     """The per-cell table and the accepted cells, as plain data (see the module docstring).
-    `formulas`: the formula ids that gate acceptance (None: every SPI and contract)."""
+    `formulas`: the formula ids that gate acceptance (None: every SPI and contract); `bins`:
+    continuous conditions by attribute; `strict`: a rate (an MAE) must stay below its bound,
+    else at or below it."""
     max_mae = max_mae or {}
+    bins = bins or {}
+
+    def within(value: float | None, bound: float) -> bool:
+        return value is not None and (value < bound if strict else value <= bound)
+
     stats = {f.id: f for run in runs for f in run.result.formulas}
     gating = formulas if formulas is not None else sorted(
         fid for fid, f in stats.items() if f.kind == "spi")  # fmt: skip
@@ -124,7 +206,7 @@ def analyse(runs: list[RunInput], by: list[str], formulas: list[str] | None, max
         degraded = truth_meta.get("degraded") if isinstance(truth_meta, dict) else None
         signals = None
         for cond in run.result.conditions:
-            cell = _cell_of(cond.attributes, by)
+            cell = _cell_of(cond.attributes, by, bins)
             cell_runs.setdefault(cell, set()).add(run.folder)
             cell_ticks[cell] = cell_ticks.get(cell, 0) + cond.ticks
             if degraded is not None:
@@ -152,8 +234,12 @@ def analyse(runs: list[RunInput], by: list[str], formulas: list[str] | None, max
                     acc = sums.setdefault(name, [0.0, 0])
                     acc[0] += total
                     acc[1] += count
+    def order(cell: tuple) -> tuple:  # bins in their order, the rest by name
+        return tuple((0, f"{bins[n].labels().index(v):04d}") if n in bins and v in
+                     bins[n].labels() else (1, str(v)) for n, v in zip(by, cell, strict=True))
+
     cells = []
-    for cell in sorted(per_cell, key=lambda c: tuple(str(v) for v in c)):
+    for cell in sorted(per_cell, key=order):
         entry: dict = {
             "conditions": dict(zip(by, cell, strict=True)),
             "runs": len(cell_runs[cell]),
@@ -170,12 +256,17 @@ def analyse(runs: list[RunInput], by: list[str], formulas: list[str] | None, max
             rlo, rhi = wilson(runs_violated, runs_judged)
             gate = fid in gating
             value = None if rate is None else (hi if criterion == "upper" else rate)
-            ok = value is not None and value <= max_rate
+            ok = within(value, max_rate)
+            spread = method != "runs" or hi > lo
             if gate and not ok:
                 accepted = False
                 reasons.append(fid if rate is not None else f"{fid} (never judged)")
             entry["formulas"][fid] = {
                 "rate": rate, "low": lo, "high": hi, "interval": method,
+                "interval_method": INTERVAL_METHODS[method] + ("" if spread else
+                                                              "; every run had the same rate: "
+                                                              "no spread to estimate, the "
+                                                              "interval says nothing"),
                 "violated_ticks": sum(row["violated"]), "judged_ticks": sum(row["judged"]),
                 "outside_assumption_ticks": sum(row["outside"]),
                 "no_data_ticks": sum(row["no_data"]),
@@ -186,9 +277,9 @@ def analyse(runs: list[RunInput], by: list[str], formulas: list[str] | None, max
         for name, bound in max_mae.items():
             total, count = mae_sums.get(cell, {}).get(name, [0.0, 0])
             mae = total / count if count else None
-            within = mae is not None and mae <= bound
-            entry["mae"][name] = {"mae": mae, "ticks": count, "bound": bound, "within": within}
-            if not within:
+            ok = within(mae, bound)
+            entry["mae"][name] = {"mae": mae, "ticks": count, "bound": bound, "within": ok}
+            if not ok:
                 accepted = False
                 reasons.append(f"MAE {name}")
         unreported = [name for name, value in zip(by, cell, strict=True) if value is None]
@@ -202,7 +293,10 @@ def analyse(runs: list[RunInput], by: list[str], formulas: list[str] | None, max
         cells.append(entry)
     return {
         "format": "casewatch-odd", "version": 1, "by": by, "max_violation_rate": max_rate,
-        "criterion": criterion, "max_mae": max_mae, "gating": gating, "runs": len(runs),
+        "acceptance": "strict" if strict else "inclusive",
+        "bins": {name: b.to_data() for name, b in bins.items()},
+        "criterion": criterion, "max_mae": max_mae, "mae_note": "", "gating": gating,
+        "runs": len(runs),
         "formulas": {fid: {"node_id": f.node_id, "text": f.node_text, "kind": f.kind,
                            "contract": f.contract_use, "assumption": f.assumption,
                            "source": f.source}
@@ -217,7 +311,7 @@ def accepted_odd(report: dict, name: str = "accepted") -> OddSpec | None:
     domain need not be a product). None when no cell is accepted (an ODD accepts something)."""
     by = report["by"]
     accepted = [c for c in report["cells"] if c["accepted"]]
-    if not accepted or not by:
+    if not accepted or not by or binned_domain_problem(report):
         return None
     attributes: dict[str, list] = {}
     for cell in accepted:
@@ -227,5 +321,30 @@ def accepted_odd(report: dict, name: str = "accepted") -> OddSpec | None:
                 values.append(cell["conditions"][key])
     combos = [dict(c["conditions"]) for c in accepted]
     product = len(accepted) == math.prod(len(v) for v in attributes.values())
-    return OddSpec(name=name, attributes={k: sorted(v, key=str) for k, v in attributes.items()},
-                   combinations=[] if product else combos)  # fmt: skip
+    out: dict = {k: sorted(v, key=str) for k, v in attributes.items()}
+    for key, b in (report.get("bins") or {}).items():
+        picked = sorted(b["labels"].index(v) for v in attributes[key])
+        out[key] = OddRange(min=b["edges"][picked[0]], max=b["edges"][picked[-1] + 1])
+    return OddSpec(name=name, attributes=out, combinations=[] if product else combos)
+
+
+def binned_domain_problem(report: dict) -> str | None:
+    """Why the accepted cells cannot be written as an ODD when conditions were binned (an ODD
+    holds a binned condition as one interval, so its accepted bins must be adjacent, and the
+    accepted cells a product), or None."""
+    bins = report.get("bins") or {}
+    accepted = [c for c in report["cells"] if c["accepted"]]
+    if not bins or not accepted:
+        return None
+    for key, b in bins.items():
+        values = {c["conditions"][key] for c in accepted}
+        if not values <= set(b["labels"]):
+            return f"accepted cells with {key} outside its bins"
+        picked = sorted(b["labels"].index(v) for v in values)
+        if picked != list(range(picked[0], picked[-1] + 1)):
+            return f"the accepted {key} bins are not adjacent ({', '.join(sorted(values))})"
+    sizes = [len({c["conditions"][k] for c in accepted}) for k in report["by"]]
+    if len(accepted) != math.prod(sizes):
+        return "the accepted cells are no product of the binned values (an ODD's interval " \
+            "cannot say which combinations)"
+    return None

@@ -51,18 +51,35 @@ def render_odd_html(report: dict) -> str:
     return render_page("odd.html.j2", {"pct": pct, "label": cell_label}, r=report, heat=heat)
 
 
+def interval_text(f: dict) -> str:
+    """A rate's interval with its method, never a zero-width interval the runs cannot give."""
+    if f["interval"] == "runs" and f["high"] > f["low"]:
+        return f"[{pct(f['low'])}, {pct(f['high'])}] runs"
+    if f["interval"] == "ticks":
+        return f"[{pct(f['low'])}, {pct(f['high'])}] ticks"
+    if f["interval"] == "runs":
+        return "no spread"
+    return "nothing judged"
+
+
 def render_odd_text(report: dict) -> list[str]:
-    """The table printed on the terminal: a line per cell, the gating formulas' rates."""
+    """The table printed on the terminal: a line per cell, the gating formulas' rates with
+    their intervals (method named) and the runs violated (Wilson upper bound over runs)."""
     gating = report["gating"]
     which = "upper bound" if report["criterion"] == "upper" else "estimate"
+    relation = "<=" if report.get("acceptance") == "inclusive" else "<"
+    binned = "".join(f"; {k} binned {', '.join(b['labels'])}"
+                     for k, b in (report.get("bins") or {}).items())  # fmt: skip
     lines = [f"{len(report['cells'])} cells over {', '.join(report['by']) or '(nothing)'}; "
-             f"{report['runs']} runs; accepted: violation rate ({which}) <= "
-             f"{pct(report['max_violation_rate'])}"]  # fmt: skip
+             f"{report['runs']} runs; accepted: violation rate ({which}) {relation} "
+             f"{pct(report['max_violation_rate'])}{binned}"]  # fmt: skip
+    if report.get("mae_note"):
+        lines.append(f"  {report['mae_note']}")
     for cell in report["cells"]:
         rates = "  ".join(
-            f"{fid} {pct(cell['formulas'][fid]['rate'])} [{pct(cell['formulas'][fid]['low'])}, "
-            f"{pct(cell['formulas'][fid]['high'])}]"
-            for fid in gating if fid in cell["formulas"]
+            f"{fid} {pct(f['rate'])} {interval_text(f)}, {f['runs_violated']}/{f['runs_judged']} "
+            f"runs (<= {pct(f['runs_violated_high'])})"
+            for fid in gating if (f := cell["formulas"].get(fid)) is not None
         )
         maes = "  ".join(f"MAE {n} {m['mae']:.3g}" if m["mae"] is not None else f"MAE {n} n/a"
                          for n, m in cell["mae"].items())  # fmt: skip

@@ -3,10 +3,13 @@
 RUNS are output folders of `casewatch run` (result.json) or fleet folders (summary.json). Each
 run counts its formulas' ticks per combination of the conditions its stream reported
 (`meta.odd`, frame `odd`; docs/odd.md). Grouped by the attributes `--by` names (default: every
-attribute that varies over the runs), each cell gets every contract's and SPI's violation rate
-with a 95 % confidence interval (runs as the units) and its run count; a cell is accepted when
-every gating formula stays at or below `--max-violation-rate` (and every `--max-mae` bound
-holds). Writes OUT/odd.json (the table), OUT/odd.html (the heatmap) and OUT/accepted-odd.yaml
+attribute that varies over the runs; `--bins` turns a continuous one into bins), each cell
+gets every contract's and SPI's violation rate with a 95 % confidence interval (runs as the
+units) and its run count; a cell is accepted when every gating formula stays below
+`--max-violation-rate` (the study's "less than 5 %"; `--inclusive`: at or below) and every MAE
+bound holds (by default the study's MAE < 0.2 m of the lateral error `lane_offset`, where the
+runs saved it with --save-signals; `--no-mae` turns it off). Writes OUT/odd.json (the table),
+OUT/odd.html (the heatmap) and OUT/accepted-odd.yaml
 (the accepted domain, which a case includes with `odd:` on the root goal's context). When the
 runs' streams carry `meta.odd_truth.degraded` (generated data), it prints which cells agree.
 
@@ -24,7 +27,15 @@ import numpy as np
 import yaml
 
 from casewatch.commands.common import UsageError, run_folders
-from evaluator.odd_analysis import RunInput, accepted_odd, analyse, varying_attributes
+from evaluator.odd_analysis import (
+    Bins,
+    RunInput,
+    accepted_odd,
+    analyse,
+    binned_domain_problem,
+    parse_bins,
+    varying_attributes,
+)
 from evaluator.signal_store import SignalsError, load_signals
 from reports.odd import cell_label, render_odd_html, render_odd_text
 from reports.render import ResultError, load_result
@@ -40,7 +51,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="run folders (result.json) or fleet folders (summary.json)")
     p.add_argument("-o", "--out", required=True, type=Path, help="output folder")
     p.add_argument("--max-violation-rate", type=float, default=0.05, metavar="RATE",
-                   help="largest accepted violated share of judged ticks (default 0.05)")
+                   help="accepted: violated share of judged ticks below RATE (default 0.05)")
+    p.add_argument("--inclusive", action="store_true",
+                   help="accept a rate (an MAE) equal to its bound too (default: strictly "
+                   "below, the study's rule)")
+    p.add_argument("--bins", action="append", default=[], metavar="ATTR=EDGES[:NAMES]",
+                   help="bin a continuous condition: environment.fog=0,30,70,100 makes "
+                   "[0, 30], (30, 70], (70, 100]; names after a colon "
+                   "(:light,medium,heavy); ATTR may be the key alone (fog); repeatable")
     p.add_argument("--criterion", choices=("estimate", "upper"), default="estimate",
                    help="compare the rate's estimate (default) or its upper 95 %% bound")
     p.add_argument("--by", default=None, metavar="ATTR,...",
@@ -50,8 +68,59 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--max-mae", action="append", default=[], metavar="SIGNAL[-REF]=BOUND",
                    help="also require the mean absolute value of a saved signal (or of the "
                    "difference of two, lead_gap__camera-gt_lead_gap) at most BOUND per cell; "
-                   "needs runs made with --save-signals; repeatable")
+                   "needs runs made with --save-signals; repeatable (default: "
+                   f"{DEFAULT_MAE[0]}={DEFAULT_MAE[1]:g} where the runs saved it)")
+    p.add_argument("--no-mae", action="store_true",
+                   help="no MAE criterion, not even the default one")
     p.add_argument("--name", default="accepted", help="the written ODD's name")
+
+
+#: The study's MAE criterion (sec. 3.2.3: "the MAE should be less than 0.2 m"), applied to the
+#: lateral error where runs saved it (docs/odd.md says why lateral).
+DEFAULT_MAE = ("lane_offset", 0.2)
+
+
+def _default_mae(runs: list[RunInput]) -> tuple[dict[str, float], str]:
+    """The default MAE bound and a note saying whether it applies."""
+    name, bound = DEFAULT_MAE
+    for run in runs:
+        try:
+            saved = load_signals(Path(run.folder))
+        except SignalsError:
+            return {}, (f"MAE criterion ({name} < {bound:g} m) not applied: {run.folder} saved "
+                        "no signals (judge with --save-signals)")  # fmt: skip
+        if name not in saved.names:
+            return {}, (f"MAE criterion ({name} < {bound:g} m) not applied: {run.folder} has "
+                        f"no signal {name} (the case declares no lateral error)")  # fmt: skip
+    return {name: bound}, f"MAE criterion (default): {name} < {bound:g} m"
+
+
+def _bins(items: list[str], runs: list[RunInput], by: list[str]) -> dict[str, Bins]:
+    known = sorted({k for run in runs for c in run.result.conditions for k in c.attributes})
+    out: dict[str, Bins] = {}
+    for item in items:
+        try:
+            b = parse_bins(item)
+        except ValueError as exc:
+            raise UsageError(f"--bins {exc}") from None
+        name = b.attribute
+        if name not in known:
+            matches = [k for k in known if k.rsplit(".", 1)[-1] == name]
+            if len(matches) != 1:
+                why = f"several ({', '.join(matches)})" if matches else "none"
+                raise UsageError(f"--bins {item}: no condition {name!r} in the runs, and {why} "
+                                 f"end in .{name} (their conditions: {', '.join(known)})")
+            name = matches[0]
+        if name not in by:
+            raise UsageError(f"--bins {item}: {name} is not one of the cells' attributes "
+                             f"(--by {','.join(by)})")  # fmt: skip
+        numbers = [v for run in runs for c in run.result.conditions
+                   for k, v in c.attributes.items() if k == name]  # fmt: skip
+        if not any(isinstance(v, int | float) and not isinstance(v, bool) for v in numbers):
+            raise UsageError(f"--bins {item}: {name} takes no numbers in these runs (values: "
+                             f"{', '.join(sorted({str(v) for v in numbers}))})")  # fmt: skip
+        out[name] = Bins(name, b.edges, b.names)
+    return out
 
 
 def _mae_bounds(items: list[str]) -> dict[str, float]:
@@ -138,8 +207,14 @@ def main(args: argparse.Namespace) -> int:
             if unknown:
                 raise UsageError(f"--formulas: no formula {', '.join(unknown)} in these runs "
                                  f"(they have {', '.join(sorted(known))})")  # fmt: skip
+        bins = _bins(args.bins, runs, by)
+        mae_note = ""
+        if not max_mae and not args.no_mae:
+            max_mae, mae_note = _default_mae(runs)
         report = analyse(runs, by, formulas, args.max_violation_rate, args.criterion, max_mae,
-                         _signal_loader(list(max_mae)) if max_mae else None)  # fmt: skip
+                         _signal_loader(list(max_mae)) if max_mae else None, bins,
+                         strict=not args.inclusive)  # fmt: skip
+        report["mae_note"] = mae_note
     except UsageError as exc:
         print(f"casewatch odd: {exc}", file=sys.stderr)
         return 2
@@ -150,14 +225,17 @@ def main(args: argparse.Namespace) -> int:
     written = args.out / "accepted-odd.yaml"
     if odd is not None:
         header = (f"# written by casewatch odd from {report['runs']} runs: the cells whose "
-                  f"contracts and SPIs stay at or below {args.max_violation_rate:g} violated "
-                  "share of judged ticks\n")  # fmt: skip
+                  f"contracts and SPIs stay {'at or ' if args.inclusive else ''}below "
+                  f"{args.max_violation_rate:g} violated share of judged ticks\n")  # fmt: skip
         written.write_text(header + yaml.safe_dump(odd_to_data(odd), sort_keys=False),
                            encoding="utf-8")  # fmt: skip
     elif written.exists():
         written.unlink()  # a stale domain from an earlier analysis must not survive
     for line in render_odd_text(report):
         print(line)
+    problem = binned_domain_problem(report)
+    if problem:
+        print(f"No accepted-odd.yaml: {problem}")
     truth = [c for c in report["cells"] if "degraded_truth" in c]
     if truth:
         agree = sum(1 for c in truth if c["degraded_truth"] != c["accepted"])
@@ -168,6 +246,7 @@ def main(args: argparse.Namespace) -> int:
             print(f"  {mark} {cell_label(c['conditions'])}: degraded "
                   f"{'yes' if c['degraded_truth'] else 'no '}, "
                   f"{'accepted' if c['accepted'] else 'rejected'}")  # fmt: skip
-    where = written if odd is not None else "no cell accepted, no ODD written"
+    where = written if odd is not None else (
+        "no ODD written" if problem else "no cell accepted, no ODD written")
     print(f"{args.out / 'odd.html'}, {args.out / 'odd.json'}; {where}")
     return 0 if odd is not None else 1

@@ -96,12 +96,42 @@ def test_strict_criterion_and_gating_subsets(judged, tmp_path, capsys):
         (["--formulas", "Sn7"], "no formula Sn7"),
         (["--max-violation-rate", "5"], "between 0 and 1"),
         (["--by", "weather"], "--by weather"),
+        (["--bins", "fog=0,30,70,100"], "no condition 'fog' in the runs, and none end in .fog"),
+        (["--bins", "weather=0,30,70,100"], "environment.weather takes no numbers"),
+        (["--bins", "lanes=0,2,4"], "road.lanes is not one of the cells' attributes"),
+        (["--bins", "environment.weather=0,30,20"], "the edges must increase"),
     ],
 )
 def test_refusals(judged, tmp_path, capsys, extra, words):
     assert main(["odd", str(judged), "-o", str(tmp_path / "o"), *extra]) == 2
     err = capsys.readouterr().err
     assert words in err and "Traceback" not in err
+
+
+def test_the_studys_mae_criterion_is_on_by_default(judged, tmp_path, capsys):
+    # the runs saved their signals and the case declares the lateral error lane_offset: the
+    # study's MAE < 0.2 m applies without being asked for
+    assert main(["odd", str(judged), "-o", str(tmp_path / "o")]) == 0
+    report = json.loads((tmp_path / "o" / "odd.json").read_text())
+    assert report["max_mae"] == {"lane_offset": 0.2} and report["acceptance"] == "strict"
+    assert all(c["mae"]["lane_offset"]["mae"] < 0.2 for c in report["cells"])
+    assert "MAE criterion (default): lane_offset < 0.2 m" in capsys.readouterr().out
+    assert main(["odd", str(judged), "-o", str(tmp_path / "n"), "--no-mae"]) == 0
+    assert json.loads((tmp_path / "n" / "odd.json").read_text())["max_mae"] == {}
+
+
+def test_binned_lane_counts_on_the_grid(judged, tmp_path, capsys):
+    # the grid's only numeric condition is road.lanes (3 on the highway): one bin of two
+    code = main(["odd", str(judged), "-o", str(tmp_path / "o"), "--by",
+                 "road.lanes,environment.weather", "--bins", "lanes=0,2,4:few,many",
+                 "--formulas", "Sn3"])  # fmt: skip
+    assert code == 0
+    report = json.loads((tmp_path / "o" / "odd.json").read_text())
+    assert {c["conditions"]["road.lanes"] for c in report["cells"]} == {"many"}
+    assert report["bins"] == {"road.lanes": {"edges": [0.0, 2.0, 4.0], "labels": ["few", "many"]}}
+    domain = parse_odd(yaml.safe_load((tmp_path / "o" / "accepted-odd.yaml").read_text()))
+    assert domain.attributes["road.lanes"].min == 2.0 and domain.attributes["road.lanes"].max == 4.0
+    assert "road.lanes binned few, many" in capsys.readouterr().out
 
 
 def test_a_folder_without_runs_is_refused(tmp_path, capsys):
