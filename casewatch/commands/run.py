@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 from pathlib import Path
 
 from casewatch import api, batch
@@ -23,6 +22,8 @@ from casewatch.commands.export_scenarios import add_options as add_scenario_opti
 from casewatch.commands.export_scenarios import run_export
 from casewatch.crash import INTERNAL_ERROR
 from casewatch.dask_engine import EngineError
+from casewatch.progress import FleetProgress, StreamProgress
+from casewatch.stream_hints import channel_hint, refusal_lines
 from evaluator.eventlog import Event
 from evaluator.ground_truth import LabelsError
 from evaluator.policy import FAIL_ON, gated
@@ -163,16 +164,14 @@ def _run_single(args, case, spec, formats: tuple[str, ...]) -> int:
                                                   Episode | EpisodeOpen | NearMiss | OddChange):
             print(event_line(event), flush=True)
 
-    def progress(frames: int, t: float) -> None:
-        if not args.quiet:
-            print(f"\r  {frames} frames, t = {t:.1f} s", end="", file=sys.stderr, flush=True)
+    bar = StreamProgress(enabled=not (live or args.quiet))  # silent unless on a terminal
 
     options = RunOptions(
         strict=args.strict,
         labels=Path(labels) if labels else None,
         events_path=args.out / "events.jsonl",
         on_event=on_event,
-        progress=None if live else progress,
+        progress=None if live else bar.update,
         max_no_data=args.max_no_data,
         signals_path=args.out / SIGNALS_FILE if args.save_signals else None,
         fail_on=args.fail_on,
@@ -181,15 +180,14 @@ def _run_single(args, case, spec, formats: tuple[str, ...]) -> int:
     )
     warm_up()  # compiled kernels ready before the first frame (matters for a live stream)
     try:
-        result = evaluate_stream(case, spec, stream, options)
+        with bar:
+            result = evaluate_stream(case, spec, stream, options)
     except (InputError, LabelsError) as exc:
-        print(f"\ncasewatch run: {exc}", file=sys.stderr)
+        print(f"casewatch run: {exc}", file=sys.stderr)
         return 2
     except EngineMismatch as exc:
-        print(f"\ncasewatch run: {stream}: {exc}", file=sys.stderr)
+        print(f"casewatch run: {stream}: {exc}", file=sys.stderr)
         return INTERNAL_ERROR
-    if not live and not args.quiet:
-        print("\r" + " " * 60 + "\r", end="", file=sys.stderr)
     path = api.write_result(result, args.out)
     written = api.render(args.out, formats) if formats else {}
     if not args.quiet:
@@ -203,6 +201,8 @@ def _run_single(args, case, spec, formats: tuple[str, ...]) -> int:
     if result.stream.frames_read == 0:
         print(f"casewatch run: {stream}: no frames could be read "
               f"({result.stream.defect_count} defects); nothing was judged", file=sys.stderr)
+        for line in refusal_lines(result):  # the cause, not only result.json's count
+            print(f"  {line}", file=sys.stderr)
         return 2
     no_data = result.root_no_data
     if no_data is not None and no_data.exceeded:
@@ -210,6 +210,8 @@ def _run_single(args, case, spec, formats: tuple[str, ...]) -> int:
               f"{no_data.share:.1%} of {no_data.ticks} ticks (limit {no_data.limit:.0%}, "
               "--max-no-data); the stream cannot vouch for the case: unusable input, not a "
               "pass", file=sys.stderr)
+        for line in channel_hint(result):
+            print(f"  {line}", file=sys.stderr)
         return 2
     return 1 if any(gated(e.kind, args.fail_on) for e in result.episodes) else 0
 
@@ -222,7 +224,7 @@ def _print_summary(result: RunResult, path: Path, written: dict[str, Path]) -> N
     print(f"{result.case.module}: {s.frames_read} frames, {s.duration:.1f} s, "
           f"{s.defect_count} defects; root goal {result.case.root_id}: {result.verdict.upper()}")
     print(f"  {spi} SPI episodes, {hazards} hazard events, {gaps} formula-ticks without data")
-    if result.root_no_data is not None:
+    if result.root_no_data is not None and result.root_no_data.ticks:
         n = result.root_no_data
         print(f"  root goal without data on {n.no_data_ticks} of {n.ticks} ticks ({n.share:.1%}; "
               f"limit {n.limit:.0%})")
@@ -252,40 +254,30 @@ def _run_many(args, case, formats: tuple[str, ...]) -> int:
               "(NAME.labels.jsonl next to each stream)", file=sys.stderr)
         return 2
 
-    started = time.perf_counter()
-    progress = {"done": 0, "hours": 0.0}
-    tty = sys.stderr.isatty()
+    bar = FleetProgress(len(streams), enabled=not args.quiet)  # a bar only on a terminal
 
     def on_done(log: LogSummary) -> None:
-        progress["done"] += 1
-        progress["hours"] += (log.duration_s or 0.0) / 3600.0
         if args.quiet:
             return
-        if tty:  # a progress line above the per-log lines, only on a terminal
-            done, total = progress["done"], len(streams)
-            spent = time.perf_counter() - started
-            eta = spent / done * (total - done)
-            bar = "#" * round(20 * done / total) + "-" * (20 - round(20 * done / total))
-            print(f"  [{bar}] {done}/{total} logs, {progress['hours']:.3f} h judged, "
-                  f"ETA {eta:.0f} s", file=sys.stderr, flush=True)
         if log.ok:
             short = " (too little data: --max-no-data)" if log.too_little_data else ""
-            print(f"  {log.stream}: {log.frames} frames, {log.verdict}{short} "
-                  f"({log.seconds:.1f} s)", file=sys.stderr)
+            bar.log(f"  {log.stream}: {log.frames} frames, {log.verdict}{short} "
+                    f"({log.seconds:.1f} s)")
         else:
-            print(f"  {log.stream}: FAILED: {log.error}", file=sys.stderr)
+            bar.log(f"  {log.stream}: FAILED: {log.error}")
+        bar.advance((log.duration_s or 0.0) / 3600.0)
 
     if args.scheduler and args.engine != "dask":
         print("casewatch run: --scheduler goes with --engine dask", file=sys.stderr)
         return 2
     try:
-        summary = batch.run_many(args.case, case.digest, streams, args.out, args.jobs,
-                                 args.labels, args.strict, formats, on_done, args.max_no_data,
-                                 args.save_signals, args.fail_on,
-                                 topics=str(args.topics) if args.topics else None,
-                                 stl_engine=args.stl_engine,
-                                 engine=args.engine,
-                                 scheduler=args.scheduler, resume=args.resume)  # fmt: skip
+        with bar:
+            summary = batch.run_many(args.case, case.digest, streams, args.out, args.jobs,
+                                     args.labels, args.strict, formats, on_done,
+                                     args.max_no_data, args.save_signals, args.fail_on,
+                                     topics=str(args.topics) if args.topics else None,
+                                     stl_engine=args.stl_engine, engine=args.engine,
+                                     scheduler=args.scheduler, resume=args.resume)  # fmt: skip
     except EngineError as exc:
         print(f"casewatch run: {exc}", file=sys.stderr)
         return 2
