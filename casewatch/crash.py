@@ -27,6 +27,10 @@ def output_folder(args: argparse.Namespace | None) -> Path | None:
     for name in ("out", "output", "outdir"):
         value = getattr(args, name, None)
         if value:
+            if getattr(args, "command", None) == "convert":
+                # convert's -o is the file (or new bag folder) to write: a crash log inside it
+                # would leave a folder at that path and fail the next, correct run
+                return Path(value).parent
             return Path(value)
     return None
 

@@ -27,7 +27,8 @@ def event_record(event: Event) -> dict[str, object]:
         kind = "odd_change"
     else:
         kind = "data_gap"
-    return {"event": kind, **event.model_dump()}
+    # through the model's JSON: an infinite robustness becomes "-Infinity", as in result.json
+    return {"event": kind, **json.loads(event.model_dump_json())}
 
 
 class EventLog:

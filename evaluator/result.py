@@ -40,7 +40,10 @@ STATUS_SEVERITY: dict[str, int] = {
 
 
 class _Record(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    # robustness can be infinite (`once` over no sample is -inf, `historically` +inf,
+    # docs/formulas.md): JSON has no infinity, so it is written as the strings "Infinity",
+    # "-Infinity" (and "NaN"), which these models read back as floats (docs/results.md)
+    model_config = ConfigDict(extra="forbid", ser_json_inf_nan="strings")
 
 
 class TraceStep(_Record):

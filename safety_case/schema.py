@@ -78,7 +78,8 @@ def parse_duration(raw: object) -> float:
     if isinstance(raw, bool):
         seconds = None
     elif isinstance(raw, int | float):
-        seconds = float(raw)
+        # float() of a 401-digit int raises OverflowError; any such number is "too long"
+        seconds = float(raw) if abs(raw) < 1e300 else 2.0 * MAX_DURATION
     elif isinstance(raw, str):
         match = _DURATION_RE.match(raw)
         if match:
@@ -91,14 +92,14 @@ def parse_duration(raw: object) -> float:
         )
     if seconds < 0:
         raise PydanticCustomError(
-            "malformed_duration", "a duration cannot be negative, got {got}", {"got": repr(raw)}
+            "malformed_duration", "a duration cannot be negative, got {got}", {"got": _short(raw)}
         )
     if seconds > MAX_DURATION:
         # a `min_duration: 1e300s` would drop every episode and let any run pass
         raise PydanticCustomError(
             "malformed_duration",
             "a duration longer than a day ({max:g} s) is no monitoring window, got {got}",
-            {"got": repr(raw), "max": MAX_DURATION},
+            {"got": _short(raw), "max": MAX_DURATION},
         )
     return seconds
 
@@ -131,15 +132,24 @@ def _as_list(raw: object) -> object:
     return raw
 
 
+def _short(value: object, limit: int = 40) -> str:
+    """`repr(value)`, cut to `limit` characters (a 401-digit number is not echoed whole)."""
+    try:
+        text = repr(value)
+    except ValueError:  # an int beyond Python's digit limit for conversion to text
+        return "a number of more than 4300 digits"
+    return text if len(text) <= limit else f"{text[:limit - 3]}... ({len(text)} characters)"
+
+
 def _describe(value: object) -> str:
     if value is None:
         return "nothing (null)"
     if isinstance(value, bool):
         return f"the boolean {str(value).lower()}"
     if isinstance(value, int | float):
-        return f"the number {value!r}"
+        return f"the number {_short(value)}"
     if isinstance(value, str):
-        return f"the text {value!r}"
+        return f"the text {_short(value)}"
     if isinstance(value, list):
         return "a list"
     if isinstance(value, dict):

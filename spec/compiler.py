@@ -47,6 +47,7 @@ from spec.timing import (
     sum_warmup,
 )
 from spec.trace import traces_for
+from spec.vacancy import vacant_ticks
 
 Mode = Literal["online", "offline"]
 
@@ -286,7 +287,37 @@ def _check(
             )
     if mode == "online" and not any(f.code == "CW043" for f in findings):
         findings.extend(_causality(case, src, formula, period))
+    if not any(f.code in ("CW043", "CW048") for f in findings):
+        findings.extend(_vacancy(case, src, formula, period))
     return findings
+
+
+def _vacancy(case: Case, src: _Source, formula: Formula, period: Fraction) -> list[Finding]:
+    """A window that reads no sample yet at the start of a stream (and after every data gap)
+    fixes the verdict there: `once[1s:2s] p` is violated for the first second whatever the
+    data (spec.vacancy). Samples a `sum` warm-up already reports as no data do not count."""
+    monitored = Not(formula) if src.kind == "hazard" else formula
+    warmup = sum_warmup(monitored, period)
+    ticks = [k for k in vacant_ticks(monitored, period) if k >= warmup]
+    if not ticks:
+        return []
+    shown = f"{float(ticks[-1] * period + period):g}s"
+    what = ("reads as present" if src.kind == "hazard" else "is violated")
+    return [
+        formula_finding(
+            "CW050",
+            f"the {src.kind} of node {src.node.id} {what} at the first {len(ticks)} sample(s) "
+            f"({shown}) of every stream and after every data gap, whatever the data: a window "
+            "there reads no sample yet (robustness -inf)",
+            case.path,
+            src.mark.line,
+            src.mark.col,
+            hint="a window [a:b] with a > 0 holds no sample during the first a seconds "
+            "(`once` and `since` are violated, `historically` holds, `prev` holds at the first "
+            "sample); start the window at 0, e.g. 'once[0s:2s] (...)', or accept these ticks "
+            "as reported",
+        )
+    ]
 
 
 def _sum_samples(node: AstNode, period: Fraction) -> int | None:

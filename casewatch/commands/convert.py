@@ -16,15 +16,16 @@ from __future__ import annotations
 
 import argparse
 import gzip
+import math
 import sys
 from pathlib import Path
 
 import orjson
 import yaml
-from rosbags.rosbag2 import Reader, ReaderError
 
 from monitor.bags.mapping import MappingError, TopicMapping, load_mapping, resolve_mapping
 from monitor.bags.reader import BagError, is_bag, read_bag
+from monitor.bags.storage import StorageError, open_storage
 from monitor.bags.writer import BagWriteError, default_mapping, write_bag
 from monitor.encode import frame_to_dict, header_to_dict
 from monitor.reader import StreamError, read_stream
@@ -65,6 +66,7 @@ def main(args: argparse.Namespace) -> int:
             return _list_topics(args.source)
         if args.out is None:
             raise _Usage("-o/--out is required (a .jsonl.gz file or a new bag folder)")
+        _check_numbers(args)
         if is_bag(args.source):
             return _bag_to_stream(args)
         return _stream_to_bag(args)
@@ -85,15 +87,43 @@ class _Usage(Exception):
     pass
 
 
+#: --period range: a tick per millisecond to one a minute (a negative period never ends).
+PERIOD_RANGE = (0.001, 60.0)
+
+
+def _check_numbers(args: argparse.Namespace) -> None:
+    """--period and --ego-size are finite and within range, before anything is written."""
+    low, high = PERIOD_RANGE
+    if args.period is not None and not (math.isfinite(args.period) and
+                                        low <= args.period <= high):  # fmt: skip
+        raise _Usage(f"--period {args.period!r}: expected the seconds between frames, "
+                     f"from {low:g} to {high:g} (e.g. --period 0.1)")  # fmt: skip
+    if args.ego_size is not None:
+        for name, value in zip(("LENGTH", "WIDTH"), args.ego_size, strict=True):
+            if not (math.isfinite(value) and 0 < value <= 100):
+                raise _Usage(f"--ego-size {name} {value!r}: expected metres, more than 0 and "
+                             "at most 100 (e.g. --ego-size 4.5 1.8)")  # fmt: skip
+
+
 def _list_topics(source: str) -> int:
     if not is_bag(source):
         raise _Usage(f"{source}: not a ROS 2 bag (an .mcap or .db3 file or a bag folder)")
+    try:  # as `run` opens it: an MCAP file cut short is listed up to the cut
+        storage = open_storage(Path(source))
+    except StorageError as exc:
+        raise _Usage(f"{source}: {exc}") from None
     try:
-        with Reader(Path(source)) as bag:
-            rows = sorted((c.topic, c.msgtype, c.msgcount) for c in bag.connections)
-    except (ReaderError, FileNotFoundError, ValueError) as exc:
-        raise _Usage(f"{source}: cannot open as a ROS 2 bag: {exc}") from None
-    width = max((len(t) for t, _, _ in rows), default=5)
+        rows = sorted((t.topic, t.msgtype, t.count) for t in storage.topics.values())
+    finally:
+        storage.close()
+    if not rows:
+        why = ("is cut short or damaged before it records any topic" if storage.recovered
+               else "holds no topic (no channel is recorded in it)")  # fmt: skip
+        raise _Usage(f"{source}: the bag {why}, so there is nothing to map or judge")
+    if storage.recovered:
+        print(f"{source}: the file is cut short or damaged; the topics and message counts up "
+              "to the break:", file=sys.stderr)  # fmt: skip
+    width = max(len(t) for t, _, _ in rows)
     for topic, msgtype, count in rows:
         print(f"{topic:<{width}}  {msgtype}  ({count} messages)")
     return 0

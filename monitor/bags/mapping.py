@@ -18,6 +18,7 @@ from pydantic import (
     ValidationError,
     model_validator,
 )
+from pydantic_core import PydanticCustomError
 
 from safety_case.schema import parse_duration
 from safety_case.yamltree import YNode, compose, to_plain
@@ -30,12 +31,27 @@ class MappingError(ValueError):
 Seconds = Annotated[float, BeforeValidator(parse_duration)]
 
 
+def _age_limit(raw: object) -> float:
+    seconds = parse_duration(raw)
+    if seconds <= 0:  # no message is ever that fresh: every tick would be a dropout
+        raise PydanticCustomError(
+            "malformed_duration",
+            "a message age limit must be longer than zero (a message is at most this old "
+            "when a tick uses it; 0 would make every tick a dropout), got {got}",
+            {"got": repr(raw)},
+        )
+    return seconds
+
+
+AgeLimit = Annotated[float, BeforeValidator(_age_limit)]
+
+
 class TopicRef(BaseModel):
     """One topic, with an optional age limit of its own."""
 
     model_config = ConfigDict(extra="forbid", frozen=True)
     topic: str = Field(min_length=1)
-    max_age: Seconds | None = None
+    max_age: AgeLimit | None = None
 
 
 def _topic(value: object) -> object:
@@ -87,7 +103,7 @@ class TopicMapping(BaseModel):
     channels: dict[str, ChannelTopics] = Field(min_length=1)
     signals: dict[str, Annotated[SignalTopic, BeforeValidator(_topic)]] = {}
     time: Literal["header", "receive"] = "header"
-    max_age: Seconds | None = None  # default: 1.5 periods
+    max_age: AgeLimit | None = None  # default: 1.5 periods
     max_delay: Seconds = 1.0
     plan_time: Literal["auto", "stamps", "velocity"] = "auto"
     poses_at_tick: bool = True  # ego and object poses moved from their stamps to the tick
@@ -143,9 +159,11 @@ def load_mapping(path: str | Path, key: tuple[str, ...] = ()) -> LoadedMapping:
     except (OSError, UnicodeDecodeError) as exc:
         raise MappingError(f"{path}: cannot read the topic mapping: {exc}") from None
     root, findings = compose(text, str(path))
-    if findings:
-        f = findings[0]
-        raise MappingError(f"{path}:{f.mark.line}: {f.message}")
+    errors = [f for f in findings if f.severity == "error"]
+    if errors:  # a YAML syntax error, a duplicate key, an alias, a tag, ...
+        f = errors[0]
+        hint = f"\n    {f.hint}" if f.hint else ""
+        raise MappingError(f"{path}:{f.line}:{f.col}: {f.code}: {f.message}{hint}")
     node = root
     for part in key:
         if node is None or node.kind != "map" or part not in node.entries():

@@ -11,7 +11,7 @@ from __future__ import annotations
 import sqlite3
 import struct
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from rosbags.interfaces import MessageDefinitionFormat
@@ -20,8 +20,11 @@ from rosbags.rosbag2 import Reader, ReaderError
 MCAP_MAGIC = b"\x89MCAP0\r\n"
 
 #: What a broken storage file raises while its messages are read through rosbags.
+#: rosbags' MCAP reader trusts the file's length fields: a damaged one gives TypeError (a file
+#: that is only the magic), OverflowError or MemoryError (a huge length).
 STORAGE_ERRORS = (ReaderError, sqlite3.DatabaseError, struct.error, EOFError, ValueError,
-                  KeyError, IndexError, OSError)  # fmt: skip
+                  KeyError, IndexError, OSError, TypeError, OverflowError,
+                  MemoryError)  # fmt: skip
 
 
 class StorageError(ValueError):
@@ -95,15 +98,22 @@ class McapScan:
                 self.topics.setdefault(rec.topic, BagTopic(rec.topic, name, enc, text))
             elif kind == "Message":
                 counts[rec.channel_id] = counts.get(rec.channel_id, 0) + 1
+        for cid, topic in self._channels.items():  # messages up to the break, per topic
+            known = self.topics[topic]
+            self.topics[topic] = replace(known, count=(known.count or 0) + counts.get(cid, 0))
 
     def _records(self, stop_at_break: bool) -> Iterator[object]:
         from mcap.exceptions import McapError
         from mcap.stream_reader import StreamReader
 
         with open(self.path, "rb") as fh:
+            # no record is longer than the file: a damaged length field must not make the
+            # reader allocate it (MemoryError) or overflow (OverflowError)
+            limit = max(1, min(1 << 30, self.path.stat().st_size))
             try:
-                yield from StreamReader(fh, record_size_limit=1 << 30).records
-            except (McapError, EOFError, struct.error, ValueError) as exc:
+                yield from StreamReader(fh, record_size_limit=limit).records
+            except (McapError, EOFError, struct.error, ValueError, TypeError, OverflowError,
+                    MemoryError, IndexError, KeyError) as exc:  # fmt: skip
                 if not stop_at_break:
                     what = "ends inside a record" if type(exc).__name__ == "EndOfFile" else exc
                     raise StorageBreak(f"the MCAP file {what}") from None

@@ -206,3 +206,35 @@ def test_bundled_drive_stays_well_within_the_no_data_limit(tmp_path):
                  "--format", "none"]) == 1
     no_data = json.loads((out / "result.json").read_text())["root_no_data"]
     assert 0 < no_data["share"] < 0.1 and not no_data["exceeded"]
+
+
+# -- issue 31: non-finite robustness ---------------------------------------------------------
+
+
+@pytest.mark.parametrize("engine", ["rtamt", "numpy", "both"])
+@pytest.mark.parametrize(("old", "new"), [
+    ('hazard: {when: "speed > 20"}', 'hazard: {when: "historically[1s:2s] (speed > 5)"}'),
+    ('spi: {signal: els, threshold: ">= 0.6"}', 'spi: {stl: "once[1s:2s] (els >= 0.6)"}'),
+])  # fmt: skip
+def test_infinite_robustness_is_written_read_and_rendered(tmp_path, capsys, old, new, engine):
+    """The issue's reproductions: -inf at the first second was a crash writing events.jsonl."""
+    from tests.evaluator.streams import SMALL_CASE
+
+    case = tmp_path / "case.yaml"
+    case.write_text(SMALL_CASE.replace(old, new))
+    assert main(["check", str(case)]) == 0
+    assert "CW050 warning" in capsys.readouterr().out
+    stream = write_stream(tmp_path / "s.jsonl")
+    out = tmp_path / "o"
+    assert main(["run", str(case), str(stream), "-o", str(out), "--quiet",
+                 "--stl-engine", engine]) == 1  # fmt: skip
+    first = json.loads((out / "result.json").read_text())["episodes"][0]
+    assert (first["start"], first["worst_robustness"]) == (0.0, "-Infinity")
+    events = [json.loads(line) for line in (out / "events.jsonl").read_text().splitlines()]
+    assert any(e.get("worst_robustness") == "-Infinity" for e in events)
+    from reports.render import load_result
+
+    episode = load_result(out / "result.json").episodes[0]
+    assert episode.worst_robustness == float("-inf")
+    assert main(["report", str(out), "--format", "html,md,junit"]) == 0
+    assert "worst robustness -inf" in (out / "report.md").read_text()

@@ -1,0 +1,128 @@
+"""Issue 31: damaged bags, topic mappings and `convert` arguments that used to crash (exit 3)
+or never stop; each is now unusable input (exit 2) with a message naming what is wrong."""
+
+from __future__ import annotations
+
+import struct
+from pathlib import Path
+
+import pytest
+
+from casewatch.cli import main
+from tests.evaluator.streams import write_case, write_stream
+
+
+@pytest.fixture(scope="module")
+def small_bag(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, Path]:
+    """The small end-to-end stream as an MCAP bag: (case, bag folder, topic mapping)."""
+    folder = tmp_path_factory.mktemp("bag")
+    stream = write_stream(folder / "s.jsonl")
+    bag = folder / "small"
+    assert main(["convert", str(stream), "-o", str(bag)]) == 0
+    return write_case(folder / "case.yaml"), bag, folder / "small.topics.yaml"
+
+
+def run(case: Path, bag: Path, topics: Path, out: Path) -> int:
+    return main(["run", str(case), str(bag), "--topics", str(topics), "-o", str(out),
+                 "--format", "none", "--quiet"])  # fmt: skip
+
+
+@pytest.mark.parametrize(("edit", "expected"), [
+    (lambda t: t.replace("  width: 1.8", "  width: [1.8"), ":5:9: CW003: YAML syntax error"),
+    (lambda t: t + "ego: {length: 1, width: 1}\n", "CW005: duplicate key 'ego'"),
+    (lambda t: t.replace("max_age: 0.1", "max_age: 0"),
+     ": max_age: a message age limit must be longer than zero"),
+    (lambda t: t.replace("max_age: 0.1", "max_age: " + "9" * 401),
+     ": max_age: a duration longer than a day"),
+])  # fmt: skip
+def test_a_bad_topic_mapping_names_its_line(small_bag, tmp_path, capsys, edit, expected):
+    case, bag, topics = small_bag
+    bad = tmp_path / "topics.yaml"
+    bad.write_text(edit(topics.read_text()))
+    assert run(case, bag, bad, tmp_path / "o") == 2
+    assert main(["convert", str(bag), "--topics", str(bad), "-o",
+                 str(tmp_path / "f.jsonl.gz")]) == 2  # fmt: skip
+    err = capsys.readouterr().err
+    assert err.count(f"{bad}:") == 2 and err.count(expected) == 2, err
+    assert "internal error" not in err
+
+
+def _damaged(data: bytes, how: str) -> bytes:
+    if how == "magic-only":
+        return data[:8]
+    if how == "garbage-after-magic":
+        return data[:8] + bytes(range(256)) * 20
+    if how == "huge-record-length":  # the first record's length field
+        return data[:9] + struct.pack("<Q", 2**63 - 1) + data[17:]
+    raise ValueError(how)
+
+
+@pytest.mark.parametrize("how", ["magic-only", "garbage-after-magic", "huge-record-length"])
+def test_a_damaged_mcap_is_unusable_input_for_run_and_list_topics(small_bag, tmp_path, capsys,
+                                                                   how):  # fmt: skip
+    case, bag, topics = small_bag
+    damaged = tmp_path / "d.mcap"
+    damaged.write_bytes(_damaged((bag / "small.mcap").read_bytes(), how))
+    assert run(case, damaged, topics, tmp_path / "o") == 2
+    assert main(["convert", "--list-topics", str(damaged)]) == 2
+    err = capsys.readouterr().err
+    assert "the MCAP file is cut short before it names topic(s)" in err
+    assert f"{damaged}: the bag is cut short or damaged before it records any topic" in err
+    assert "internal error" not in err
+
+
+def test_list_topics_reads_a_cut_mcap_up_to_the_cut(small_bag, tmp_path, capsys):
+    _, bag, _ = small_bag
+    data = (bag / "small.mcap").read_bytes()
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(data[: len(data) - 200])  # the summary and the end magic are gone
+    assert main(["convert", "--list-topics", str(cut)]) == 0
+    captured = capsys.readouterr()
+    assert "cut short or damaged; the topics and message counts up to the break" in captured.err
+    listed = {line.split()[0]: line.split()[-2] for line in captured.out.splitlines()}
+    assert listed["/lav/localization/kinematic_state"] == "(100"
+    assert listed["/casewatch/signals/speed"] == "(100" and len(listed) == 7
+
+
+def test_an_mcap_without_channels_is_not_an_empty_success(tmp_path, capsys):
+    from mcap.writer import Writer
+
+    empty = tmp_path / "empty.mcap"
+    with open(empty, "wb") as fh:
+        writer = Writer(fh)
+        writer.start(profile="ros2", library="test")
+        writer.finish()
+    assert main(["convert", "--list-topics", str(empty)]) == 2
+    assert "the bag holds no topic (no channel is recorded in it)" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("args", "expected"), [
+    (["--period", "-0.1"], "--period -0.1: expected the seconds between frames, from 0.001 to 60"),
+    (["--period", "nan"], "--period nan: expected"),
+    (["--ego-size", "-1", "nan"], "--ego-size LENGTH -1.0: expected metres"),
+    (["--ego-size", "4.5", "inf"], "--ego-size WIDTH inf: expected metres"),
+])  # fmt: skip
+def test_convert_refuses_numbers_out_of_range_before_writing(tmp_path, capsys, args, expected):
+    stream = write_stream(tmp_path / "s.jsonl")
+    out = tmp_path / "bag"
+    assert main(["convert", str(stream), "-o", str(out), *args]) == 2
+    assert expected in capsys.readouterr().err and not out.exists()
+
+
+def test_a_convert_crash_leaves_no_folder_at_the_output_path(tmp_path, capsys, monkeypatch):
+    case, stream = write_case(tmp_path / "case.yaml"), write_stream(tmp_path / "s.jsonl")
+    bag = tmp_path / "bag"
+    assert main(["convert", str(stream), "-o", str(bag)]) == 0
+    out = tmp_path / "frames.jsonl.gz"
+
+    def boom(*args, **kwargs):
+        raise RuntimeError("forced")
+
+    monkeypatch.setattr("casewatch.commands.convert.read_bag", boom)
+    topics = str(tmp_path / "bag.topics.yaml")
+    assert main(["convert", str(bag), "--topics", topics, "-o", str(out)]) == 3
+    assert not out.exists() and (tmp_path / "casewatch-crash.log").is_file()
+    monkeypatch.undo()
+    assert main(["convert", str(bag), "--topics", topics, "--case", str(case), "-o",
+                 str(out)]) == 0  # fmt: skip
+    assert out.is_file()
