@@ -63,6 +63,10 @@ MIN_SPEED_COEFFICIENT = 0.7
 ROUTE_ENDS = {"route_dev": "route_deviated", "vehicle_blocked": "blocked",
               "route_timeout": "route_timeout"}  # fmt: skip
 #: the Leaderboard's collision kinds by the other party (casewatch's party -> its name)
+#: the world key (docs/streams.md) each Leaderboard input comes from
+WORLD_KEY = {"route_deviated": "world.route.deviated", "blocked": "world.blocked",
+             "route_timeout": "world.timeouts.route", "scenario_timeout": "world.timeouts.scenario",
+             "yield_failed": "world.emergency_vehicle.failed_to_yield"}  # fmt: skip
 COLLISION_KIND = {"pedestrian": "collisions_pedestrian", "vehicle": "collisions_vehicle",
                   "two_wheeler": "collisions_vehicle", "object": "collisions_layout"}  # fmt: skip
 
@@ -233,7 +237,7 @@ def _leaderboard(events, rule_of, t, ticks, speed, period, params, progress, len
     for name, signal in ROUTE_ENDS.items():
         column = ticks[signal]
         if not _reported(column, n):
-            not_scored[name] = f"the stream reports no {signal} (world, docs/streams.md)"
+            not_scored[name] = f"the stream reports no {WORLD_KEY[signal]}"
             continue
         hits = np.flatnonzero(column > 0.5)
         if hits.size and int(hits[0]) < end:
@@ -279,7 +283,7 @@ def _leaderboard(events, rule_of, t, ticks, speed, period, params, progress, len
                          ("yield_failed", "yield_emergency_vehicle_infractions")):
         column = ticks[signal]
         if not _reported(column, end):
-            not_scored[name] = f"the stream reports no {signal} (world, docs/streams.md)"
+            not_scored[name] = f"the stream reports no {WORLD_KEY[signal]}"
             continue
         for _ in _runs(column[:end] > 0.5):
             count(name, LEADERBOARD[name])
