@@ -319,27 +319,104 @@ def pr_text(row: dict | None, counts: bool = False) -> str:
     return f"P {p} R {r}{tail}"
 
 
-def pick(sw: Sweep, logs: Sequence[int], objective: str, min_precision: float | None) -> int:
-    """The operating point on `logs` (indices): the best F1, or with `min-precision` the best
-    recall among candidates at least that precise; ties go to the candidate nearest the
-    original threshold (then duration). Returns a candidate index, or -1 when no candidate
-    reaches the precision asked for."""
-    totals = sw.counts[:, list(logs), :3].sum(axis=1)
-    tp, fp, fn = totals[:, 0], totals[:, 1], totals[:, 2]
+def _score_keys(totals: np.ndarray, objective: str, min_precision: float | None) -> np.ndarray:
+    """(..., 3) keys of (..., 3) (tp, fp, fn) totals, larger is better, compared in order:
+    whether the precision asked is reached (always 1 for f1), then recall (min-precision) or
+    F1, then F1."""
+    tp, fp, fn = (totals[..., k].astype(float) for k in range(3))
     f1 = np.where(tp > 0, 2 * tp / np.maximum(2 * tp + fp + fn, 1), 0.0)
-    grid = sw.candidates()
-    span = max(sw.thresholds) - min(sw.thresholds) or 1.0
-    near = np.array([abs(th - sw.knob.value) / span + 1e-3 * abs(d - sw.knob.duration)
-                     for th, d in grid])  # fmt: skip
-    if objective == "min-precision":
-        assert min_precision is not None
-        precise = (tp + fp > 0) & (tp >= min_precision * np.maximum(tp + fp, 1) - 1e-12)
-        if not precise.any():
-            return -1
-        recall = np.where(tp + fn > 0, tp / np.maximum(tp + fn, 1), 0.0)
-        key = np.lexsort((near, -f1, -recall, ~precise))
-        return int(key[0])
-    return int(np.lexsort((near, -f1))[0])
+    if objective != "min-precision":
+        return np.stack([np.ones_like(f1), f1, f1], axis=-1)
+    assert min_precision is not None
+    precise = (tp + fp > 0) & (tp >= min_precision * np.maximum(tp + fp, 1) - 1e-12)
+    recall = np.where(tp + fn > 0, tp / np.maximum(tp + fn, 1), 0.0)
+    return np.stack([precise.astype(float), recall, f1], axis=-1)
+
+
+def _is_best(keys: np.ndarray) -> np.ndarray:
+    """(n,) True where a row of `keys` (n, 3) equals the lexicographically largest row."""
+    top = keys[np.lexsort(keys.T[::-1])[-1]]
+    return np.all(np.abs(keys - top) <= 1e-12, axis=1)
+
+
+def margins(thresholds: np.ndarray, best: np.ndarray) -> np.ndarray:
+    """(n,) For each best-scoring threshold (thresholds ascending): its distance to the nearest
+    threshold that scores worse, on either side (to the outermost candidate where no worse one
+    lies beyond); -1 for the others.
+
+    Why: the labels pin a threshold down only between the errors on either side of it. The edge
+    of the best-scoring range sits next to an error (in the worked example of docs/tuning.md,
+    0.01 s under legal following), so a log the threshold was not fitted to errs there first;
+    the middle of the range keeps the most room both ways."""
+    th = np.asarray(thresholds, dtype=float)
+    out = np.full(len(th), -1.0)
+    good = np.flatnonzero(best)
+    worse = np.flatnonzero(~best)
+    if len(good) == 0:
+        return out
+    if len(worse) == 0:
+        out[good] = np.minimum(th[good] - th[0], th[-1] - th[good])
+        return out
+    at = np.searchsorted(worse, good)
+    below = np.where(at > 0, th[worse[np.maximum(at - 1, 0)]], th[0])
+    above = np.where(at < len(worse), th[worse[np.minimum(at, len(worse) - 1)]], th[-1])
+    out[good] = np.minimum(th[good] - below, above - th[good])
+    return out
+
+
+def _threshold_at(sw: Sweep, keys: np.ndarray) -> int:
+    """Of the candidates of one duration (`keys`: one row per threshold of `sw.thresholds`,
+    ascending), the index with the best key, then the largest margin to the nearest
+    worse-scoring thresholds, then the nearest to the original threshold."""
+    th = np.asarray(sw.thresholds, dtype=float)
+    margin = margins(th, _is_best(keys))
+    order = np.lexsort((np.abs(th - sw.knob.value), -margin))
+    return int(order[0])
+
+
+def pick(sw: Sweep, logs: Sequence[int], objective: str, min_precision: float | None) -> int:
+    """The operating point on `logs` (indices); a candidate index, or -1 when no candidate
+    reaches the precision asked for (`min-precision`).
+
+    - At each duration, the threshold: the best score on `logs` (F1, or the best recall among
+      candidates at least `min_precision` precise), then the largest margin to the nearest
+      worse-scoring thresholds (`margins`), then the nearest to the original.
+    - Of the durations, the one whose threshold scores best on `logs`; among equals, the
+      original duration if it is among them (a duration is a delay the author chose, and
+      nothing in the data asks to change it); then the best held-out score: leave each of
+      `logs` out in turn, and score on it every threshold that scores best on the others at
+      that duration, averaged (the others leave the threshold open anywhere in that range; a
+      single pick from it would make the comparison of durations hang on which of two nearly
+      equal thresholds won), summed over the logs; then the largest margin to the nearest
+      worse-scoring durations; then the one nearest the original. Why: several durations
+      usually score alike on the logs they were fitted to, and the shortest of them sits next
+      to the durations that let short nominal dips through; only logs a duration was not
+      fitted to, and the room on either side, tell them apart.
+    """
+    logs = list(logs)
+    per_log = sw.counts[:, logs, :3]  # (candidates, logs, 3)
+    keys = _score_keys(per_log.sum(axis=1), objective, min_precision)
+    if objective == "min-precision" and not keys[:, 0].any():
+        return -1
+    n_th = len(sw.thresholds)
+    at, fitted, held_keys = [], [], []
+    for k in range(len(sw.durations)):
+        rows = np.arange(k * n_th, (k + 1) * n_th)
+        at.append(int(rows[_threshold_at(sw, keys[rows])]))
+        fitted.append(keys[at[-1]])
+        held = np.zeros(3)
+        for j in range(len(logs) if len(logs) >= 2 else 0):
+            others = np.delete(per_log[rows], j, axis=1).sum(axis=1)
+            best = _is_best(_score_keys(others, objective, min_precision))
+            held += per_log[rows[best], j].mean(axis=0)
+        held_keys.append(_score_keys(held, objective, min_precision) if len(logs) >= 2
+                         else fitted[-1])  # fmt: skip
+    fitted_keys = np.array(fitted)
+    room = margins(np.asarray(sw.durations, dtype=float), _is_best(fitted_keys))
+    ranks = [(*fitted_keys[k].round(12), d == sw.knob.duration, *held_keys[k].round(12),
+              round(float(room[k]), 9), -abs(d - sw.knob.duration))
+             for k, d in enumerate(sw.durations)]  # fmt: skip
+    return at[max(range(len(ranks)), key=ranks.__getitem__)]
 
 
 def tune(sw: Sweep, objective: str = "f1", min_precision: float | None = None) -> dict:

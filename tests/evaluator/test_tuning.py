@@ -19,6 +19,8 @@ from evaluator.tuning import (
     episodes_for,
     episodes_from,
     knobs,
+    margins,
+    pick,
     sweep,
     threshold_candidates,
     tune,
@@ -83,9 +85,8 @@ def test_sweep_picks_the_threshold_that_separates_and_scores_it_held_out():
     result = tune(sweep(knob, logs, labels, count=20))
     assert result["original"]["tp"] == 3 and result["original"]["fp"] == 3
     assert result["tuned"]["precision"] == 1.0 and result["tuned"]["recall"] == 1.0
-    assert 0.2 < result["tuned"]["threshold"] <= 0.7  # flags 0.2, not 0.7
-    # the nearest such candidate to the original 0.9: the largest at or below 0.7... that is
-    # strictly below 0.7 (x < 0.7 does not flag 0.7)
+    # candidates 0.2, 0.7, 0.9 (the original) and 1.0: only `x < 0.7` flags the hazards and
+    # not the nominal dip (x < 0.7 does not flag 0.7)
     assert result["tuned"]["threshold"] == 0.7
     # held out: each log scored at the point picked on the other two: the same point
     assert result["heldout"] == {"tp": 3, "fp": 0, "fn": 0, "precision": 1.0, "recall": 1.0,
@@ -159,7 +160,7 @@ def test_vectorised_episodes_equal_the_evaluators_on_a_bundled_run(tmp_path):
                              RunOptions(signals_path=tmp_path / "signals.npz"))  # fmt: skip
     log = load_signals(tmp_path)
     found, _ = knobs(case, spec)
-    assert len(found) == len(spec.formulas) == 17
+    assert len(found) == len(spec.formulas) >= 17
     for knob in found:
         mine = [(round(a, 6), round(b, 6)) for a, b in episodes_for(knob, log, knob.value,
                                                                      knob.duration)]  # fmt: skip
@@ -176,3 +177,43 @@ def test_an_empty_sweep_names_the_rule():
         sweep(hazard("x < 0.9"), [saved([np.nan] * 5)], [[]])
     with pytest.raises(TuningError, match="no logs"):
         sweep(hazard("x < 0.9"), [], [])
+
+
+def test_margins_are_the_distance_to_the_nearest_worse_threshold():
+    th = np.array([0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7])
+    best = np.array([False, True, True, True, True, False, False])
+    # 0.2: 0.1 below, 0.6 above -> 0.1; 0.3 -> 0.2; 0.4 -> min(0.3, 0.2); 0.5 -> 0.1
+    np.testing.assert_allclose(margins(th, best), [-1, 0.1, 0.2, 0.2, 0.1, -1, -1])
+    # nothing worse: the outermost candidates bound the range
+    np.testing.assert_allclose(margins(th[:3], np.ones(3, dtype=bool)), [0.0, 0.1, 0.0])
+
+
+def test_the_middle_of_the_perfect_range_not_its_edge():
+    """A mis-set `x < 1.6` whose hazards dip through 1.0 ... 0.5 and whose nominal driving
+    holds 1.2 for a second: every threshold in (0.5, 1.2] separates them. The old rule (the
+    nearest to the original) took 1.2, a hair under nominal driving; the largest margin to the
+    errors on either side (0.5 and 1.6) is at 1.0: 0.5 from both."""
+    x = [2.0] * 10 + [1.0, 0.9, 0.8, 0.7, 0.6, 0.5] + [2.0] * 10 + [1.2] * 10 + [2.0] * 10
+    logs = [saved(x, path=f"log{k}") for k in range(2)]
+    labels = [[Label("H", 1.0, 1.5, 1)] for _ in logs]
+    sw = sweep(hazard("x < 1.6"), logs, labels, count=20)
+    assert sw.thresholds == [0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.2, 1.6, 2.0]
+    result = tune(sw)
+    assert (result["tuned"]["threshold"], result["tuned"]["duration"]) == (1.0, 0.0)
+    assert result["original"]["fp"] == 2 and result["tuned"]["fp"] == 0
+
+
+def test_durations_by_held_out_score_then_room_not_the_shortest_passing():
+    """Hazards lasting 1.8 s and a 0.3 s nominal dip: `min_duration` 0 flags the dip, 2 s drops
+    the hazards; 0.5, 1 and 1.5 s all score perfectly, on the logs and held out. The duration
+    with the most room to the failing ones on either side is 1 s (the old rule took 0.5 s, the
+    shortest passing one, next to the durations that let the dip through)."""
+    x = [2.0] * 10 + [0.5] * 18 + [2.0] * 20 + [0.5] * 3 + [2.0] * 10
+    logs = [saved(x, path=f"log{k}") for k in range(3)]
+    labels = [[Label("H", 1.0, 2.7, 1)] for _ in logs]
+    sw = sweep(hazard("x < 1.0"), logs, labels, count=20)
+    assert sw.durations == [0.0, 0.5, 1.0, 1.5, 2.0]
+    c = pick(sw, [0, 1, 2], "f1", None)
+    assert sw.candidates()[c] == (1.0, 1.0)
+    result = tune(sw)
+    assert result["heldout"]["fp"] == 0 and result["heldout"]["fn"] == 0
