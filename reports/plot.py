@@ -59,6 +59,27 @@ class PlotView:
     buckets: int
     bucket: float  # seconds per plotted bucket (after any re-bucketing)
     labels: list[Span] = field(default_factory=list)  # labelled intervals (hazard plots)
+    clipped_above: str = ""  # a robustness plot's axis top, when higher values are drawn at it
+
+
+#: A robustness axis reaches this many times the worst excursion below zero (or the closest
+#: approach to zero from above), and at least the lower quartile of the values; higher values
+#: are drawn at the top. A hazard's robustness is
+#: often saturated far above its margin (no lead vehicle: a time headway of 60 s), and an axis
+#: scaled to that flattens the dips near zero that matter.
+ROBUSTNESS_REACH = 3.0
+
+
+def robustness_top(lo: np.ndarray, hi: np.ndarray) -> float | None:
+    """The top of a robustness plot's axis when the data reach far above the interesting band
+    (`ROBUSTNESS_REACH`); None when the whole range fits anyway. `lo`, `hi`: finite values."""
+    if not len(lo):
+        return None
+    low, high = float(lo.min()), float(hi.max())
+    top = max(ROBUSTNESS_REACH * abs(low), float(np.quantile(lo, 0.25)))  # typical lows too
+    if top <= 0 or high <= 1.5 * top:
+        return None
+    return top
 
 
 def nice_ticks(lo: float, hi: float, target: int = 6) -> list[float]:
@@ -137,6 +158,9 @@ def plot_series(
     if t1 <= t0:
         t1 = t0 + max(bucket, period, 1.0)
     finite = np.isfinite(lo) & np.isfinite(hi)
+    top = robustness_top(lo[finite], hi[finite]) if series.quantity == "robustness" else None
+    if top is not None:  # saturated far above the margin: clip, and say so on the plot
+        lo, hi = np.minimum(lo, top), np.minimum(hi, top)
     values = np.concatenate((lo[finite], hi[finite]))
     if series.reference is not None:
         values = np.append(values, series.reference)
@@ -204,6 +228,7 @@ def plot_series(
         buckets=len(t),
         bucket=bucket,
         labels=spans([a for a, _ in labels], [b for _, b in labels]),
+        clipped_above="" if top is None else f"{top:.3g}",
     )
 
 

@@ -64,3 +64,28 @@ def test_report_in_chromium(real_run_result: RunResult, tmp_path: Path) -> None:
         overlap_x = min(a["x"] + a["w"], b["x"] + b["w"]) - max(a["x"], b["x"])
         overlap_y = min(a["y"] + a["h"], b["y"] + b["h"]) - max(a["y"], b["y"])
         assert overlap_x <= 0.5 or overlap_y <= 0.5, f"{a['id']} overlaps {b['id']}"
+
+
+def test_report_is_legible_at_1280_px(real_run_result: RunResult, tmp_path: Path) -> None:
+    """Every diagram text is drawn at 11 px or more (the reference case's diagram is 2280 px
+    wide: fitted to the window it was 6 px), and the page itself never scrolls sideways."""
+    html = render_reports(real_run_result, tmp_path, ("html",))["html"]
+    with open_page(html, width=1280) as (page, errors):
+        seen = page.evaluate(
+            """() => {
+                const svg = document.querySelector('svg.gsn');
+                const scale = svg.getBoundingClientRect().width / svg.viewBox.baseVal.width;
+                const sizes = Array.from(svg.querySelectorAll('text'))
+                    .map(t => parseFloat(getComputedStyle(t).fontSize) * scale);
+                const wrap = document.querySelector('.diagram-wrap');
+                return {smallest: Math.min(...sizes), texts: sizes.length,
+                        page: document.documentElement.scrollWidth, width: window.innerWidth,
+                        wrap: wrap.scrollWidth > wrap.clientWidth,
+                        clipped: document.querySelectorAll('svg.plot text.clipped').length};
+            }"""
+        )
+    assert errors == []
+    assert seen["texts"] > 50 and round(seen["smallest"], 1) >= 11.0, seen  # 10.9999: subpixel
+    assert seen["page"] <= seen["width"]  # the diagram scrolls inside its frame, not the page
+    assert seen["wrap"]  # ... which it does: it is wider than the window
+    assert seen["clipped"] >= 1  # CSn2 and CSn3 saturate at 59 s of headway: clipped, said so

@@ -46,3 +46,29 @@ def test_status_strip_keeps_a_short_violation_visible() -> None:
     violated = [r for r in rects if r.status == "violated"]
     assert len(violated) == 1 and violated[0].x == 50.0 and violated[0].w == 1.0
     assert sum(r.w for r in rects) == 100.0
+
+
+def robustness(values: list[float]) -> Series:
+    return Series(formula_id="CSn2", quantity="robustness", name="robustness", bucket=0.1,
+                  t=[i * 0.1 for i in range(len(values))], lo=values, hi=values,
+                  reference=0.0)  # fmt: skip
+
+
+def test_a_saturated_robustness_is_clipped_so_its_dip_below_zero_shows() -> None:
+    """Tailgating robustness: 59 with no lead vehicle, 0.4 behind one, -0.5 when too close.
+    On a 0-60 axis the dip is 2 px deep; clipped at 3 x 0.5 it takes a third of the plot."""
+    values = [59.0] * 600 + [0.4] * 300 + [-0.5] * 30 + [0.4] * 270
+    plot = plot_series(robustness(values), [], [], 0.1)
+    assert plot.clipped_above == "1.5"
+    labels = [float(t.label) for t in plot.y_ticks]
+    assert min(labels) <= -0.4 and max(labels) <= 2.0
+    zero = plot.reference_y
+    assert zero is not None and zero - plot.top > 0.5 * plot.inner_h  # zero well inside
+    # the dip from 0 to -0.5 is over 30 px deep (on the 0-60 axis it was 1.4 px)
+    (a, va), (b, vb) = [(t.pos, float(t.label)) for t in plot.y_ticks[:2]]
+    assert 0.5 * abs(a - b) / abs(vb - va) > 30
+    # a robustness that stays within reach is not clipped
+    assert plot_series(robustness([0.05] * 50 + [-2.1] * 10), [], [], 0.1).clipped_above == ""
+    # signals are never clipped
+    signal = robustness(values).model_copy(update={"quantity": "signal", "name": "lead_thw"})
+    assert plot_series(signal, [], [], 0.1).clipped_above == ""
