@@ -71,13 +71,6 @@ class MetricParams(BaseModel):
     lane_half_width: float = Field(
         1.75, gt=0, le=10, description="half width [m] of the corridor of the leader and follower"
     )
-    lone_horizon: float = Field(
-        2.0, gt=0, le=60,
-        description="time [s] after which an unpaired object counts as a full disagreement",
-    )
-    plan_lat_horizon: float = Field(
-        2.0, gt=0, le=60, description="plan time [s] over which plan_lat compares the plans"
-    )
 
 
 class Threshold(BaseModel):
