@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from markupsafe import Markup, escape
 
 from reports.page import render_page
 from reports.roadmap import MapTransform, RoadNetwork, fit_transform
@@ -248,9 +249,16 @@ def stat_text(s: dict | None) -> str:
 
 
 def _tally(t: dict) -> str:
+    """`events / penalty` of one rule in one group, e.g. `2 / 60` (empty when neither)."""
     if not t["events"] and not t["penalty"]:
         return ""
-    return f"{t['events']}" + ("" if t["penalty"] is None else f" / {t['penalty']:.3f}")
+    return f"{t['events']}" + ("" if t["penalty"] is None else f" / {t['penalty']:g}")
+
+
+def breakable(name: str) -> Markup:
+    """A rule name that may wrap after its underscores (`broken_no_indicator` is one word to a
+    browser; fourteen of them in a header row made the page scroll sideways at 1280 px)."""
+    return Markup("_<wbr>").join(escape(part) for part in str(name).split("_"))
 
 
 def check_lines(report: dict) -> list[str]:
@@ -324,5 +332,6 @@ def render_compare_html(report: dict, tracks: dict[str, list],
                         network: RoadNetwork | None = None) -> str:  # fmt: skip
     """The page; `tracks` is {run name: [[t, x, y], ...]} (the runs' `track`)."""
     return render_page("compare.html.j2",
-                       {"stat": stat_text, "tally": _tally, "marker": _marker_line},
+                       {"stat": stat_text, "tally": _tally, "marker": _marker_line,
+                        "breakable": breakable},
                        v=compare_view(report, tracks, network), checks=check_lines(report))

@@ -84,3 +84,35 @@ def test_every_page_is_styled_and_fits_1280_px(pages: Path, page_path: str) -> N
     assert seen["h1"] == "23.25px", seen["h1"]  # 1.55rem of html { font-size: 15px }, not 32 px
     assert seen["scroll"] <= seen["width"], f"{page_path} scrolls sideways at 1280 px"
     assert seen["scripts"] == 0
+
+
+def test_a_compare_page_of_many_rules_fits_1280_px(tmp_path: Path) -> None:
+    """Twelve groups by fourteen rules with long names (the bundled rule drives): the rules
+    table wraps its headers after underscores instead of widening the page to 1615 px."""
+    from tests.casewatch.test_compare_cli import STRAIGHT, scores, write_run
+
+    rules = ["broken_no_indicator", "collision", "collision_victim", "double_solid",
+             "neither_light", "no_fog_lights", "no_headlights", "red_light", "solid_line",
+             "speeding_heavy", "speeding_light", "stop_sign", "wrong_way_driving",
+             "unsafe_lane_change"]  # fmt: skip
+    runs = []
+    for k, (agent, scenario) in enumerate((a, s) for a in ("careful", "hurried", "sloppy")
+                                          for s in ("night-fog", "rear-end", "stop-and-merge",
+                                                    "urban-lights")):  # fmt: skip
+        per_rule = {rule: (1 + (k + i) % 3, 250.0 / (1 + i)) for i, rule in enumerate(rules)}
+        runs.append(write_run(tmp_path / "runs" / f"r{k}", {"agent": agent, "scenario": scenario},
+                              60.0, [], STRAIGHT, scores(50.0, 30.0, per_rule)))  # fmt: skip
+    out = tmp_path / "compare"
+    assert main(["compare", *map(str, runs), "--by", "agent,scenario", "-o", str(out)]) == 0
+    with open_page(out / "compare.html", width=1280) as (page, errors):
+        seen = page.evaluate(
+            """() => ({scroll: document.documentElement.scrollWidth, width: innerWidth,
+                       headers: document.querySelectorAll('table.rules th').length,
+                       table: document.querySelector('table.rules').getBoundingClientRect().right,
+                       swatch: document.querySelector('table.rules .sw.rule')
+                           .getBoundingClientRect().width})"""
+        )
+    assert errors == []
+    assert seen["headers"] == len(rules) + 1
+    assert seen["scroll"] <= seen["width"] and seen["table"] <= seen["width"], seen
+    assert seen["swatch"] >= 8  # each rule's colour is shown beside its name
