@@ -57,3 +57,22 @@ def test_every_event_is_placed_on_the_road(judged, tmp_path, capsys):
     assert len(markers) == 64 and all(m["x"] is not None for m in markers)
     assert not any(m["off_road"] or m["off_track"] for m in markers)
     assert "off-road markers: 0" in capsys.readouterr().out
+
+
+def test_each_score_says_what_it_is_made_of(judged):
+    from reports.html import render_html
+    from reports.markdown import render_markdown
+    from reports.render import load_result
+
+    result = load_result(judged / "urban-lights-hurried" / "result.json")
+    p, c = result.scores["penalty"], result.scores["carla"]
+    # eq. 6.1 from its own (rounded) terms: c * t_o / t * d - gamma * penalties
+    assert p["score"] == pytest.approx(p["c"] * p["t_o"] / p["t"] * p["d"]
+                                       - p["gamma"] * p["penalty_sum"], abs=1e-3)
+    assert c["driving_score"] == pytest.approx(100 * c["route_completion"]
+                                               * c["infraction_penalty"], abs=1e-3)
+    html, md = render_html(result), render_markdown(result)
+    for text in (p["made_of"], c["made_of"]):
+        assert text in html
+    assert "made of: 96.01 = c 0.5063 x t\\_o 172.6 s / t 50.1 s x d 100" in md
+    assert "not scored: route\\_dev" in md
