@@ -119,6 +119,29 @@ def test_the_indicator_must_point_the_way_of_a_broken_line_crossing():
     assert "crossing_side" in f.message and "monitor.signals" in f.message
 
 
+def test_fog_lights_in_fog():
+    # fog, moving, no fog lights for 0.7 s, then with them; clear weather without: none
+    ticks = [{"fog": 1, "fog_lights": 0, "vehicle_speed": 5}] * 7 + [
+        {"fog": 1, "fog_lights": 1, "vehicle_speed": 5}] * 3 + [
+        {"fog": 0, "fog_lights": 0, "vehicle_speed": 5}] * 6
+    assert events("{use: no_fog_lights}", ticks) == [(0.0, 0.6)]
+
+
+def test_the_penalties_are_table_a3():
+    """Table A.3 of the CARLA safety-monitor thesis, copied by hand: (not speeding, speeding)."""
+    table = {
+        "speeding_light": [1, 1], "speeding_heavy": [3, 3], "red_light": [50, 100],
+        "stop_sign": [40, 80], "solid_line": [20, 60], "double_solid": [40, 100],
+        "broken_no_indicator": [10, 30], "broken_wrong_indicator": [10, 30],
+        "no_headlights": [30, 30], "no_fog_lights": [10, 10], "collision_victim": [0, 0],
+    }  # fmt: skip
+    rules = library(RULES)
+    assert {name: rules[name].data["penalty"] for name in table} == table
+    assert rules["collision"].data["penalty_by_party"] == {
+        "pedestrian": [600, 1200], "vehicle": [250, 500], "two_wheeler": [400, 800],
+        "object": [150, 300]}  # fmt: skip
+
+
 def test_every_rule_names_its_source():
     for rule in library(RULES).values():
         assert rule.source, rule.name
