@@ -180,6 +180,9 @@ def main(args: argparse.Namespace) -> int:
         if not 0 <= args.max_violation_rate <= 1:
             raise UsageError(f"--max-violation-rate {args.max_violation_rate:g}: a share of "
                              "ticks, between 0 and 1 (0.05 for 5 %)")  # fmt: skip
+        if args.max_violation_rate == 0 and not args.inclusive:
+            raise UsageError("--max-violation-rate 0: no rate is below 0, so no cell could be "
+                             "accepted; for 'no violated tick at all' add --inclusive")
         max_mae = _mae_bounds(args.max_mae)
         runs = _read_runs(args.runs)
         if not any(run.result.conditions for run in runs):

@@ -95,6 +95,7 @@ def test_strict_criterion_and_gating_subsets(judged, tmp_path, capsys):
         (["--max-mae", "nope=1"], "saved no signal 'nope'"),
         (["--formulas", "Sn7"], "no formula Sn7"),
         (["--max-violation-rate", "5"], "between 0 and 1"),
+        (["--max-violation-rate", "0"], "no rate is below 0, so no cell could be accepted"),
         (["--by", "weather"], "--by weather"),
         (["--bins", "fog=0,30,70,100"], "no condition 'fog' in the runs, and none end in .fog"),
         (["--bins", "weather=0,30,70,100"], "environment.weather takes no numbers"),
