@@ -1,5 +1,10 @@
 """The logs `casewatch tune` and `calibrate` read: saved signals, and each log's labels.
 
+Fault labels (`NAME.fault-labels.jsonl`, `evaluator.faults`) are found beside each log's labels
+or stream, like its labels, when labels are asked for (`--labels auto`, or a file for a single
+log); `calibrate` reports the faults each SPI reveals and keeps their stretches out of nominal
+driving.
+
 A LOG argument is a run folder of `casewatch run --save-signals` (it holds `signals.npz` and
 `result.json`), a fleet folder (its `summary.json` lists the run folders), or streams (a file,
 a folder of streams, a glob): those are judged once with `--save-signals` into `OUT/runs`, so
@@ -13,6 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from casewatch import batch
+from evaluator.faults import FaultLabel, FaultLabelsError, fault_labels_path, read_fault_labels
 from evaluator.ground_truth import Label, LabelsError, read_labels
 from evaluator.signal_store import FILE_NAME, SavedSignals, SignalsError, load_signals
 
@@ -28,6 +34,8 @@ class TuningLog:
     signals: SavedSignals
     labels: list[Label] | None
     labels_path: str | None
+    faults: list[FaultLabel] | None = None  # injected faults, when a fault-labels file is found
+    faults_path: str | None = None
 
 
 def _read_json(path: Path) -> dict:
@@ -81,19 +89,7 @@ def _run_folders(arguments: list[str], case_path: str, out: Path, jobs: int) -> 
 
 
 def _labels_of(folder: Path, labels: str | None, single: bool) -> tuple[list[Label], str] | None:
-    if labels not in (None, "auto"):
-        if not single:
-            raise LogsError("with several logs use --labels auto (each log's labels: the file "
-                            "its run was judged with, or NAME.labels.jsonl beside its stream)")
-        path = labels
-    else:
-        result = _read_json(folder / "result.json")
-        truth = result.get("ground_truth") or {}
-        path = truth.get("labels_path") if isinstance(truth, dict) else None
-        stream = (result.get("stream") or {}).get("path")
-        if not path and labels == "auto" and isinstance(stream, str):
-            sibling = batch.sibling_labels(Path(stream))
-            path = str(sibling) if sibling else None
+    path, _ = _label_places(folder, labels, single)
     if not path:
         return None
     if not Path(path).is_file():
@@ -104,6 +100,40 @@ def _labels_of(folder: Path, labels: str | None, single: bool) -> tuple[list[Lab
     except LabelsError as exc:
         raise LogsError(str(exc)) from None
     return found, str(path)
+
+
+def _label_places(folder: Path, labels: str | None, single: bool) -> tuple[str | None, list[Path]]:
+    """The log's labels file (None: none) and the paths beside which its fault labels may lie
+    (the labels file, then the stream)."""
+    if labels not in (None, "auto"):
+        if not single:
+            raise LogsError("with several logs use --labels auto (each log's labels: the file "
+                            "its run was judged with, or NAME.labels.jsonl beside its stream)")
+        return labels, [Path(labels)]
+    result = _read_json(folder / "result.json")
+    truth = result.get("ground_truth") or {}
+    path = truth.get("labels_path") if isinstance(truth, dict) else None
+    stream_info = result.get("stream")
+    stream = stream_info.get("path") if isinstance(stream_info, dict) else None
+    if not path and labels == "auto" and isinstance(stream, str):
+        sibling = batch.sibling_labels(Path(stream))
+        path = str(sibling) if sibling else None
+    places = [Path(p) for p in (path, stream) if isinstance(p, str) and p]
+    return (path if isinstance(path, str) and path else None), places
+
+
+def _faults_of(folder: Path, labels: str | None,
+               single: bool) -> tuple[list[FaultLabel], str] | None:  # fmt: skip
+    """The log's injected faults, from `NAME.fault-labels.jsonl` beside its labels or stream."""
+    _, places = _label_places(folder, labels, single)
+    for place in places:
+        candidate = fault_labels_path(place)
+        if candidate.is_file():
+            try:
+                return read_fault_labels(candidate), str(candidate)
+            except FaultLabelsError as exc:
+                raise LogsError(str(exc)) from None
+    return None
 
 
 def load_logs(arguments: list[str], case_path: str, out: Path, jobs: int = 1,
@@ -118,11 +148,14 @@ def load_logs(arguments: list[str], case_path: str, out: Path, jobs: int = 1,
             signals = load_signals(folder)
         except SignalsError as exc:
             raise LogsError(str(exc)) from None
-        got = _labels_of(folder, labels, len(folders) == 1) if labels else None
+        single = len(folders) == 1
+        got = _labels_of(folder, labels, single) if labels else None
         if need_labels and got is None:
             raise LogsError(f"{folder}: the log has no labels (NAME.labels.jsonl beside its "
                             "stream, or a run judged with --labels); tune scores thresholds "
                             "against labels")  # fmt: skip
+        faults = _faults_of(folder, labels, single) if labels else None
         logs.append(TuningLog(folder.name, folder, signals, got[0] if got else None,
-                              got[1] if got else None))  # fmt: skip
+                              got[1] if got else None, faults[0] if faults else None,
+                              faults[1] if faults else None))  # fmt: skip
     return logs

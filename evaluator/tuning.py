@@ -1,6 +1,6 @@
 """Thresholds from data: sweep a formula's threshold (and duration) over saved signals, form
-episodes exactly as the evaluator does, score them against labels (`casewatch tune`), or count
-them on nominal logs (`casewatch calibrate`).
+episodes exactly as the evaluator does, and score them against labels (`casewatch tune`);
+`evaluator.calibration` counts them on nominal logs (`casewatch calibrate`).
 
 Every formula has one **knob**: the constant of its first comparison between a signal and a
 number (`els >= 0.6`, `lead_thw < 1.0 and ...`), plus its duration: an SPI's `for:` window or a
@@ -455,33 +455,3 @@ def tune(sw: Sweep, objective: str = "f1", min_precision: float | None = None) -
         "heldout": held,
         "curve": curve,
     }
-
-
-def calibrate(sw: Sweep, per_hour: float, hours: float) -> dict:
-    """The strictest threshold (at the original duration) whose episodes on these nominal
-    logs stay within `per_hour` an hour, its rate, the original's rate, and the margin: how far
-    the calibrated threshold lies beyond the original one, towards stricter (negative: the
-    original raises more alarms than the budget allows)."""
-    k = sw.knob
-    stricter_up = (k.op in (">=", ">")) == k.signal_left  # a larger threshold flags more
-    rows = [c for c, (_, d) in enumerate(sw.candidates()) if d == k.duration]
-    rate = {c: sw.counts[c, :, 3].sum() / hours for c in rows}
-    grid = sw.candidates()
-    within = [c for c in rows if rate[c] <= per_hour + 1e-12]
-    original = grid.index((k.value, k.duration))
-    if not within:
-        raise TuningError(f"{k.formula_id}: no threshold keeps {k.signal} within {per_hour:g} "
-                          "episodes an hour on these logs")  # fmt: skip
-    best = max(within, key=lambda c: grid[c][0]) if stricter_up else min(within,
-                                                                        key=lambda c: grid[c][0])
-    th = grid[best][0]
-    margin = (th - k.value) if stricter_up else (k.value - th)
-    edge = min(sw.thresholds) if stricter_up else max(sw.thresholds)
-    return {
-        "formula": k.formula_id, "node": k.node_id, "parameter": k.parameter,
-        "duration": k.duration, "original": k.value,
-        "original_per_hour": float(rate[original]), "calibrated": th,
-        "calibrated_per_hour": float(rate[best]), "margin": round_sig(margin, 6),
-        "at_edge": th == edge, "hours": hours,
-    }  # fmt: skip
-

@@ -14,6 +14,8 @@ from dataclasses import dataclass
 
 from ruamel.yaml import YAML
 from ruamel.yaml.comments import CommentedMap
+from ruamel.yaml.error import CommentMark
+from ruamel.yaml.tokens import CommentToken
 
 from spec.emit import number_text
 
@@ -81,8 +83,39 @@ def _drop(mapping: CommentedMap, key: str) -> None:
         mapping.ca.items.setdefault(list(mapping)[-1], tokens)
 
 
-def rewrite(yaml_text: str, changes: list[Change]) -> str:
-    """The case text with every change applied (comments and layout kept)."""
+#: The prefix of the notes `rewrite` writes beside a threshold (and finds again to replace).
+NOTE_PREFIX = "casewatch calibrate:"
+
+
+def _note(node: CommentedMap, binding: CommentedMap, text: str | None) -> None:
+    """Put `text` as the end-of-line comment of the threshold's line (the `threshold:` key of a
+    block mapping, the `spi:` key of a flow one), after any comment the author wrote there;
+    a note an earlier run left (`NOTE_PREFIX`) goes, so a note never outlives its reason.
+
+    ruamel keeps an end-of-line comment and the blank and comment lines that follow it in one
+    token: only its first line is the comment of this line, the rest stays as it is."""
+    flow = binding.fa.flow_style()
+    owner, key = (node, "spi") if flow else (binding, "threshold")
+    tokens = owner.ca.items.get(key)
+    token = tokens[2] if tokens is not None and len(tokens) > 2 else None
+    value = token.value if token is not None else ""
+    cut = value.find("\n")
+    head, tail = (value, "\n") if cut < 0 else (value[:cut], value[cut:])
+    kept = head.strip().removeprefix("#").strip().split(NOTE_PREFIX)[0].rstrip(" ;")
+    comment = "; ".join(x for x in (kept, f"{NOTE_PREFIX} {text}" if text else "") if x)
+    if comment == head.strip().removeprefix("#").strip():
+        return  # nothing to add or remove: the line stays exactly as written
+    if token is None:
+        owner.yaml_add_eol_comment(comment, key)
+        return
+    # column 0: ruamel then writes one space before the value, which starts with one more
+    tokens[2] = CommentToken((f" # {comment}" if comment else "") + tail, CommentMark(0), None)
+
+
+def rewrite(yaml_text: str, changes: list[Change], notes: dict[str, str] | None = None) -> str:
+    """The case text with every change applied (comments and layout kept). `notes`: node id
+    -> a note to write as a comment beside that SPI's threshold (why calibrate left it as it
+    is); SPIs that change or get a note lose any note an earlier run left."""
     yaml = YAML(typ="rt")
     yaml.preserve_quotes = True
     yaml.width = 4096  # never re-wrap long lines
@@ -110,6 +143,13 @@ def rewrite(yaml_text: str, changes: list[Change]) -> str:
                 _drop(binding, key)
             else:
                 binding[key] = seconds_text(ch.new_duration)
+    touched = {ch.node_id for ch in changes if ch.kind == "spi" and not ch.raw_stl}
+    for node_id in touched | set(notes or {}):
+        node = data.get(node_id)
+        binding = node.get("spi") if isinstance(node, CommentedMap) else None
+        if not isinstance(binding, CommentedMap) or "threshold" not in binding:
+            raise RewriteError(f"node {node_id} has no `spi:` mapping with a threshold")
+        _note(node, binding, (notes or {}).get(node_id))
     out = io.StringIO()
     yaml.dump(data, out)
     return out.getvalue()

@@ -52,7 +52,9 @@ def test_tune_recovers_the_tailgating_headway(runs, tmp_path, capsys):
     assert set(rules) == {"CSn1", "CSn2"}  # the two drives hold no CSn3 label
     tailgating = rules["CSn2"]
     assert tailgating["original"]["fp"] > 0  # 1.6 s flags close-but-legal following
-    assert 0.99 <= tailgating["tuned"]["threshold"] <= 1.1
+    # below the close-but-legal following of highway-close-realstack (1.07-1.12 s), with room
+    # to spare: the middle of the perfect range, not its edge
+    assert 0.95 <= tailgating["tuned"]["threshold"] <= 1.03
     assert tailgating["tuned"]["precision"] == 1.0 and tailgating["tuned"]["recall"] == 1.0
     assert tailgating["heldout"] is not None  # two logs: one held out at a time
     diff = (out / "tuned-case.diff").read_text()
@@ -114,15 +116,31 @@ def test_tune_refuses_what_it_cannot_use(runs, tmp_path, capsys):
 
 
 def test_calibrate_on_nominal_stretches(runs, tmp_path, capsys):
+    """Two bundled drives hold minutes, not the half hour of nominal driving an SPI needs by
+    default: nothing is calibrated, each SPI says why beside its threshold. Without the
+    minimum, no written threshold is beyond the observed values or over the budget."""
     out = tmp_path / "cal"
     code = cli(["calibrate", str(CASE), str(runs), "--labels", "auto",
                 "--false-alarms-per-hour", "30", "-o", str(out)])  # fmt: skip
     assert code in (0, 1)
     report = json.loads((out / "calibration.json").read_text())
-    assert report["per_hour"] == 30 and len(report["spis"]) == 14
-    for row in report["spis"]:
-        assert row["calibrated_per_hour"] <= 30 + 1e-9
+    assert report["per_hour"] == 30 and report["hours"] < 0.1
+    assert {r["status"] for r in report["spis"]} == {"not calibrated"}
+    text = (out / "calibrated-case.yaml").read_text()
+    assert text.count("casewatch calibrate: not calibrated on these logs") == len(report["spis"])
     assert cli(["check", str(out / "calibrated-case.yaml")]) == 0
+    anyway = tmp_path / "anyway"
+    cli(["calibrate", str(CASE), str(runs), "--labels", "auto", "--min-hours", "0",
+         "--false-alarms-per-hour", "30", "-o", str(anyway)])  # fmt: skip
+    for row in json.loads((anyway / "calibration.json").read_text())["spis"]:
+        chosen = row["chosen"]
+        if row["status"] == "calibrated":
+            point = next(p for p in row["curve"] if (p["threshold"], p["for"]) ==
+                         (chosen["threshold"], chosen["for"]))  # fmt: skip
+            assert point["fires"] and chosen["per_hour"] <= 30 + 1e-9, row["formula"]
+        else:
+            assert chosen == row["original"], row["formula"]
+    assert cli(["check", str(anyway / "calibrated-case.yaml")]) == 0
     assert cli(["calibrate", str(CASE), str(runs), "--false-alarms-per-hour", "-1",
                 "-o", str(out)]) == 2  # fmt: skip
     assert "must be a number" in capsys.readouterr().err

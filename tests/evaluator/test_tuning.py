@@ -15,7 +15,6 @@ from evaluator.ground_truth import Label
 from evaluator.signal_store import SavedSignals, SignalRecorder, SignalsError, load_signals
 from evaluator.tuning import (
     Knob,
-    calibrate,
     episodes_for,
     episodes_from,
     knobs,
@@ -105,24 +104,6 @@ def test_min_precision_objective_and_unreachable_precision():
     strict = tune(sw, "min-precision", 1.0)
     assert (strict["tuned"]["tp"], strict["tuned"]["fp"]) == (2, 0)
     assert strict["tuned"]["recall"] == 0.5 and strict["reached"]
-
-
-def test_calibrate_takes_the_strictest_threshold_within_the_budget():
-    # one hour of x = 1.0 with four dips to 0.5 and one to 0.3 (each a second long):
-    # `x >= 0.4` fires once an hour, `x >= 0.6` five times
-    x = np.ones(36000)
-    for start, low in ((1000, 0.5), (9000, 0.5), (17000, 0.5), (25000, 0.5), (33000, 0.3)):
-        x[start : start + 10] = low
-    log = saved(list(x))
-    knob = Knob("S", "S", "s", "spi", "x >= 0.6", parse_formula("x >= 0.6"), (), "x", ">=",
-                True, 0.6, "for", 0.0, 0.0, 0.0)  # fmt: skip
-    one = calibrate(sweep(knob, [log], None, count=50), 1.0, log.hours)
-    assert one["original_per_hour"] == pytest.approx(5.0)
-    assert one["calibrated_per_hour"] == pytest.approx(1.0)
-    assert 0.3 < one["calibrated"] <= 0.5 and one["calibrated"] == 0.5  # x >= 0.5: no 0.5 dip
-    assert one["margin"] == pytest.approx(0.5 - 0.6)  # looser than the original by 0.1
-    none = calibrate(sweep(knob, [log], None, count=50), 0.0, log.hours)
-    assert none["calibrated"] == 0.3 and none["at_edge"]  # x >= 0.3 never fires
 
 
 def test_candidates_span_the_observed_values_outwards():

@@ -61,3 +61,26 @@ def test_replace_number_finds_the_comparison_either_way_round():
 def test_unknown_node_is_an_error():
     with pytest.raises(RewriteError, match="Sn9 is not in the case"):
         rewrite(CASE, [change("Sn9", "spi", "els", ">=", 0.6, 0.5)])
+
+
+def test_notes_sit_beside_the_threshold_and_replace_their_own_earlier_notes():
+    text = (
+        "Sn1:\n  spi: {signal: els, threshold: \">= 0.6\"}  # from the HARA\n\n"
+        "Sn2:\n  spi:\n    signal: ols\n    threshold: '>= 0.5'\n\n# --- next part\nSn3:\n"
+        "  spi: {signal: eos, threshold: \">= 0.8\"}\n"
+    )
+    once = rewrite(text, [], {"Sn1": "not calibratable (a)", "Sn2": "not calibrated (b)"})
+    assert once == (
+        "Sn1:\n  spi: {signal: els, threshold: \">= 0.6\"}  # from the HARA; casewatch "
+        "calibrate: not calibratable (a)\n\n"
+        "Sn2:\n  spi:\n    signal: ols\n    threshold: '>= 0.5'  # casewatch calibrate: not "
+        "calibrated (b)\n\n# --- next part\nSn3:\n  spi: {signal: eos, threshold: \">= 0.8\"}\n"
+    )
+    # a later run: Sn1 changes (its note goes, the author's comment stays), Sn2 gets a new note
+    twice = rewrite(once, [change("Sn1", "spi", "els", ">=", 0.6, 0.5, "for", 0.0, 1.0)],
+                    {"Sn2": "not calibrated (c)"})  # fmt: skip
+    assert twice == (
+        "Sn1:\n  spi: {signal: els, threshold: \">= 0.5\", for: 1s}  # from the HARA\n\n"
+        "Sn2:\n  spi:\n    signal: ols\n    threshold: '>= 0.5'  # casewatch calibrate: not "
+        "calibrated (c)\n\n# --- next part\nSn3:\n  spi: {signal: eos, threshold: \">= 0.8\"}\n"
+    )
