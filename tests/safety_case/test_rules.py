@@ -188,3 +188,24 @@ def test_the_traffic_rules_module_is_included_by_name(tmp_path):
     (tmp_path / "traffic-rules").write_text("G_traffic_rules: {text: local, undeveloped: true}\n")
     c, spec = api.prepare(case)
     assert c.nodes["G_traffic_rules"].text == "local" and spec.formulas == []
+
+
+@pytest.mark.parametrize(
+    ("scoring", "code", "words"),
+    [
+        ("{gamma: 1.5}", "CW012", "`scoring.gamma` should be less than or equal to 1, got the "
+         "number 1.5"),
+        ("{alpha: 2}", "CW012", "`scoring.alpha` should be less than or equal to 1"),
+        ("{d: 2000}", "CW012", "`scoring.d` should be less than or equal to 1000"),
+        ("{stops: [12, -3]}", "CW012", "`scoring.stops[1]` should be greater than or equal to 0"),
+        ("{c: 100}", "CW013", "unknown key 'c'"),
+    ],
+)  # fmt: skip
+def test_scoring_parameters_are_bounded_as_the_thesis_bounds_them(scoring, code, words):
+    text = HEAD.replace("monitor: {channels: [lav, tfuse], merge_gap: 1s}",
+                        f"monitor: {{channels: [lav, tfuse], scoring: {scoring}}}")
+    result = load_text(text + "  hazard: {use: red_light}\n", "rules.yaml")
+    assert result.case is None
+    found = [f for f in result.findings if f.code == code]
+    assert found and words in found[0].message, [f.format() for f in result.findings]
+    assert found[0].line == 2
