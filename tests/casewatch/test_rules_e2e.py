@@ -76,3 +76,37 @@ def test_each_score_says_what_it_is_made_of(judged):
         assert text in html
     assert "made of: 96.01 = c 0.5063 x t\\_o 172.6 s / t 50.1 s x d 100" in md
     assert "not scored: route\\_dev" in md
+
+
+def test_the_indicator_must_point_the_way_of_the_crossing(tmp_path):
+    """A bundled drive's three broken-line crossings (17.7, 26.9, 30.3 s, indicator off) with
+    the side reported (world.crossing: right) and the indicator rewritten: left on the first
+    (the wrong way: broken_wrong_indicator), right on the second (fine), off on the third
+    (broken_no_indicator)."""
+    import gzip
+
+    lines = []
+    with gzip.open(DRIVES / "stop-and-merge-sloppy.jsonl.gz", "rt") as fh:
+        for line in fh:
+            frame = json.loads(line)
+            world = frame.get("world")
+            if world and world.get("marking") == "broken":
+                world["crossing"] = "right"
+                if frame["t"] < 20:
+                    world["indicator"] = "left"
+                elif frame["t"] < 28:
+                    world["indicator"] = "right"
+            lines.append(json.dumps(frame))
+    stream = tmp_path / "drive.jsonl"
+    stream.write_text("\n".join(lines) + "\n")
+    case = tmp_path / "case.yaml"
+    case.write_text(CASE.read_text().replace(
+        "  period: 0.1s\n", "  period: 0.1s\n  signals: {crossing_side: side crossed to}\n") +
+        "\nCSn_wrong_indicator:\n  text: indicating the other way\n"
+        "  challenges: G_traffic_rules\n  hazard: {use: broken_wrong_indicator}\n")
+    assert main(["run", str(case), str(stream), "--format", "none", "--quiet", "-o",
+                 str(tmp_path / "out")]) == 1  # fmt: skip
+    result = json.loads((tmp_path / "out" / "result.json").read_text())
+    crossings = [(e["node_id"], e["start"]) for e in result["episodes"]
+                 if "indicator" in e["node_id"]]  # fmt: skip
+    assert crossings == [("CSn_wrong_indicator", 17.7), ("CSn_broken_no_indicator", 30.3)]
