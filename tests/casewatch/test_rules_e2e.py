@@ -110,3 +110,34 @@ def test_the_indicator_must_point_the_way_of_the_crossing(tmp_path):
     crossings = [(e["node_id"], e["start"]) for e in result["episodes"]
                  if "indicator" in e["node_id"]]  # fmt: skip
     assert crossings == [("CSn_wrong_indicator", 17.7), ("CSn_broken_no_indicator", 30.3)]
+
+
+def test_leaderboard_inputs_reach_the_score_through_a_stream(tmp_path):
+    """A bundled drive with every Leaderboard input reported: a scenario timeout from 10 to
+    11 s, 2 s outside the route's lanes, traffic at 20 m/s; nothing is 'not scored'."""
+    import gzip
+
+    lines = []
+    with gzip.open(DRIVES / "stop-and-merge-careful.jsonl.gz", "rt") as fh:
+        for line in fh:
+            frame = json.loads(line)
+            world = frame.get("world")
+            if world is not None:
+                t = frame["t"]
+                world.update(traffic_speed=20.0, blocked=False,
+                             timeouts={"route": False, "scenario": 10.0 <= t < 11.0},
+                             emergency_vehicle={"failed_to_yield": False})  # fmt: skip
+                world["route"].update(outside_lanes=5.0 <= t < 7.0, deviated=False)
+            lines.append(json.dumps(frame))
+    stream = tmp_path / "drive.jsonl"
+    stream.write_text("\n".join(lines) + "\n")
+    main(["run", str(CASE), str(stream), "--format", "none", "--quiet", "-o", str(tmp_path / "o")])
+    carla = json.loads((tmp_path / "o" / "result.json").read_text())["scores"]["carla"]
+    assert carla["not_scored"] == {} and carla["ended_by"] is None
+    infractions = carla["per_infraction"]
+    assert infractions["scenario_timeouts"] == {"events": 1, "coefficient": 0.7}
+    assert 0 < infractions["outside_route_lanes"]["percentage"] < 5
+    assert all(p < 100 for p in infractions["min_speed_infractions"]["percentage"])
+    product = 0.7 * infractions["outside_route_lanes"]["coefficient"] * \
+        infractions["min_speed_infractions"]["coefficient"]  # fmt: skip
+    assert carla["infraction_penalty"] == pytest.approx(product, abs=1e-5)
