@@ -166,8 +166,8 @@ def score_run(episodes: list[Episode], formulas: list[FormulaStats], t: np.ndarr
         out["per_rule"] = per_rule
         out["penalty_sum"] = total
         return out
-    out["penalty"] = _penalty_score(events, rule_of, t, ticks, period, params, per_rule, total,
-                                    progress, length, reported)  # fmt: skip
+    out["penalty"] = _penalty_score(t, ticks, period, params, per_rule, total, progress, length,
+                                    reported)  # fmt: skip
     if out["penalty"] is None:
         out["reason"] = ("no reference speed: no speed limit reported along the route and no "
                          "scoring.v_avg")  # fmt: skip
@@ -178,8 +178,9 @@ def score_run(episodes: list[Episode], formulas: list[FormulaStats], t: np.ndarr
     return out
 
 
-def _penalty_score(events, rule_of, t, ticks, period, params, per_rule, total, progress,
-                   length, reported) -> dict | None:  # fmt: skip
+def _penalty_score(t: np.ndarray, ticks: dict[str, np.ndarray], period: float,
+                   params: ScoringParams, per_rule: dict, total: float, progress: np.ndarray,
+                   length: np.ndarray, reported: np.ndarray) -> dict | None:  # fmt: skip
     """Eqs. 6.1 and 6.3 (see the module docstring); None without a reference speed."""
     n = len(t)
     last = int(np.flatnonzero(reported)[-1])
@@ -227,8 +228,10 @@ def _penalty_score(events, rule_of, t, ticks, period, params, per_rule, total, p
     }  # fmt: skip
 
 
-def _leaderboard(events, rule_of, t, ticks, speed, period, params, progress, length,
-                 reported) -> dict:  # fmt: skip
+def _leaderboard(events: list[Episode], rule_of: dict[str, str], t: np.ndarray,
+                 ticks: dict[str, np.ndarray], speed: np.ndarray, period: float,
+                 params: ScoringParams, progress: np.ndarray, length: np.ndarray,
+                 reported: np.ndarray) -> dict:  # fmt: skip
     """The Leaderboard 2.0 driving score (see the module docstring)."""
     n = len(t)
     # the route ends at the first tick of route deviation, blocked or route timeout
