@@ -243,12 +243,12 @@ def main(args: argparse.Namespace) -> int:
     if truth:
         agree = sum(1 for c in truth if c["degraded_truth"] != c["accepted"])
         print(f"Against the streams' known degradation (meta.odd_truth): {agree} of "
-              f"{len(truth)} cells agree")  # fmt: skip
-        for c in truth:
-            mark = "ok " if c["degraded_truth"] != c["accepted"] else "DIFFERS"
-            print(f"  {mark} {cell_label(c['conditions'])}: degraded "
-                  f"{'yes' if c['degraded_truth'] else 'no '}, "
-                  f"{'accepted' if c['accepted'] else 'rejected'}")  # fmt: skip
+              f"{len(truth)} cells agree (a degraded cell rejected, a sound one accepted)")
+        for c in truth:  # the agreeing ones are in the heatmap's truth column
+            if c["degraded_truth"] == c["accepted"]:
+                print(f"  DIFFERS {cell_label(c['conditions'])}: degraded "
+                      f"{'yes' if c['degraded_truth'] else 'no'}, "
+                      f"{'accepted' if c['accepted'] else 'rejected'}")  # fmt: skip
     where = written if odd is not None else (
         "no ODD written" if problem else "no cell accepted, no ODD written")
     print(f"{args.out / 'odd.html'}, {args.out / 'odd.json'}; {where}")
