@@ -21,10 +21,17 @@ from monitor.comfort import hcs, ppcs
 from monitor.coverage import common_view
 from monitor.frames import ChannelState, Coverage, Frame
 from monitor.history import PlanHistory, chpps_frame, els_var
+from monitor.lone import LoneAges, benefit_of_doubt
 from monitor.prediction import ompv
-from monitor.resample import resample_objects, resample_plan
+from monitor.resample import hold_standing, resample_objects, resample_plan
 from monitor.safety_score import arbitrate, safety_matrix
-from monitor.similarity import crpps_inputs, ego_similarities, ets, object_similarities
+from monitor.similarity import (
+    compare_objects,
+    crpps_inputs,
+    ego_similarities,
+    ets,
+    plan_lateral,
+)
 from monitor.situation import (
     GAP_CAP,
     TIME_CAP,
@@ -147,6 +154,11 @@ class MetricEngine:
         self.timings: dict[str, float] = dict.fromkeys(FAMILIES, 0.0)
         p = params
         self._els = {pr: _Timed(p.els_window, p.max_gap) for pr in self.pairs}
+        #: per pair, the ages of each side's unpaired objects (spi-reference "Unpaired objects")
+        self._lone = {
+            pr: (LoneAges(p.pairing_gate, p.max_gap), LoneAges(p.pairing_gate, p.max_gap))
+            for pr in self.pairs
+        }
         self._plans = PlanHistory(len(self.channels), p.plan_history, p.max_gap)
         self._objects = {c: _Timed(1, p.max_gap) for c in self.channels}
         self._ego = {c: _PoseWindow(p.comfort_span, p.max_gap) for c in self.channels}
@@ -218,8 +230,10 @@ class MetricEngine:
         """The frame's channels with plans and predictions on the canonical time grid
         (spi-reference "Resampling"): every metric below reads these, never the raw samples."""
         step = self.params.resample_step
+        still = self.params.plan_standstill
         return {
-            c: ChannelState(s.ego, resample_plan(s.plan, step), resample_objects(s.objects, step))
+            c: ChannelState(s.ego, hold_standing(resample_plan(s.plan, step), still),
+                            resample_objects(s.objects, step))
             for c, s in frame.channels.items()
         }
 
@@ -243,15 +257,25 @@ class MetricEngine:
                     sa.objects, sa.ego, self.coverage[a],
                     sb.objects, sb.ego, self.coverage[b], p.coverage_margin,
                 )  # fmt: skip
-                vals.update(object_similarities(
-                    oa, ob, p.pairing_gate, p.trajectory_decay, core_a, core_b
-                ))  # fmt: skip
+                cmp = compare_objects(oa, ob, p.pairing_gate, p.trajectory_decay, core_a, core_b)
+                ages_a, ages_b = self._lone[(a, b)]
+                age_a = ages_a.update(t, oa.pos, oa.vel, cmp.lone_a)
+                age_b = ages_b.update(t, ob.pos, ob.vel, cmp.lone_b)
+                vals.update(cmp.scores(benefit_of_doubt(age_a, p.lone_horizon),
+                                       benefit_of_doubt(age_b, p.lone_horizon)))
+                vals["lone_age"] = max(age_a.max(initial=0.0), age_b.max(initial=0.0))
                 vals["ets"] = ets(sa.plan, sb.plan, p.trajectory_decay)
+                vals["plan_lat"] = plan_lateral(
+                    sa.plan, sb.plan, (sa.ego.x - sb.ego.x, sa.ego.y - sb.ego.y),
+                    (sa.ego.yaw, sb.ego.yaw), p.plan_lat_horizon,
+                )
                 self._crpps_inputs.append(crpps_inputs(sa.plan, sb.plan))
                 window.push(t, vals["els"])
                 vals["els_var"] = els_var([v for _, v in window.items], p.els_window)
             else:
                 self._crpps_inputs.append(None)
+                for side in self._lone[(a, b)]:
+                    side.reset()
             del vals["crpps"]
             names = self._pair_names[(a, b)]
             for m, v in vals.items():

@@ -273,3 +273,22 @@ def resample_objects(objects: Objects, step: float) -> Objects:
         pred, lens = _resample_predictions(objects.pos, objects.pred, objects.pred_len,
                                            float(step))  # fmt: skip
     return replace(objects, pred=pred, pred_len=lens)
+
+
+def hold_standing(plan: np.ndarray, radius: float) -> np.ndarray:
+    """A plan whose points all lie within `radius` metres of its first point, as a plan that
+    stands at that point (spi-reference "Standing plans"); any other plan as it is.
+
+    Planners publish a standing plan with the same sample noise as a moving one (0.1-0.2 m
+    along, a few cm across, every sample). Read as a path, that noise is a zigzag of tenths of
+    a metre: headings from its segments turned the ego's footprint across its neighbours in the
+    safety score, and two such zigzags read as different paths in chpps and crpps."""
+    if len(plan) < 2:
+        return plan
+    d = np.hypot(plan[:, 1] - plan[0, 1], plan[:, 2] - plan[0, 2])
+    if d.max() >= radius:
+        return plan
+    out = plan.copy()
+    out[:, 1] = plan[0, 1]
+    out[:, 2] = plan[0, 2]
+    return out

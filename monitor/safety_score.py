@@ -650,11 +650,26 @@ def _prefix_groups(plans: dict[str, np.ndarray]) -> list[list[str]]:
     return groups
 
 
+def prediction_horizon(objects: Objects) -> float:
+    """The longest prediction of a world model [s] (infinite when no object has one: objects
+    without prediction stay where they are, over any horizon)."""
+    lens = objects.pred_len
+    if len(lens) == 0 or objects.pred.shape[1] == 0 or not (lens > 0).any():
+        return math.inf
+    last = objects.pred[np.arange(len(lens)), np.maximum(lens - 1, 0), 0]
+    return float(last[lens > 0].max())
+
+
 def safety_matrix(
     channels: list[str], states: dict[str, ChannelState], pet_ref: float
 ) -> dict[tuple[str, str], float | None]:
     """ss_ij for every ordered pair of declared channels: None when i or j is absent or plan i
-    is empty; 1.0 when plan i has one point or channel j sees no object."""
+    is empty; 1.0 when plan i has one point or channel j sees no object.
+
+    Plan i is compared with world model j over the horizon both cover (spi-reference "Safety
+    score", common horizon): cut to j's longest prediction. Beyond it j says nothing about
+    where its objects go; read as "staying at their last point" they stood in the plan's way
+    (a plan of 8 s against predictions of 2 s ran into every lead it followed)."""
     out: dict[tuple[str, str], float | None] = {}
     present = [c for c in channels if c in states]
     worlds = [j for j in present if len(states[j].objects)]
@@ -673,14 +688,23 @@ def safety_matrix(
             scored[i] = plan
     if not scored:
         return out
-    world_objects = [states[j].objects for j in worlds]
-    for members in _prefix_groups(scored):
-        ss = score_grid(
-            [scored[i] for i in members], [states[i].ego for i in members], world_objects, pet_ref
-        )[0]
-        for i, row in zip(members, ss.tolist(), strict=True):
-            for j, v in zip(worlds, row, strict=True):
-                out[(i, j)] = v
+    by_horizon: dict[float, list[str]] = {}
+    for j in worlds:
+        by_horizon.setdefault(prediction_horizon(states[j].objects), []).append(j)
+    for horizon, group in by_horizon.items():
+        cut = {i: plan[plan[:, 0] <= horizon + 1e-9] for i, plan in scored.items()}
+        cut = {i: plan for i, plan in cut.items() if len(plan) >= 2}
+        if not cut:
+            continue
+        world_objects = [states[j].objects for j in group]
+        for members in _prefix_groups(cut):
+            ss = score_grid(
+                [cut[i] for i in members], [states[i].ego for i in members], world_objects,
+                pet_ref,
+            )[0]
+            for i, row in zip(members, ss.tolist(), strict=True):
+                for j, v in zip(group, row, strict=True):
+                    out[(i, j)] = v
     return out
 
 

@@ -12,6 +12,7 @@ references to compare the kernels with.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
@@ -156,9 +157,9 @@ def _object_kernel(
     w: np.ndarray,
     core_a: np.ndarray,
     core_b: np.ndarray,
-) -> tuple[float, float, float, float, int, int, int]:
-    """(ols, oos, oas, ots) summed over the counted pairs of two object sets, then the number
-    of counted pairs and of unpaired core objects of A and of B.
+) -> tuple[float, float, float, float, int, np.ndarray, np.ndarray]:
+    """(ols, oos, oas, ots) summed over the counted pairs of two object sets, the number of
+    counted pairs, and the flags of the unpaired core objects of A and of B.
 
     A pair counts when either of its objects is core, an unpaired object when it is core
     (`monitor.coverage.common_view`; without coverage every object is core).
@@ -204,27 +205,21 @@ def _object_kernel(
         num = 0.0
         den = 0.0
         for p in range(length):
-            if la == 0:
-                xa, ya = pos_a[i, 0], pos_a[i, 1]
-            else:
+            # spi-reference "ots" Decision: predicted motion, each prediction relative to its
+            # own object's position (where the objects are is ols's question)
+            xa = ya = 0.0
+            if la > 0:
                 q = min(p, la - 1)
-                xa, ya = pred_a[i, q, 1], pred_a[i, q, 2]
-            if lb == 0:
-                xb, yb = pos_b[j, 0], pos_b[j, 1]
-            else:
+                xa, ya = pred_a[i, q, 1] - pos_a[i, 0], pred_a[i, q, 2] - pos_a[i, 1]
+            xb = yb = 0.0
+            if lb > 0:
                 q = min(p, lb - 1)
-                xb, yb = pred_b[j, q, 1], pred_b[j, q, 2]
+                xb, yb = pred_b[j, q, 1] - pos_b[j, 0], pred_b[j, q, 2] - pos_b[j, 1]
             num += w[p] * (1.0 / (1.0 + math.hypot(xa - xb, ya - yb)))
             den += w[p]
         ots += num / den
-    lone_a = 0
-    for i in range(pos_a.shape[0]):
-        if core_a[i] and not paired_a[i]:
-            lone_a += 1
-    lone_b = 0
-    for j in range(pos_b.shape[0]):
-        if core_b[j] and not paired_b[j]:
-            lone_b += 1
+    lone_a = core_a[: pos_a.shape[0]] & ~paired_a
+    lone_b = core_b[: pos_b.shape[0]] & ~paired_b
     return ols, oos, oas, ots, n, lone_a, lone_b
 
 
@@ -245,15 +240,47 @@ def _all_core(n: int) -> np.ndarray:
     return _ALL_CORE[:n] if n <= len(_ALL_CORE) else np.ones(n, dtype=np.bool_)
 
 
-def object_similarities(
+@dataclass(frozen=True)
+class ObjectComparison:
+    """One channel pair's objects compared at one tick (`compare_objects`): the similarity sums
+    over the counted pairs, their number, and which core objects of each side found no
+    partner (`lone_a`, `lone_b`: flags over the compared objects of A and of B)."""
+
+    sums: tuple[float, float, float, float]  # ols, oos, oas, ots
+    pairs: int
+    lone_a: np.ndarray
+    lone_b: np.ndarray
+
+    def scores(self, keep_a: np.ndarray, keep_b: np.ndarray) -> dict[str, float]:
+        """ocs, ols, oos, oas, ots, with every unpaired core object counted (spi-reference
+        "Unpaired objects"). `keep_a` / `keep_b` hold, per unpaired object of each side in
+        index order, the share in [0, 1] of the benefit of the doubt it still has: 1 when it
+        was first seen unpaired (it scores what the pairs score on average, 1.0 without pairs:
+        neutral), 0 once unpaired for `lone_horizon` (it scores 0: a full disagreement about
+        whether anything is there). The metric is the mean over pairs and unpaired objects."""
+        n_lone_a, n_lone_b = int(self.lone_a.sum()), int(self.lone_b.sum())
+        ocs = 1.0 / (1.0 + abs(n_lone_a - n_lone_b))
+        count = self.pairs + n_lone_a + n_lone_b
+        if count == 0:
+            # spi-reference: 1.0 when nothing both channels can compare is there
+            return {"ocs": ocs, "ols": 1.0, "oos": 1.0, "oas": 1.0, "ots": 1.0}
+        keep = float(np.sum(keep_a)) + float(np.sum(keep_b))
+        out = {"ocs": ocs}
+        for name, total in zip(("ols", "oos", "oas", "ots"), self.sums, strict=True):
+            mean = total / self.pairs if self.pairs else 1.0
+            out[name] = (total + keep * mean) / count
+        return out
+
+
+def compare_objects(
     a: Objects,
     b: Objects,
     gate: float,
     decay: float,
     core_a: np.ndarray | None = None,
     core_b: np.ndarray | None = None,
-) -> dict[str, float]:
-    """ocs, ols, oos, oas, ots for one channel pair (one kernel call).
+) -> ObjectComparison:
+    """Pair two channels' objects and sum their similarities (one kernel call).
 
     `core_a` / `core_b` flag the objects well inside both channels' coverage
     (`monitor.coverage.common_view`); None: every object is core.
@@ -261,21 +288,33 @@ def object_similarities(
     all_a = _all_core(len(a)) if core_a is None else core_a
     all_b = _all_core(len(b)) if core_b is None else core_b
     if len(a) == 0 and len(b) == 0:
-        # spi-reference: 1.0 when both channels see nothing.
-        return {"ocs": 1.0, "ols": 1.0, "oos": 1.0, "oas": 1.0, "ots": 1.0}
+        return ObjectComparison((0.0, 0.0, 0.0, 0.0), 0, np.zeros(0, bool), np.zeros(0, bool))
     w = _weights(decay, max(a.pred.shape[1], b.pred.shape[1], 1))
     ols, oos, oas, ots, n, lone_a, lone_b = _object_kernel(
         a.pos, a.yaw, a.half, a.footprints, a.pred, a.pred_len,
         b.pos, b.yaw, b.half, b.footprints, b.pred, b.pred_len,
         float(gate), w, all_a, all_b,
     )  # fmt: skip
-    ocs = 1.0 / (1.0 + abs(lone_a - lone_b))
-    if n:
-        return {"ocs": ocs, "ols": ols / n, "oos": oos / n, "oas": oas / n, "ots": ots / n}
-    # spi-reference Decision: 0.0 when objects exist but no pair forms; 1.0 when nothing both
-    # channels can compare is there (every object in a coverage margin, or none at all)
-    empty = 0.0 if lone_a or lone_b else 1.0
-    return {"ocs": ocs, "ols": empty, "oos": empty, "oas": empty, "ots": empty}
+    return ObjectComparison((ols, oos, oas, ots), int(n), lone_a, lone_b)
+
+
+def object_similarities(
+    a: Objects,
+    b: Objects,
+    gate: float,
+    decay: float,
+    core_a: np.ndarray | None = None,
+    core_b: np.ndarray | None = None,
+    keep: float = 0.0,
+) -> dict[str, float]:
+    """ocs, ols, oos, oas, ots of one tick on its own, every unpaired core object keeping
+    `keep` of the benefit of the doubt (`ObjectComparison.scores`; the monitor sets it per
+    object from how long it has been unpaired, `monitor.lone`). 0.0, the default, is the
+    study's reading: a disagreement about whether anything is there is the least similar
+    outcome."""
+    cmp = compare_objects(a, b, gate, decay, core_a, core_b)
+    return cmp.scores(np.full(int(cmp.lone_a.sum()), keep),
+                      np.full(int(cmp.lone_b.sum()), keep))
 
 
 def ego_similarities(a: ChannelState, b: ChannelState) -> dict[str, float]:
@@ -392,3 +431,41 @@ def crpps_distance(plan_a: np.ndarray, plan_b: np.ndarray) -> float | None:
     """
     inputs = crpps_inputs(plan_a, plan_b)
     return None if inputs is None else frechet(*inputs)
+
+
+def plan_lateral(
+    plan_a: np.ndarray, plan_b: np.ndarray, shift: tuple[float, float],
+    yaws: tuple[float, float], horizon: float,
+) -> float | None:
+    """plan_lat (spi-reference): the largest sideways distance between the two plans at equal
+    times over their first `horizon` seconds, plan B moved by `shift` (ego A minus ego B, so a
+    disagreement about where the ego is, which els judges, is not a planning one). Sideways is
+    across the two plans' mean direction at each point (the mean of the egos' headings `yaws`
+    where both plans stand still), so the value does not depend on the channel order. None
+    when a plan is empty or the plans share no time in the horizon.
+
+    crpps and chpps move one plan onto the other's start before comparing shapes, so a plan
+    displaced whole to one side (a planner on the wrong lane, a lateral offset in its output)
+    reads as the same shape; this is the signal that sees it."""
+    if len(plan_a) == 0 or len(plan_b) == 0:
+        return None
+    a, b = common_range(plan_a, plan_b)
+    n = min(int(np.count_nonzero(a[:, 0] <= horizon + 1e-9)), len(b))
+    if n == 0:
+        return None
+    pa, pb = a[:n, 1:3], b[:n, 1:3] + np.asarray(shift)
+    direction = np.zeros((n, 2))
+    if n > 1:
+        for p in (pa, pb):
+            t = np.gradient(p, axis=0)
+            norm = np.hypot(t[:, 0], t[:, 1])
+            direction += t / np.where(norm > 1e-3, norm, np.inf)[:, None]
+    norm = np.hypot(direction[:, 0], direction[:, 1])
+    fallback = np.array([math.cos(yaws[0]) + math.cos(yaws[1]),
+                         math.sin(yaws[0]) + math.sin(yaws[1])])
+    fallback /= max(float(np.hypot(*fallback)), 1e-12)
+    moving = norm > 1e-3
+    ux = np.where(moving, direction[:, 0] / np.where(moving, norm, 1.0), fallback[0])
+    uy = np.where(moving, direction[:, 1] / np.where(moving, norm, 1.0), fallback[1])
+    d = pb - pa
+    return float(np.max(np.abs(d[:, 1] * ux - d[:, 0] * uy)))

@@ -71,6 +71,17 @@ class MetricParams(BaseModel):
     lane_half_width: float = Field(
         1.75, gt=0, le=10, description="half width [m] of the corridor of the leader and follower"
     )
+    lone_horizon: float = Field(
+        2.0, gt=0, le=60,
+        description="time [s] after which an unpaired object counts as a full disagreement",
+    )
+    plan_lat_horizon: float = Field(
+        2.0, gt=0, le=60, description="plan time [s] over which plan_lat compares the plans"
+    )
+    plan_standstill: float = Field(
+        1.0, ge=0, le=10,
+        description="a plan within this distance [m] of its first point stands at that point",
+    )
 
 
 class Threshold(BaseModel):

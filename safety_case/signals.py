@@ -34,6 +34,8 @@ PAIR_METRICS: dict[str, str] = {
     "crpps": "Cross-Channel Planned Path Similarity",
     "ego_dist": "distance between the channels' ego positions [m]",
     "ego_yaw_diff": "difference between the channels' ego headings [rad]",
+    "lone_age": "longest time [s] an object both channels can see was reported by one only",
+    "plan_lat": "largest sideways offset [m] between the plans' first seconds, ego offset removed",
 }
 
 #: Per-channel metrics, one value per channel.
@@ -92,7 +94,7 @@ SAFETY_SCORE_NAME = "Safety score (time to collision and post-encroachment time)
 
 #: For these the unsuffixed signal is the maximum over pairs; for every other metric the minimum.
 WORST_IS_MAX: frozenset[str] = frozenset(
-    {"els_var", "ego_dist", "ego_yaw_diff", "ego_speed", "follow_speed"}
+    {"els_var", "ego_dist", "ego_yaw_diff", "ego_speed", "follow_speed", "lone_age", "plan_lat"}
 )
 
 SEP = "__"

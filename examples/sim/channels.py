@@ -121,6 +121,13 @@ class ChannelParams:
     # in-path vehicle track (predicted centre within `plan_corridor` metres of the path)
     plan_standstill_gap: float = 2.0
     plan_corridor: float = 1.75
+    # Added with the stack sampler (`examples.sim.stacks`); defaults keep the models above.
+    pos_white_growth: float = 0.0  # relative growth of the white noise at the sensing range
+    miss_edge: float = 0.0  # extra miss probability per tick at the sensing range, ~ (r/R)^2
+    plan_noise_lon: float = 0.0  # white noise of every published plan point along the path (m)
+    plan_noise_lat: float = 0.0  # ... and across it (m)
+    pred_noise_lon: float = 0.0  # white noise of every prediction point along the object (m)
+    pred_noise_lat: float = 0.0  # ... and across it (m)
 
     def meta(self) -> dict[str, Any]:
         """Every parameter, for the stream header."""
@@ -599,6 +606,10 @@ class ChannelModel:
         self.err_yaw = lowpass_noise(track_rng, n_t, dt, p.track_tau, (n_v,))
         self.size_bias = 1.0 + p.size_sigma * track_rng.standard_normal((n_v, 2))
         self.missed = markov_misses(track_rng, (n_t, n_v), p.p_miss, p.miss_len)
+        edge_rng = np.random.default_rng([seed, params.seed, 5])
+        self.edge_draw = edge_rng.random((n_t, n_v)) if p.miss_edge > 0.0 else None
+        self.plan_noise_rng = np.random.default_rng([seed, params.seed, 6])
+        self.reported = np.zeros(0, dtype=int)
         self.switch = track_rng.random((n_t, n_v)) < p.p_id_switch
         self.track: dict[int, str] = {}
         self.last_seen: dict[int, float] = {}
@@ -650,10 +661,30 @@ class ChannelModel:
                               self.p.plan_standstill_gap, self.p.plan_corridor,
                               yaw=(float(yaw[0]), float(yaw[-1])))
         if self.p.plan_sampling == "distance":
-            return resample_by_distance(pts, self.p.plan_spacing)
-        if self.plan_every > 1:
-            return pts[:: self.plan_every]
-        return pts
+            out = resample_by_distance(pts, self.p.plan_spacing)
+        elif self.plan_every > 1:
+            out = pts[:: self.plan_every]
+        else:
+            out = pts
+        return self._plan_noise(out)
+
+    def _plan_noise(self, pts: np.ndarray) -> np.ndarray:
+        """A planner's own point noise (`plan_noise_lon`/`_lat`), along and across the path;
+        drawn from its own generator so the other noise does not change with it."""
+        p = self.p
+        if (p.plan_noise_lon <= 0.0 and p.plan_noise_lat <= 0.0) or len(pts) < 2:
+            return pts
+        d = np.gradient(pts[:, 1:3], axis=0)
+        norm = np.hypot(d[:, 0], d[:, 1])
+        ok = norm > 1e-6
+        ux = np.where(ok, d[:, 0] / np.where(ok, norm, 1.0), 1.0)
+        uy = np.where(ok, d[:, 1] / np.where(ok, norm, 1.0), 0.0)
+        lon = self.plan_noise_rng.normal(0.0, 1.0, len(pts)) * p.plan_noise_lon
+        lat = self.plan_noise_rng.normal(0.0, 1.0, len(pts)) * p.plan_noise_lat
+        out = pts.copy()
+        out[:, 1] += lon * ux - lat * uy
+        out[:, 2] += lon * uy + lat * ux
+        return out
 
     def objects(self, tick: int) -> list[dict[str, Any]]:
         gt, p, rng, m = self.gt, self.p, self.rng, self.motion
@@ -666,11 +697,16 @@ class ChannelModel:
             visible = (self.others & (dist <= p.range_m)
                        & (np.abs(bearing) <= np.radians(p.fov_deg) / 2.0 + 1e-9))
         visible &= ~self.missed[tick]
+        if p.miss_edge > 0.0:
+            # misses grow towards the edge of the sensing range (weak returns, small images)
+            visible &= self.edge_draw[tick] >= p.miss_edge * (dist / p.range_m) ** 2
         idx = np.flatnonzero(visible)
         n = len(idx)
         sigma = p.pos_sigma * (1.0 + p.pos_range_growth * dist[idx] / p.range_m)
         off = self.loc.offset[tick]
-        err = self.err_pos[tick, idx] * sigma[:, None] + rng.normal(0.0, p.pos_white, (n, 2))
+        white = p.pos_white * (1.0 + p.pos_white_growth * dist[idx] / p.range_m)
+        err = (self.err_pos[tick, idx] * sigma[:, None]
+               + rng.normal(0.0, 1.0, (n, 2)) * white[:, None])
         x = gt.x[tick, idx] + off[0] + err[:, 0]
         y = gt.y[tick, idx] + off[1] + err[:, 1]
         true_yaw = gt.yaw[tick, idx]
@@ -693,6 +729,8 @@ class ChannelModel:
         cls = [gt.cls[j] for j in idx.tolist()]
         # the channel's vehicle tracks, for its planner (ghosts are not planned around)
         self.tracks = np.column_stack([x, y, vx, vy, yaw, length])
+        #: the true vehicle index of every reported object (-1: a ghost), for fault injection
+        self.reported = idx.copy()
 
         # ghosts: a false track at a random spot in the field of view that rides along with the
         # ego (same velocity) for a fraction of a second
@@ -719,10 +757,20 @@ class ChannelModel:
             width = np.concatenate([width, [g["width"] for g in self.ghosts]])
             ids += [g["id"] for g in self.ghosts]
             cls += ["unknown"] * len(g_r)
+            self.reported = np.concatenate([self.reported, np.full(len(g_r), -1)])
 
         dts = self.pred_dt
         px = x[:, None] + vx[:, None] * dts[None, :]
         py = y[:, None] + vy[:, None] * dts[None, :]
+        if p.pred_noise_lon > 0.0 or p.pred_noise_lat > 0.0:
+            # a prediction module's own sampling noise, point by point along and across the
+            # object's heading
+            shape = px.shape
+            lon_n = rng.normal(0.0, 1.0, shape) * p.pred_noise_lon
+            lat_n = rng.normal(0.0, 1.0, shape) * p.pred_noise_lat
+            cy, sy = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
+            px = px + lon_n * cy - lat_n * sy
+            py = py + lon_n * sy + lat_n * cy
         pred = np.stack([np.broadcast_to(dts, px.shape), px, py], axis=2)
         state = np.round(np.column_stack([x, y, yaw, vx, vy, length, width]),
                          OBJECT_DECIMALS).tolist()

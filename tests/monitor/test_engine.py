@@ -237,7 +237,7 @@ def test_identical_channels_are_fully_similar(frames):
 def test_every_score_lies_in_unit_interval(frames):
     # scores, not the situation signals (metres, seconds, m/s) or ego_dist / ego_yaw_diff
     info = builtin_signals(["a", "b"])
-    measures = {*SITUATION_METRICS, "ego_dist", "ego_yaw_diff"}
+    measures = {*SITUATION_METRICS, "ego_dist", "ego_yaw_diff", "lone_age", "plan_lat"}
     for out in run(frames):
         for name, v in out.items():
             if name in info and info[name].metric not in measures and v is not None:

@@ -75,18 +75,34 @@ def test_object_similarities_hand_computed():
     out = object_similarities(f.channels["a"].objects, f.channels["b"].objects, GATE, K)
     # ocs: |2 - 3| = 1 -> 1/2
     assert out["ocs"] == pytest.approx(0.5)
-    # pairs within 3 m: o1-p1 at 1 m, o2-p3 at 2 m (p2 is 30 m away)
-    # ols: mean(1/(1+1), 1/(1+2)) = (0.5 + 0.3333) / 2 = 5/12
-    assert out["ols"] == pytest.approx(5 / 12)
-    # oos: o1-p1 angdiff pi/4 -> 0.75; o2-p3 angdiff pi -> 0.0; mean 0.375
-    assert out["oos"] == pytest.approx(0.375)
-    # oas: 4x2 = 8 vs 4x1 = 4 -> 0.5; 8 vs 8 -> 1.0; mean 0.75
-    assert out["oas"] == pytest.approx(0.75)
-    # ots, pair o1-p1: over the common horizon, o1's 2 points against p1's first 2 (a shorter
-    #   horizon is not a disagreement): (10,0),(11,0) vs (10,1),(11,1): distances 1, 1
-    #   S = (1*0.5 + 0.95*0.5) / (1 + 0.95) = 0.5
-    # pair o2-p3: no predictions -> one point each, (20,0) vs (20,2): 1/(1+2) = 1/3
-    assert out["ots"] == pytest.approx((0.5 + 1 / 3) / 2)
+    # pairs within 3 m: o1-p1 at 1 m, o2-p3 at 2 m; p2 (30 m away) is unpaired and, with no
+    # benefit of the doubt left (keep = 0), scores 0: every metric is (pair sum + 0) / 3
+    # ols: (1/(1+1) + 1/(1+2)) / 3 = (0.5 + 0.3333) / 3 = 5/18
+    assert out["ols"] == pytest.approx(5 / 18)
+    # oos: o1-p1 angdiff pi/4 -> 0.75; o2-p3 angdiff pi -> 0.0; (0.75 + 0) / 3
+    assert out["oos"] == pytest.approx(0.25)
+    # oas: 4x2 = 8 vs 4x1 = 4 -> 0.5; 8 vs 8 -> 1.0; 1.5 / 3
+    assert out["oas"] == pytest.approx(0.5)
+    # ots compares predicted motion (each prediction relative to its object's position), pair
+    #   o1-p1 over the common horizon, o1's 2 points against p1's first 2 (a shorter horizon is
+    #   not a disagreement): (0,0),(1,0) vs (0,0),(1,0): S = 1 (the 1 m between the two
+    #   positions is ols's); pair o2-p3: no predictions, both stay: 1; p2: 0. (1 + 1 + 0) / 3
+    assert out["ots"] == pytest.approx(2 / 3)
+
+
+def test_unpaired_object_keeps_its_benefit_of_the_doubt():
+    f = two_channel_frame()
+    a, b = f.channels["a"].objects, f.channels["b"].objects
+    # keep = 1 (first seen unpaired): p2 scores what the pairs score on average: neutral
+    fresh = object_similarities(a, b, GATE, K, keep=1.0)
+    assert fresh["ols"] == pytest.approx(5 / 12)
+    assert fresh["oos"] == pytest.approx(0.375)
+    # keep = 0.5: (pair sum + 0.5 * pair mean) / 3; ols (5/6 + 0.5 * 5/12) / 3 = 25/72
+    half = object_similarities(a, b, GATE, K, keep=0.5)
+    assert half["ols"] == pytest.approx(25 / 72)
+    assert half["oas"] == pytest.approx((1.5 + 0.5 * 0.75) / 3)
+    # ocs counts objects, not their age
+    assert fresh["ocs"] == half["ocs"] == 0.5
 
 
 def test_plan_similarities_hand_computed():
@@ -204,14 +220,16 @@ def reference_pairs(pos_a: np.ndarray, pos_b: np.ndarray, gate: float) -> list[t
     return out
 
 
-def reference_objects(a, b, gate: float, decay: float) -> dict[str, float]:
-    """spi-reference object similarities from the parsed objects, one pair at a time."""
+def reference_objects(a, b, gate: float, decay: float, keep: float = 0.0) -> dict[str, float]:
+    """spi-reference object similarities from the parsed objects, one pair at a time; every
+    unpaired object scores `keep` times the pairs' mean (1.0 without pairs)."""
     out = {"ocs": 1.0 / (1.0 + abs(len(a) - len(b)))}
     if len(a) == 0 and len(b) == 0:
         return {**out, "ols": 1.0, "oos": 1.0, "oas": 1.0, "ots": 1.0}
     pairs = reference_pairs(a.pos, b.pos, gate)
+    lone = len(a) + len(b) - 2 * len(pairs)
     if not pairs:
-        return {**out, "ols": 0.0, "oos": 0.0, "oas": 0.0, "ots": 0.0}
+        return {**out, "ols": keep, "oos": keep, "oas": keep, "ots": keep}
     xa, la = a.prediction_xy()
     xb, lb = b.prediction_xy()
     ols, oos, oas, ots = [], [], [], []
@@ -225,11 +243,15 @@ def reference_objects(a, b, gate: float, decay: float) -> dict[str, float]:
         both = a.pred_len[i] > 0 and b.pred_len[j] > 0 if a.pred.shape[1] and b.pred.shape[1] \
             else False
         n = min(la[i], lb[j]) if both else max(la[i], lb[j])
-        pa = xa[i][np.minimum(np.arange(n), la[i] - 1)]
-        pb = xb[j][np.minimum(np.arange(n), lb[j] - 1)]
+        # predicted motion: each prediction relative to its own object's position
+        pa = xa[i][np.minimum(np.arange(n), la[i] - 1)] - a.pos[i]
+        pb = xb[j][np.minimum(np.arange(n), lb[j] - 1)] - b.pos[j]
         ots.append(weighted_pointwise(pa[None], pb[None], None, decay)[0])
-    return {**out, "ols": np.mean(ols), "oos": np.mean(oos), "oas": np.mean(oas),
-            "ots": np.mean(ots)}  # fmt: skip
+    def with_lone(values: list[float]) -> float:
+        return (sum(values) + lone * keep * np.mean(values)) / (len(values) + lone)
+
+    return {**out, "ols": with_lone(ols), "oos": with_lone(oos), "oas": with_lone(oas),
+            "ots": with_lone(ots)}  # fmt: skip
 
 
 @st.composite
@@ -265,8 +287,9 @@ def object_list(draw):
 
 
 @settings(max_examples=150, deadline=None)
-@given(object_list(), object_list(), st.sampled_from([0.0, 1.5, 3.0]), st.sampled_from([0.5, 0.95]))
-def test_object_kernel_equals_reference(objs_a, objs_b, gate, decay):
+@given(object_list(), object_list(), st.sampled_from([0.0, 1.5, 3.0]), st.sampled_from([0.5, 0.95]),
+       st.sampled_from([0.0, 0.4, 1.0]))
+def test_object_kernel_equals_reference(objs_a, objs_b, gate, decay, keep):
     f = frame(0.0, {"a": channel(ego(), objects=objs_a), "b": channel(ego(), objects=objs_b)})
     a, b = f.channels["a"].objects, f.channels["b"].objects
     ia, ib, dist = pair_objects(a.pos, b.pos, gate)
@@ -274,8 +297,8 @@ def test_object_kernel_equals_reference(objs_a, objs_b, gate, decay):
     assert dist.tolist() == pytest.approx(
         [math.dist(a.pos[i], b.pos[j]) for i, j in zip(ia, ib, strict=True)]
     )
-    want = reference_objects(a, b, gate, decay)
-    assert object_similarities(a, b, gate, decay) == pytest.approx(want, abs=1e-12)
+    want = reference_objects(a, b, gate, decay, keep)
+    assert object_similarities(a, b, gate, decay, keep=keep) == pytest.approx(want, abs=1e-12)
 
 
 @st.composite
