@@ -7,6 +7,8 @@ jinja2 with autoescaping, inline CSS, no script.
 
 from __future__ import annotations
 
+import textwrap
+
 from reports.page import render_page
 
 
@@ -54,7 +56,7 @@ def render_odd_html(report: dict) -> str:
 def interval_text(f: dict) -> str:
     """A rate's interval with its method, never a zero-width interval the runs cannot give."""
     if f["interval"] == "runs" and f["high"] > f["low"]:
-        return f"[{pct(f['low'])}, {pct(f['high'])}] runs"
+        return f"[{pct(f['low'])}, {pct(f['high'])}]"
     if f["interval"] == "ticks":
         return f"[{pct(f['low'])}, {pct(f['high'])}] ticks"
     if f["interval"] == "runs":
@@ -62,28 +64,52 @@ def interval_text(f: dict) -> str:
     return "nothing judged"
 
 
+#: The terminal table's width: the cell lines wrap their formulas to stay within it.
+WIDTH = 100
+
+
+def _wrap(entries: list[str], indent: str) -> list[str]:
+    lines: list[str] = []
+    for entry in entries:
+        if lines and len(lines[-1]) + 3 + len(entry) <= WIDTH:
+            lines[-1] += "   " + entry
+        else:
+            lines.append(indent + entry)
+    return lines
+
+
 def render_odd_text(report: dict) -> list[str]:
-    """The table printed on the terminal: a line per cell, the gating formulas' rates with
-    their intervals (method named) and the runs violated (Wilson upper bound over runs)."""
+    """The table printed on the terminal, within 100 columns: per cell its verdict and
+    conditions, then each gating formula's rate, its interval (method named) and the runs
+    violated with their Wilson upper bound over runs, and each MAE."""
     gating = report["gating"]
     which = "upper bound" if report["criterion"] == "upper" else "estimate"
-    relation = "<=" if report.get("acceptance") == "inclusive" else "<"
-    binned = "".join(f"; {k} binned {', '.join(b['labels'])}"
-                     for k, b in (report.get("bins") or {}).items())  # fmt: skip
+    relation = "at or below" if report.get("acceptance") == "inclusive" else "below"
     lines = [f"{len(report['cells'])} cells over {', '.join(report['by']) or '(nothing)'}; "
-             f"{report['runs']} runs; accepted: violation rate ({which}) {relation} "
-             f"{pct(report['max_violation_rate'])}{binned}"]  # fmt: skip
+             f"{report['runs']} runs",
+             f"accepted: every gating formula's violation rate ({which}) {relation} "
+             f"{pct(report['max_violation_rate'])}"]  # fmt: skip
+    for name, b in (report.get("bins") or {}).items():
+        edges, labels = b["edges"], b["labels"]
+        spans = [f"{'[' if k == 0 else '('}{edges[k]:g}, {edges[k + 1]:g}]"
+                 for k in range(len(labels))]  # fmt: skip
+        lines.append(f"{name} binned: " + ", ".join(
+            span if span == label else f"{label} {span}"
+            for span, label in zip(spans, labels, strict=True)))
     if report.get("mae_note"):
-        lines.append(f"  {report['mae_note']}")
+        lines += textwrap.wrap(report["mae_note"], WIDTH, subsequent_indent="  ")
+    lines += ["per formula: rate, 95 % interval over runs (no spread: every run had the same "
+              "rate; ticks: one run,", "Wilson over its ticks), runs violated / judged (<= their "
+              "Wilson 95 % upper bound)"]  # fmt: skip
     for cell in report["cells"]:
-        rates = "  ".join(
-            f"{fid} {pct(f['rate'])} {interval_text(f)}, {f['runs_violated']}/{f['runs_judged']} "
-            f"runs (<= {pct(f['runs_violated_high'])})"
-            for fid in gating if (f := cell["formulas"].get(fid)) is not None
-        )
-        maes = "  ".join(f"MAE {n} {m['mae']:.3g}" if m["mae"] is not None else f"MAE {n} n/a"
-                         for n, m in cell["mae"].items())  # fmt: skip
         verdict = "ACCEPTED" if cell["accepted"] else "rejected"
-        lines.append(f"  {verdict:8} {cell_label(cell['conditions'])}  ({cell['runs']} runs, "
-                     f"{cell['ticks']} ticks)  {rates}{'  ' + maes if maes else ''}")
+        values = ", ".join(value_text(v) for v in cell["conditions"].values())
+        lines.append(f"  {verdict} {values or cell_label(cell['conditions'])} "
+                     f"({cell['runs']} runs, {cell['ticks']} ticks)")
+        entries = [f"{fid} {pct(f['rate'])} {interval_text(f)}, {f['runs_violated']}/"
+                   f"{f['runs_judged']} (<= {pct(f['runs_violated_high'])})"
+                   for fid in gating if (f := cell["formulas"].get(fid)) is not None]
+        entries += [f"MAE {n} {m['mae']:.3g}" if m["mae"] is not None else f"MAE {n} n/a"
+                    for n, m in cell["mae"].items()]  # fmt: skip
+        lines += _wrap(entries, "      ")
     return lines

@@ -87,11 +87,11 @@ def _default_mae(runs: list[RunInput]) -> tuple[dict[str, float], str]:
         try:
             saved = load_signals(Path(run.folder))
         except SignalsError:
-            return {}, (f"MAE criterion ({name} < {bound:g} m) not applied: {run.folder} saved "
-                        "no signals (judge with --save-signals)")  # fmt: skip
+            return {}, (f"MAE criterion ({name} < {bound:g} m) not applied: run "
+                        f"{Path(run.folder).name} saved no signals (--save-signals)")  # fmt: skip
         if name not in saved.names:
-            return {}, (f"MAE criterion ({name} < {bound:g} m) not applied: {run.folder} has "
-                        f"no signal {name} (the case declares no lateral error)")  # fmt: skip
+            return {}, (f"MAE criterion ({name} < {bound:g} m) not applied: run "
+                        f"{Path(run.folder).name} has no signal {name} (no lateral error)")
     return {name: bound}, f"MAE criterion (default): {name} < {bound:g} m"
 
 
@@ -243,7 +243,7 @@ def main(args: argparse.Namespace) -> int:
     if truth:
         agree = sum(1 for c in truth if c["degraded_truth"] != c["accepted"])
         print(f"Against the streams' known degradation (meta.odd_truth): {agree} of "
-              f"{len(truth)} cells agree (a degraded cell rejected, a sound one accepted)")
+              f"{len(truth)} cells agree")
         for c in truth:  # the agreeing ones are in the heatmap's truth column
             if c["degraded_truth"] == c["accepted"]:
                 print(f"  DIFFERS {cell_label(c['conditions'])}: degraded "

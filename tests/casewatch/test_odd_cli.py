@@ -132,7 +132,7 @@ def test_binned_lane_counts_on_the_grid(judged, tmp_path, capsys):
     assert report["bins"] == {"road.lanes": {"edges": [0.0, 2.0, 4.0], "labels": ["few", "many"]}}
     domain = parse_odd(yaml.safe_load((tmp_path / "o" / "accepted-odd.yaml").read_text()))
     assert domain.attributes["road.lanes"].min == 2.0 and domain.attributes["road.lanes"].max == 4.0
-    assert "road.lanes binned few, many" in capsys.readouterr().out
+    assert "road.lanes binned: few [0, 2], many (2, 4]" in capsys.readouterr().out
 
 
 def test_a_folder_without_runs_is_refused(tmp_path, capsys):

@@ -54,8 +54,10 @@ def test_no_spread_between_runs_is_named_not_printed_as_an_interval():
     html = render_odd_html(report)
     assert "[0.0 %, 0.0 %]" not in html and "no spread" in html
     assert "0 of 4 runs, &le; 49.0 %" in html
-    text = "\n".join(render_odd_text(report))
-    assert "Sn1 0.0 % no spread, 0/4 runs (<= 49.0 %)" in text and "[0.0 %, 0.0 %]" not in text
+    text = render_odd_text(report)
+    assert "      Sn1 0.0 % no spread, 0/4 (<= 49.0 %)" in text
+    assert "[0.0 %, 0.0 %]" not in "".join(text)
+    assert max(len(line) for line in text) <= 100
 
 
 def test_bins_follow_the_study_light_medium_heavy():
