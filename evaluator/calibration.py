@@ -150,7 +150,9 @@ def calibration_sweep(
     if knob.kind != "spi" or knob.raw_stl:
         raise TuningError(f"{knob.formula_id}: calibrate sets SPIs bound by signal + threshold")
     nominal = [log.nominal for log in logs]
-    thresholds = threshold_candidates(knob, nominal, count)
+    observed = any(np.isfinite(log.column(knob.signal)).any() for log in nominal)
+    # no nominal value at all: nothing to sweep; `choose` reports the SPI as not calibrated
+    thresholds = threshold_candidates(knob, nominal, count) if observed else [knob.value]
     period = nominal[0].period
     durations = sorted({round(round(d / period) * period, 9) for d in windows} | {knob.duration})
     values = np.concatenate([log.column(knob.signal) for log in nominal])
@@ -245,7 +247,8 @@ def choose(sw: CalibrationSweep, per_hour: float, min_hours: float = DEFAULT_MIN
     if hours <= 0 or hours < min_hours - 1e-12:
         row["status"] = "not calibrated"
         row["reason"] = (f"{hours:.2f} h of nominal driving with a value of {k.signal}, fewer "
-                         f"than the {min_hours:g} h asked (--min-hours)")  # fmt: skip
+                         f"than the {min_hours:g} h asked (--min-hours)" if hours > 0 else
+                         f"no nominal tick with a value of {k.signal}")  # fmt: skip
         return row
     if not tighten and not row["original_over_budget"]:
         row["reason"] = "the original keeps the budget"

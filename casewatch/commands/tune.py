@@ -3,10 +3,11 @@
 For every hazard rule and SPI with labels in the logs, sweeps its threshold (and its `for:` or
 `min_duration`) over the observed range, scores each candidate's episodes against the labels
 with the matcher of `casewatch run --labels`, picks an operating point (`--objective f1`, or
-`--min-precision P`: the best recall at that precision), and reports it fitted on all logs and
-held out (leave one log out). Writes OUT/tuned-case.yaml (the case with the tuned numbers, its
-comments and layout kept), OUT/tuned-case.diff, OUT/tuning.json and OUT/tuning.html (a PR
-curve per rule). `docs/tuning.md` has a worked example.
+`--min-precision P`: the best recall at that precision; among equal scores the threshold in
+the middle of the best-scoring range, and the duration by held-out score), and reports it
+fitted on all logs and held out (leave one log out). Writes OUT/tuned-case.yaml (the case
+with the tuned numbers, its comments and layout kept), OUT/tuned-case.diff, OUT/tuning.json
+and OUT/tuning.html (a PR curve per rule). `docs/tuning.md` has a worked example.
 """
 
 from __future__ import annotations

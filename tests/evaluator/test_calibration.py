@@ -183,3 +183,10 @@ def test_upper_bound_spis_loosen_upwards():
     # `x > 0.08` fires on the rise to 0.2 only; `x > 0.2` would never fire
     assert (row["chosen"]["threshold"], row["chosen"]["for"]) == (0.08, 0.0)
     assert row["chosen"]["episodes"] == 1 and row["margin"] == pytest.approx(-0.03)
+
+
+def test_an_spi_without_a_nominal_value_is_not_calibrated_and_stops_nothing():
+    log = saved(np.full(100, np.nan))
+    row = choose(calibration_sweep(spi(0.6), [CalibrationLog(log, log)]), 1.0, min_hours=0.0)
+    assert row["status"] == "not calibrated" and row["hours"] == 0
+    assert row["reason"] == "no nominal tick with a value of els"
