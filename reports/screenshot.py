@@ -2,6 +2,7 @@
 
     python -m reports.screenshot docs/img/report.png            # the sample reference run
     python -m reports.screenshot OUT.png --result OUTDIR/result.json --full-page
+    python -m reports.screenshot docs/img/fleet.png --page out/fleet/fleet.html --width 1280
 
 Uses the system Chromium (Debian package `chromium`) through playwright's `executable_path`;
 it never downloads a browser. The browser test drives the same helpers.
@@ -94,7 +95,10 @@ def screenshot(
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m reports.screenshot", description=__doc__)
     parser.add_argument("out", type=Path, help="PNG file to write")
-    parser.add_argument("--result", type=Path, help="a result.json (default: the sample run)")
+    source = parser.add_mutually_exclusive_group()
+    source.add_argument("--result", type=Path, help="a result.json (default: the sample run)")
+    source.add_argument("--page", type=Path,
+                        help="an HTML page as written (fleet, diff, tuning, odd, compare)")
     parser.add_argument("--width", type=int, default=1600)
     parser.add_argument(
         "--height", type=int, default=None, help="clip to this many pixels from the top"
@@ -103,8 +107,12 @@ def main(argv: list[str] | None = None) -> int:
         "--full-page", action="store_true", help="the whole page (default: clip at 2300 px)"
     )
     args = parser.parse_args(argv)
+    if args.page is not None and not args.page.is_file():
+        print(f"reports.screenshot: {args.page}: no such file", file=sys.stderr)
+        return 2
     try:
-        result = load_result(args.result) if args.result else sample_result()
+        result = (None if args.page is not None
+                  else load_result(args.result) if args.result else sample_result())  # fmt: skip
     except ResultError as exc:
         print(f"reports.screenshot: {exc}", file=sys.stderr)
         return 2
@@ -115,6 +123,10 @@ def main(argv: list[str] | None = None) -> int:
         )
         return 2
     height = None if args.full_page else (args.height or 2300)
+    if args.page is not None:
+        screenshot(args.page, args.out, width=args.width, height=height)
+        print(f"screenshot: {args.out}")
+        return 0
     with tempfile.TemporaryDirectory() as tmp:
         html = render_reports(result, Path(tmp), ("html",))["html"]
         screenshot(html, args.out, width=args.width, height=height)
