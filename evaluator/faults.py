@@ -36,7 +36,7 @@ FAMILY_SIGNALS: dict[str, tuple[str, ...]] = {
     # one channel's ego estimate drifts away from the truth
     "localisation_drift": ("els", "ego_dist"),
     # one channel repeats its last frame (ego, objects, plan) for 2-3 s
-    "frozen_channel": ("els", "chpps"),
+    "frozen_channel": ("els", "ets"),
 }
 
 #: Seconds after a fault's end in which an SPI episode still counts as its detection.

@@ -160,7 +160,10 @@ class MetricEngine:
             for pr in self.pairs
         }
         self._plans = PlanHistory(len(self.channels), p.plan_history, p.max_gap)
-        self._objects = {c: _Timed(1, p.max_gap) for c in self.channels}
+        # ompv compares with the objects of `ompv_lookback` seconds ago: keep that much history
+        # (and one more observation, in case frames come late)
+        depth = max(1, math.ceil(p.ompv_lookback / min(p.resample_step, 0.05)) + 2)
+        self._objects = {c: _Timed(depth, p.max_gap) for c in self.channels}
         self._ego = {c: _PoseWindow(p.comfort_span, p.max_gap) for c in self.channels}
         #: crpps Fréchet inputs per pair of the current step (None: no value), see _similarity
         self._crpps_inputs: list[tuple[np.ndarray, np.ndarray] | None] = []
@@ -316,10 +319,15 @@ class MetricEngine:
                 plans.push(i, t, s.plan)
             prev = self._objects[c]
             if prev.recent(t):
-                tp, objs = prev.items[-1]
-                ompv_values[c] = ompv(
-                    objs, t - tp, s.objects, p.prediction_tolerance, p.pairing_gate
-                )
+                # spi-reference "ompv" Decision: the newest observation at least ompv_lookback
+                # old (the study's previous frame when the lookback is one period)
+                old = [(tp, objs) for tp, objs in prev.items
+                       if t - tp >= p.ompv_lookback - 1e-9]
+                if old:
+                    tp, objs = old[-1]
+                    ompv_values[c] = ompv(
+                        objs, t - tp, s.objects, p.prediction_tolerance, p.pairing_gate
+                    )
             prev.push(t, s.objects)
         chpps_list, crpps_fd = chpps_frame(plans, t, p.trajectory_decay, self._crpps_inputs)
         self._crpps(crpps_fd, out)

@@ -78,6 +78,10 @@ class MetricParams(BaseModel):
     plan_lat_horizon: float = Field(
         2.0, gt=0, le=60, description="plan time [s] over which plan_lat compares the plans"
     )
+    ompv_lookback: float = Field(
+        0.1, gt=0, le=10,
+        description="age [s] of the observation whose predictions ompv checks",
+    )
     plan_standstill: float = Field(
         1.0, ge=0, le=10,
         description="a plan within this distance [m] of its first point stands at that point",
