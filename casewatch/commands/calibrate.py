@@ -29,6 +29,7 @@ import difflib
 import json
 import math
 import sys
+import textwrap
 from pathlib import Path
 
 from casewatch.commands.common import prepare_case, sweep_options_ok
@@ -171,9 +172,9 @@ def _rate(point: dict) -> str:
 
 
 def _print(report: dict, labelled: bool) -> None:
-    which = f", {report['margin']:g} s from every label and fault" if labelled else ""
+    which = f" ({report['margin']:g} s from labels and faults)" if labelled else ""
     print(f"{report['logs']} logs, {report['hours']:.3f} h nominal{which}; budget "
-          f"{report['per_hour']:g}/h per SPI; at least {report['min_hours']:g} h per SPI")
+          f"{report['per_hour']:g}/h per SPI, at least {report['min_hours']:g} h each")
     faults = report["faults"] > 0
     if faults:
         print(f"{report['faults']} injected faults ({', '.join(report['fault_files'])})")
@@ -192,6 +193,7 @@ def _print(report: dict, labelled: bool) -> None:
               f"{_rate(o) + over:<13} {'(same)' if same else _setting(c, r['op']):<15} "
               f"{_rate(c):<13}{detected} {r['status']}")
         if r["status"].startswith("not"):
-            print(f"        {r['reason']}")
-    print("  /h: false alarms (episodes) an hour of nominal driving with the SPI's signal, and "
-          f"the {report['confidence']:.0%} upper bound; *: over budget")
+            print(textwrap.fill(r["reason"], 100, initial_indent=" " * 8,
+                                subsequent_indent=" " * 8, break_long_words=False))  # fmt: skip
+    print("  /h: false alarms (episodes) an hour of nominal driving with the SPI's signal, and")
+    print(f"  its {report['confidence']:.0%} upper bound; *: the original is over the budget")

@@ -130,7 +130,8 @@ def test_calibrate_loosens_by_persistence_and_refuses_a_cliff(fleet, tmp_path, c
     assert text.startswith("# A tiny case")
     assert cli(["check", str(out / "calibrated-case.yaml")]) == 0
     printed = capsys.readouterr().out
-    assert "2 injected faults" in printed and reason in printed
+    assert "2 injected faults" in printed and reason in " ".join(printed.split())
+    assert max(len(line) for line in printed.splitlines() if "/tmp" not in line) <= 100
     # 5 and 1 episodes in 0.992 h; 95 % bounds 10.51 and 4.74 episodes
     assert ("  Sn1    0.99  >= 0.6 0s       5.0 (10.6)*   >= 0.6 0.5s     1.0 (4.8)     1/2"
             "      calibrated\n") in printed  # fmt: skip
