@@ -16,6 +16,7 @@ import argparse
 import difflib
 import json
 import sys
+import textwrap
 from pathlib import Path
 
 from casewatch.commands.common import prepare_case, sweep_options_ok
@@ -133,19 +134,21 @@ def _change(knob, result: dict) -> Change | None:
 
 
 def _print(report: dict) -> None:
+    """The table, within 100 columns (a parameter name longer than 14 characters widens it)."""
     print(f"{report['logs']} logs, {report['hours']:.3f} h; objective {report['objective']}")
-    print(f"  {'rule':<6} {'parameter':<16} {'original':>10} {'tuned':>10}  "
-          f"{'fitted (orig.)':<16} {'fitted (tuned)':<16} {'held-out':<16}")
+    print(f"  {'rule':<6} {'parameter':<14} {'original':>9} {'tuned':>9}  "
+          f"{'fitted (orig.)':<14} {'fitted (tuned)':<14} {'held-out':<13} duration")
     for r in report["rules"]:
         o, t = r["original"], r["tuned"]
         dur = ""
         if r["duration_kind"] is not None:
             dur = f" {o['duration']:g}s->{t['duration']:g}s"
         held = pr_text(r["heldout"])
-        print(f"  {r['formula']:<6} {r['parameter']:<16} {o['threshold']:>10g} "
-              f"{t['threshold']:>10g}  {pr_text(o):<16} {pr_text(t):<16} {held:<16}{dur}")
+        print(f"  {r['formula']:<6} {r['parameter']:<14} {o['threshold']:>9g} "
+              f"{t['threshold']:>9g}  {pr_text(o):<14} {pr_text(t):<14} {held:<13}{dur}")
     reasons: dict[str, list[str]] = {}
     for s in report["skipped"]:
         reasons.setdefault(s["reason"], []).append(s["formula"])
     for reason, formulas in reasons.items():
-        print(f"  not tuned ({reason}): {', '.join(formulas)}")
+        print(textwrap.fill(f"not tuned ({reason}): {', '.join(formulas)}", 100,
+                            initial_indent="  ", subsequent_indent="    "))  # fmt: skip
