@@ -111,8 +111,12 @@ def main(args: argparse.Namespace) -> int:
     cal_logs = [_calibration_log(log, args.margin) for log in logs]
     if sum(len(c.nominal.t) for c in cal_logs) == 0:
         return _fail("the logs hold no ticks")
-    all_knobs, _ = knobs(case, spec)
+    all_knobs, skipped = knobs(case, spec)
     spis = [k for k in all_knobs if k.kind == "spi" and not k.raw_stl]
+    kinds = {f.id: f.kind for f in spec.formulas}
+    skipped = [s for s in skipped if kinds.get(s["formula"]) == "spi"] + [
+        {"formula": k.formula_id, "reason": "a raw stl: formula; calibrate sets signal + "
+         "threshold SPIs"} for k in all_knobs if k.kind == "spi" and k.raw_stl]  # fmt: skip
     if not spis:
         return _fail(f"{args.case} has no SPI bound by signal + threshold")
     rows, changes, notes = [], [], {}
@@ -148,7 +152,7 @@ def main(args: argparse.Namespace) -> int:
         "min_hours": args.min_hours, "tighten": args.tighten, "margin": args.margin,
         "confidence": CONFIDENCE, "faults": faults,
         "fault_files": [log.faults_path for log in logs if log.faults_path],
-        "spis": rows,
+        "spis": rows, "skipped": skipped,
     }  # fmt: skip
     (args.out / "calibration.json").write_text(json.dumps(report, indent=1), encoding="utf-8")
     (args.out / "calibration.html").write_text(render_calibration(report), encoding="utf-8")
@@ -195,5 +199,8 @@ def _print(report: dict, labelled: bool) -> None:
         if r["status"].startswith("not"):
             print(textwrap.fill(r["reason"], 100, initial_indent=" " * 8,
                                 subsequent_indent=" " * 8, break_long_words=False))  # fmt: skip
+    for s in report["skipped"]:
+        print(textwrap.fill(f"{s['formula']}: not calibrated ({s['reason']})", 100,
+                            initial_indent="  ", subsequent_indent="    "))  # fmt: skip
     print("  /h: false alarms (episodes) an hour of nominal driving with the SPI's signal, and")
     print(f"  its {report['confidence']:.0%} upper bound; *: the original is over the budget")

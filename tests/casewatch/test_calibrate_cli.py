@@ -24,7 +24,7 @@ monitor:
 
 G1:
   text: Channels locate the ego vehicle consistently
-  supportedBy: [Sn1, Sn2]
+  supportedBy: [Sn1, Sn2, Sn3]
 
 Sn1:
   text: Ego location is consistent across channels (ELS)
@@ -36,6 +36,10 @@ Sn2:
     signal: eos
     threshold: ">= 0.5"   # from the HARA
     for: 1s
+
+Sn3:
+  text: Ego location is never far off in either channel
+  spi: {stl: "els >= 0.1"}
 """
 # nominal ticks: 2 x 18000, less 3 s around the hazard label of drive-a (t 1197-1208: 111
 # ticks) and around the two faults of drive-b (t 997-1006: 91, t 1497-1505: 81)
@@ -131,6 +135,9 @@ def test_calibrate_loosens_by_persistence_and_refuses_a_cliff(fleet, tmp_path, c
     assert cli(["check", str(out / "calibrated-case.yaml")]) == 0
     printed = capsys.readouterr().out
     assert "2 injected faults" in printed and reason in " ".join(printed.split())
+    assert report["skipped"] == [{"formula": "Sn3", "reason": "a raw stl: formula; calibrate "
+                                  "sets signal + threshold SPIs"}]  # fmt: skip
+    assert "  Sn3: not calibrated (a raw stl: formula;" in printed
     assert max(len(line) for line in printed.splitlines() if "/tmp" not in line) <= 100
     # 5 and 1 episodes in 0.992 h; 95 % bounds 10.51 and 4.74 episodes
     assert ("  Sn1    0.99  >= 0.6 0s       5.0 (10.6)*   >= 0.6 0.5s     1.0 (4.8)     1/2"
