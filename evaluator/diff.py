@@ -27,6 +27,7 @@ plus episodes per hour and the verdict of each run. Results are plain values
 
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
 
 from evaluator.ground_truth import match_pairs
@@ -52,6 +53,11 @@ def _span(e: Episode) -> dict[str, float]:
 def _with_label(e: Episode, label: LabelInterval, side: str | None = None) -> dict:
     span = {**_span(e), "label": {"start": label.start, "end": label.end}}
     return span if side is None else {**span, "run": side}
+
+
+def _natural(name: str) -> list:
+    """Sn2 before Sn12."""
+    return [int(p) if p.isdigit() else p for p in re.split(r"(\d+)", name)]
 
 
 def _hours(result: RunResult) -> float:
@@ -96,7 +102,7 @@ def diff_runs(a: RunResult, b: RunResult, name: str = "",
     period = b.case.period or a.case.period
     kinds = {f.id: f.kind for f in (*a.formulas, *b.formulas)}
     node_of = {f.id: f.node_id for f in (*a.formulas, *b.formulas)}
-    nodes = sorted(kinds, key=lambda f: (kinds[f] != "spi", f))
+    nodes = sorted(kinds, key=lambda f: (kinds[f] != "spi", _natural(f)))
     rows = []
     for formula in nodes:
         ea = [e for e in a.episodes if e.formula_id == formula]

@@ -78,7 +78,10 @@ def test_report_is_legible_at_1280_px(real_run_result: RunResult, tmp_path: Path
                 const sizes = Array.from(svg.querySelectorAll('text'))
                     .map(t => parseFloat(getComputedStyle(t).fontSize) * scale);
                 const wrap = document.querySelector('.diagram-wrap');
+                const frame = wrap.getBoundingClientRect();
+                const root = document.getElementById('diagram-G1').getBoundingClientRect();
                 return {smallest: Math.min(...sizes), texts: sizes.length,
+                        rootInView: root.left >= frame.left && root.right <= frame.right,
                         page: document.documentElement.scrollWidth, width: window.innerWidth,
                         wrap: wrap.scrollWidth > wrap.clientWidth,
                         clipped: document.querySelectorAll('svg.plot text.clipped').length};
@@ -88,4 +91,5 @@ def test_report_is_legible_at_1280_px(real_run_result: RunResult, tmp_path: Path
     assert seen["texts"] > 50 and round(seen["smallest"], 1) >= 11.0, seen  # 10.9999: subpixel
     assert seen["page"] <= seen["width"]  # the diagram scrolls inside its frame, not the page
     assert seen["wrap"]  # ... which it does: it is wider than the window
+    assert seen["rootInView"], seen  # and it opens on the root goal (CSS scroll snapping), not the left
     assert seen["clipped"] >= 1  # CSn2 and CSn3 saturate at 59 s of headway: clipped, said so
