@@ -34,7 +34,7 @@ def assert_clean(diagram) -> None:
 
 def test_reference_case_has_no_overlap_and_no_edge_through_a_node() -> None:
     diagram = layout_case(reference_case())
-    assert len(diagram.nodes) == 28  # G1, S1, G2-G5, C1-C3, A1, J1, Sn1-Sn14, CSn1-CSn3
+    assert len(diagram.nodes) == 30  # G1, S1, G2-G5, C1-C3, A1, J1, Sn1-Sn16, CSn1-CSn3
     assert_clean(diagram)
 
 
@@ -60,8 +60,8 @@ def test_edges_of_every_relation_are_drawn() -> None:
     assert kinds[("G1", "S1")] == "supported_by"
     assert kinds[("S1", "J1")] == "in_context_of"
     assert kinds[("CSn2", "G5")] == "challenges"
-    # 1 + 4 + 3 + 3 + 2 + 6 supportedBy, 5 in context, 3 challenges
-    assert len(diagram.edges) == 19 + 5 + 3
+    # 1 + 4 + 3 + 4 + 2 + 7 supportedBy, 5 in context, 3 challenges
+    assert len(diagram.edges) == 21 + 5 + 3
 
 
 def test_layer_skipping_edge_goes_around_nodes() -> None:
