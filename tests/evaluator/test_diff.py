@@ -24,7 +24,7 @@ def spans(items: list[dict]) -> list[tuple[float, float]]:
     return [(s["start"], s["end"]) for s in items]
 
 
-A = sample_result()  # CSn2: 92.0-96.2, 118.9-121.7, 129.0-130.0
+A = with_csn2(sample_result(), [(92.0, 96.2), (118.9, 121.7), (129.0, 130.0)])
 #: 92.0-96.2 finds L0 in A; 118.9-121.7 and 129.0-130.0 find nothing (false alarms in A)
 LABELS = [LabelInterval(node_id="CSn2", start=93.0, end=95.0),
           LabelInterval(node_id="CSn2", start=140.0, end=145.0)]  # fmt: skip
