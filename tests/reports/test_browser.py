@@ -91,5 +91,5 @@ def test_report_is_legible_at_1280_px(real_run_result: RunResult, tmp_path: Path
     assert seen["texts"] > 50 and round(seen["smallest"], 1) >= 11.0, seen  # 10.9999: subpixel
     assert seen["page"] <= seen["width"]  # the diagram scrolls inside its frame, not the page
     assert seen["wrap"]  # ... which it does: it is wider than the window
-    assert seen["rootInView"], seen  # and it opens on the root goal (CSS scroll snapping), not the left
+    assert seen["rootInView"], seen  # it opens on the root goal (scroll-initial-target)
     assert seen["clipped"] >= 1  # CSn2 and CSn3 saturate at 59 s of headway: clipped, said so
