@@ -11,8 +11,10 @@ from __future__ import annotations
 
 import difflib
 import re
+from pathlib import Path
 
 from evaluator.result import RunResult
+from reports.render import ResultError, load_result
 
 #: Defects quoted per kind; the rest is counted.
 QUOTED = 2
@@ -76,3 +78,23 @@ def refusal_lines(result: RunResult) -> list[str]:
                   else f"the first {len(stream.defects)}")  # fmt: skip
         lines.append(f"... and {rest} more defects (result.json lists {listed}: {kinds})")
     return lines + channel_hint(result)
+
+
+class RefusalHints:
+    """`refusal_lines` for the logs of a fleet that read no frame, each line said once: twenty
+    logs refused for the same misspelt channel give its cause once, then `same cause as
+    above`."""
+
+    def __init__(self) -> None:
+        self.said: set[str] = set()
+
+    def new(self, run_folder: Path) -> list[str]:
+        try:
+            lines = refusal_lines(load_result(run_folder / "result.json"))
+        except ResultError:
+            return []
+        fresh = [line for line in lines if line not in self.said]
+        self.said.update(lines)
+        if lines and all(line.startswith("... and ") for line in fresh):  # only the counts differ
+            return ["(the same cause as above)"]
+        return fresh

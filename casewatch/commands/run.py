@@ -23,7 +23,7 @@ from casewatch.commands.export_scenarios import run_export
 from casewatch.crash import INTERNAL_ERROR
 from casewatch.dask_engine import EngineError
 from casewatch.progress import FleetProgress, StreamProgress
-from casewatch.stream_hints import channel_hint, refusal_lines
+from casewatch.stream_hints import RefusalHints, channel_hint, refusal_lines
 from evaluator.eventlog import Event
 from evaluator.ground_truth import LabelsError
 from evaluator.policy import FAIL_ON, gated
@@ -255,6 +255,7 @@ def _run_many(args, case, formats: tuple[str, ...]) -> int:
         return 2
 
     bar = FleetProgress(len(streams), enabled=not args.quiet)  # a bar only on a terminal
+    hints = RefusalHints()
 
     def on_done(log: LogSummary) -> None:
         if args.quiet:
@@ -263,6 +264,9 @@ def _run_many(args, case, formats: tuple[str, ...]) -> int:
             short = " (too little data: --max-no-data)" if log.too_little_data else ""
             bar.log(f"  {log.stream}: {log.frames} frames, {log.verdict}{short} "
                     f"({log.seconds:.1f} s)")
+            if log.frames == 0:  # why, from its result.json; a cause shared by logs once
+                for line in hints.new(Path(log.out_dir)):
+                    bar.log(f"    {line}")
         else:
             bar.log(f"  {log.stream}: FAILED: {log.error}")
         bar.advance((log.duration_s or 0.0) / 3600.0)

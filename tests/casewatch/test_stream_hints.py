@@ -32,3 +32,19 @@ def test_a_declared_channel_absent_from_every_frame_is_named(tmp_path, capsys):
     assert main(["run", str(case), str(stream), "-o", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
     assert "radar absent from every frame" in err
+
+
+def test_a_fleet_of_refused_logs_says_the_cause_once(tmp_path, capsys):
+    case = tmp_path / "case.yaml"
+    case.write_text(SMALL_CASE.replace("channels: [lav, tfuse]", "channels: [lav, tfuze]"))
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    write_stream(logs / "a.jsonl", frames=30)
+    write_stream(logs / "b.jsonl", frames=40)
+    assert main(["run", str(case), str(logs), "-o", str(tmp_path / "out"), "--jobs", "1"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("did you mean 'tfuse' where the case says 'tfuze'?") == 1
+    a, b = err.index("a.jsonl: 0 frames"), err.index("b.jsonl: 0 frames")
+    first, second = (a, b) if a < b else (b, a)
+    assert "header lists channel(s) tfuse not declared" in err[first:second]
+    assert err[second:].splitlines()[1] == "    (the same cause as above)"
