@@ -260,7 +260,8 @@ class MetricEngine:
                     sa.objects, sa.ego, self.coverage[a],
                     sb.objects, sb.ego, self.coverage[b], p.coverage_margin,
                 )  # fmt: skip
-                cmp = compare_objects(oa, ob, p.pairing_gate, p.trajectory_decay, core_a, core_b)
+                cmp = compare_objects(oa, ob, p.pairing_gate, p.trajectory_decay, core_a, core_b,
+                                      p.standing_motion)
                 ages_a, ages_b = self._lone[(a, b)]
                 age_a = ages_a.update(t, oa.pos, oa.vel, cmp.lone_a)
                 age_b = ages_b.update(t, ob.pos, ob.vel, cmp.lone_b)
@@ -326,7 +327,8 @@ class MetricEngine:
                 if old:
                     tp, objs = old[-1]
                     ompv_values[c] = ompv(
-                        objs, t - tp, s.objects, p.prediction_tolerance, p.pairing_gate
+                        objs, t - tp, s.objects, p.prediction_tolerance, p.pairing_gate,
+                        p.standing_motion,
                     )
             prev.push(t, s.objects)
         chpps_list, crpps_fd = chpps_frame(plans, t, p.trajectory_decay, self._crpps_inputs)

@@ -151,7 +151,10 @@ def _ompv_counts(predicted, reaches, cur, pi, ci, tolerance):  # pragma: no cove
     return n1, predicted.shape[0] + n_cur - distinct
 
 
-def ompv(prev: Objects, elapsed: float, cur: Objects, tolerance: float, gate: float) -> float:
+def ompv(
+    prev: Objects, elapsed: float, cur: Objects, tolerance: float, gate: float,
+    standing: float = 0.0,
+) -> float:
     """Share of objects that followed their prediction: N1 / N2 (1.0 when N2 = 0).
 
     `prev` are the channel's objects `elapsed` seconds ago. A previous object is moved to its
@@ -160,11 +163,19 @@ def ompv(prev: Objects, elapsed: float, cur: Objects, tolerance: float, gate: fl
     object of the same id (or, when the channel does not track, the nearest within `gate`) is
     within `tolerance`. N2 = previous objects + current objects that are new.
 
+    `standing` > 0 (spi-reference "Standing objects"): an object that neither was predicted to
+    move nor moved more than `standing` metres over `elapsed` (a new one: its own prediction
+    over `elapsed`) is left out of N1 and N2. Its prediction holds trivially, and a queue of
+    such objects at a red light outvoted every moving car whose prediction was wrong.
+
     The id lookup stays in Python (ids are strings); prediction and counting are compiled, and
     the nearest matching is `similarity.pair_objects` (called from Python: numba's disk cache
     would not notice a change to a kernel of another module compiled into this one).
     """
     n_prev, n_cur = len(prev), len(cur)
+    if n_prev == 0 and standing > 0.0 and n_cur:
+        own, _ = _predict(cur.pos, cur.pred, cur.pred_len, float(elapsed))
+        return 0.0 if (np.hypot(*(own - cur.pos).T) > standing).any() else 1.0
     if n_prev == 0:
         return 1.0 if n_cur == 0 else 0.0  # every current object is new: a miss
     index_cur = {oid: i for i, oid in enumerate(cur.ids)}
@@ -179,5 +190,19 @@ def ompv(prev: Objects, elapsed: float, cur: Objects, tolerance: float, gate: fl
         cand = np.flatnonzero(reaches)
         pa, ci, _ = pair_objects(predicted.take(cand, axis=0), cur.pos, gate)
         pi = cand.take(pa)
-    n1, n2 = _ompv_counts(predicted, reaches, cur.pos, pi, ci, float(tolerance))
-    return n1 / n2
+    if standing <= 0.0:
+        n1, n2 = _ompv_counts(predicted, reaches, cur.pos, pi, ci, float(tolerance))
+        return n1 / n2
+    partner = np.full(n_prev, -1, dtype=np.int64)
+    partner[pi] = ci
+    has = partner >= 0
+    seen_at = cur.pos[np.where(has, partner, 0)] if n_cur else prev.pos.copy()
+    err = np.hypot(*(predicted - seen_at).T)
+    moved = np.where(has, np.hypot(*(seen_at - prev.pos).T), 0.0)
+    counted = (np.hypot(*(predicted - prev.pos).T) > standing) | (moved > standing)
+    followed = counted & has & reaches & (err <= tolerance)
+    new = np.ones(n_cur, dtype=bool)
+    new[ci] = False
+    own, _ = _predict(cur.pos, cur.pred, cur.pred_len, float(elapsed))
+    n2 = int(counted.sum()) + int((new & (np.hypot(*(own - cur.pos).T) > standing)).sum())
+    return 1.0 if n2 == 0 else int(followed.sum()) / n2

@@ -157,9 +157,12 @@ def _object_kernel(
     w: np.ndarray,
     core_a: np.ndarray,
     core_b: np.ndarray,
-) -> tuple[float, float, float, float, int, np.ndarray, np.ndarray]:
+    standing: float,
+) -> tuple[float, float, float, float, int, int, np.ndarray, np.ndarray]:
     """(ols, oos, oas, ots) summed over the counted pairs of two object sets, the number of
-    counted pairs, and the flags of the unpaired core objects of A and of B.
+    counted pairs, the number of them ots counts, and the flags of the unpaired core objects
+    of A and of B. With `standing` > 0 a pair whose two predicted motions both end within
+    `standing` metres of their objects is left out of ots (spi-reference "Standing objects").
 
     A pair counts when either of its objects is core, an unpaired object when it is core
     (`monitor.coverage.common_view`; without coverage every object is core).
@@ -175,6 +178,7 @@ def _object_kernel(
     paired_a = np.zeros(pos_a.shape[0], dtype=np.bool_)
     paired_b = np.zeros(pos_b.shape[0], dtype=np.bool_)
     n = 0
+    n_ots = 0
     ols = 0.0
     oos = 0.0
     oas = 0.0
@@ -204,6 +208,7 @@ def _object_kernel(
         length = min(la, lb) if la > 0 and lb > 0 else max(la, lb, 1)
         num = 0.0
         den = 0.0
+        moving = standing <= 0.0
         for p in range(length):
             # spi-reference "ots" Decision: predicted motion, each prediction relative to its
             # own object's position (where the objects are is ols's question)
@@ -217,10 +222,15 @@ def _object_kernel(
                 xb, yb = pred_b[j, q, 1] - pos_b[j, 0], pred_b[j, q, 2] - pos_b[j, 1]
             num += w[p] * (1.0 / (1.0 + math.hypot(xa - xb, ya - yb)))
             den += w[p]
-        ots += num / den
+            if p == length - 1 and (math.hypot(xa, ya) > standing
+                                    or math.hypot(xb, yb) > standing):
+                moving = True
+        if moving:
+            ots += num / den
+            n_ots += 1
     lone_a = core_a[: pos_a.shape[0]] & ~paired_a
     lone_b = core_b[: pos_b.shape[0]] & ~paired_b
-    return ols, oos, oas, ots, n, lone_a, lone_b
+    return ols, oos, oas, ots, n, n_ots, lone_a, lone_b
 
 
 @lru_cache(maxsize=64)
@@ -250,6 +260,7 @@ class ObjectComparison:
     pairs: int
     lone_a: np.ndarray
     lone_b: np.ndarray
+    ots_pairs: int = -1  # the pairs ots counts (standing ones left out); -1: all of `pairs`
 
     def scores(self, keep_a: np.ndarray, keep_b: np.ndarray) -> dict[str, float]:
         """ocs, ols, oos, oas, ots, with every unpaired core object counted (spi-reference
@@ -265,10 +276,12 @@ class ObjectComparison:
             # spi-reference: 1.0 when nothing both channels can compare is there
             return {"ocs": ocs, "ols": 1.0, "oos": 1.0, "oas": 1.0, "ots": 1.0}
         keep = float(np.sum(keep_a)) + float(np.sum(keep_b))
+        lone = n_lone_a + n_lone_b
         out = {"ocs": ocs}
         for name, total in zip(("ols", "oos", "oas", "ots"), self.sums, strict=True):
-            mean = total / self.pairs if self.pairs else 1.0
-            out[name] = (total + keep * mean) / count
+            pairs = self.ots_pairs if name == "ots" and self.ots_pairs >= 0 else self.pairs
+            mean = total / pairs if pairs else 1.0
+            out[name] = (total + keep * mean) / (pairs + lone) if pairs + lone else 1.0
         return out
 
 
@@ -279,6 +292,7 @@ def compare_objects(
     decay: float,
     core_a: np.ndarray | None = None,
     core_b: np.ndarray | None = None,
+    standing: float = 0.0,
 ) -> ObjectComparison:
     """Pair two channels' objects and sum their similarities (one kernel call).
 
@@ -290,12 +304,12 @@ def compare_objects(
     if len(a) == 0 and len(b) == 0:
         return ObjectComparison((0.0, 0.0, 0.0, 0.0), 0, np.zeros(0, bool), np.zeros(0, bool))
     w = _weights(decay, max(a.pred.shape[1], b.pred.shape[1], 1))
-    ols, oos, oas, ots, n, lone_a, lone_b = _object_kernel(
+    ols, oos, oas, ots, n, n_ots, lone_a, lone_b = _object_kernel(
         a.pos, a.yaw, a.half, a.footprints, a.pred, a.pred_len,
         b.pos, b.yaw, b.half, b.footprints, b.pred, b.pred_len,
-        float(gate), w, all_a, all_b,
+        float(gate), w, all_a, all_b, float(standing),
     )  # fmt: skip
-    return ObjectComparison((ols, oos, oas, ots), int(n), lone_a, lone_b)
+    return ObjectComparison((ols, oos, oas, ots), int(n), lone_a, lone_b, int(n_ots))
 
 
 def object_similarities(
@@ -306,13 +320,14 @@ def object_similarities(
     core_a: np.ndarray | None = None,
     core_b: np.ndarray | None = None,
     keep: float = 0.0,
+    standing: float = 0.0,
 ) -> dict[str, float]:
     """ocs, ols, oos, oas, ots of one tick on its own, every unpaired core object keeping
     `keep` of the benefit of the doubt (`ObjectComparison.scores`; the monitor sets it per
     object from how long it has been unpaired, `monitor.lone`). 0.0, the default, is the
     study's reading: a disagreement about whether anything is there is the least similar
     outcome."""
-    cmp = compare_objects(a, b, gate, decay, core_a, core_b)
+    cmp = compare_objects(a, b, gate, decay, core_a, core_b, standing)
     return cmp.scores(np.full(int(cmp.lone_a.sum()), keep),
                       np.full(int(cmp.lone_b.sum()), keep))
 

@@ -82,6 +82,10 @@ class MetricParams(BaseModel):
         0.1, gt=0, le=10,
         description="age [s] of the observation whose predictions ompv checks",
     )
+    standing_motion: float = Field(
+        0.0, ge=0, le=100,
+        description="objects moving less [m] over the compared time are left out of ots, ompv",
+    )
     plan_standstill: float = Field(
         1.0, ge=0, le=10,
         description="a plan within this distance [m] of its first point stands at that point",

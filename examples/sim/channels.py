@@ -128,6 +128,12 @@ class ChannelParams:
     plan_noise_lat: float = 0.0  # ... and across it (m)
     pred_noise_lon: float = 0.0  # white noise of every prediction point along the object (m)
     pred_noise_lat: float = 0.0  # ... and across it (m)
+    # seconds of the ego's true future a plan follows exactly; beyond, it follows the true
+    # progress only as fast as a planner changes speed (`FORESIGHT_ACCEL`) (None: the whole
+    # horizon, as the original models). A planner does not know that the car ahead will brake
+    # hard in 6 s; a plan of 8 s that did (the true future) carried every later hard braking
+    # into the present.
+    plan_foresight: float | None = None
 
     def meta(self) -> dict[str, Any]:
         """Every parameter, for the stream header."""
@@ -370,6 +376,46 @@ def true_plan_points(
     idx = idx[idx < len(gt.times)]
     dt = gt.times[idx] - gt.times[tick]
     return np.column_stack([dt, m.x[idx], m.y[idx]])
+
+
+#: Largest change of speed [m/s^2] of a plan beyond its foresight (`limit_foresight`): a
+#: planner's comfortable braking and acceleration. It still plans the gentle stop at a red
+#: light; the hard braking of a surprise is not in its plan until it happens.
+FORESIGHT_ACCEL = 3.0
+
+
+def limit_foresight(
+    gt: GroundTruth, tick: int, pts: np.ndarray, motion: EgoMotion, foresight: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """`pts` ([dt, x, y] on the 0.1 s grid, the ego's true future) and the headings along it,
+    the progress beyond `foresight` seconds following the true progress with its speed
+    changing by at most FORESIGHT_ACCEL, along the route the ego will take (its true path
+    further on, straight on past its end)."""
+    ahead = true_plan_points(gt, tick, 4.0 * float(pts[-1, 0]) + 10.0, 0.1, motion)
+    k = tick + np.arange(len(ahead))
+    ahead_yaw = np.unwrap(motion.yaw[k])
+    seg = np.hypot(np.diff(ahead[:, 1]), np.diff(ahead[:, 2]))
+    s_ahead = np.concatenate([[0.0], np.cumsum(seg)])
+    dt = pts[:, 0]
+    s = s_ahead[: len(pts)]
+    f = int(np.searchsorted(dt, foresight + 1e-9)) - 1
+    speed = (s[f] - s[f - 1]) / (dt[f] - dt[f - 1]) if f > 0 else 0.0
+    s_new = s.copy()
+    for k in range(max(f, 0) + 1, len(s)):
+        h = dt[k] - dt[k - 1]
+        wanted = (s[k] - s_new[k - 1]) / h
+        speed = max(0.0, min(max(wanted, speed - FORESIGHT_ACCEL * h),
+                             speed + FORESIGHT_ACCEL * h))
+        s_new[k] = s_new[k - 1] + speed * h
+    x = np.interp(s_new, s_ahead, ahead[:, 1])
+    y = np.interp(s_new, s_ahead, ahead[:, 2])
+    yaw = np.interp(s_new, s_ahead, ahead_yaw)
+    beyond = s_new > s_ahead[-1]
+    if beyond.any():
+        extra = s_new[beyond] - s_ahead[-1]
+        x[beyond] += extra * np.cos(ahead_yaw[-1])
+        y[beyond] += extra * np.sin(ahead_yaw[-1])
+    return np.column_stack([dt, x, y]), (yaw + np.pi) % (2.0 * np.pi) - np.pi
 
 
 def resample_by_distance(pts: np.ndarray, spacing: float) -> np.ndarray:
@@ -645,6 +691,8 @@ class ChannelModel:
         pts = true_plan_points(self.gt, tick, self.p.plan_horizon, 0.1, m)
         idx = tick + np.arange(len(pts))
         yaw = m.yaw[idx]
+        if self.p.plan_foresight is not None and pts[-1, 0] > self.p.plan_foresight + 1e-9:
+            pts, yaw = limit_foresight(self.gt, tick, pts, m, self.p.plan_foresight)
         frac = (pts[:, 0] / self.p.plan_horizon) ** 2
         scale = min(1.0, max(0.0, float(m.speed[tick])) / STANDSTILL_SPEED)
         lon = scale * self.plan_lon[tick] * frac

@@ -18,6 +18,7 @@ stacks look like"):
 | plan horizon / prediction horizon | 3-8 s / 2-5 s, different per channel |
 | field of view / range | 90-360 degrees / 50-120 m |
 | localisation | AR(1) error 0.03-0.15 m (lag-1 correlation 0.5-0.9), drift 0-0.1 m |
+| planner foresight | the plan follows the true future for 1.5-3 s, then the route at that speed |
 
 A profile's `level` places every noise parameter in its range: 0 the low end, 1 the high end,
 with a jitter of +-0.15 so two stacks of one level still differ; `None` draws each parameter
@@ -83,6 +84,7 @@ def sample_stack(
         loc_phi=_between(rng, 0.5, 0.9, None), plan_beyond_prediction=True,
         plan_noise_lon=_between(rng, 0.1, 0.2, lv), plan_noise_lat=_between(rng, 0.02, 0.05, lv),
         pred_noise_lon=_between(rng, 0.1, 0.2, lv), pred_noise_lat=_between(rng, 0.02, 0.05, lv),
+        plan_foresight=_between(rng, 1.5, 3.0, None),
     )  # fmt: skip
 
 

@@ -146,3 +146,43 @@ def test_plan_lat_of_standing_plans_reads_across_the_ego_heading():
     assert plan_lateral(a, b, (0.0, 0.0), (math.pi / 2, math.pi / 2), 2.0) \
         == pytest.approx(0.3)
     assert plan_lateral(a, np.zeros((0, 3)), (0.0, 0.0), (0.0, 0.0), 2.0) is None
+
+
+def test_standing_pairs_leave_ots():
+    from monitor.similarity import object_similarities
+    from tests.monitor.test_similarity import GATE, K, two_channel_frame
+
+    f = two_channel_frame()
+    a, b = f.channels["a"].objects, f.channels["b"].objects
+    # o1-p1 both predict 1 m of motion (ots 1); o2-p3 have no prediction (no motion: ots 1);
+    # p2 is unpaired (keep 0). Every object counted: (1 + 1 + 0) / 3
+    assert object_similarities(a, b, GATE, K)["ots"] == pytest.approx(2 / 3)
+    # standing below 0.5 m: o2-p3 leaves ots (not ols): (1 + 0) / 2
+    out = object_similarities(a, b, GATE, K, standing=0.5)
+    assert out["ots"] == pytest.approx(0.5)
+    assert out["ols"] == pytest.approx(5 / 18)
+
+
+def test_standing_objects_leave_ompv():
+    from monitor.prediction import ompv
+
+    prev = frame(0.0, {"a": channel(ego(), objects=[
+        obj("m", 0.0, 0.0, prediction=[[0.5, 5.0, 0.0]]), obj("s", 20.0, 0.0)])})
+    # the moving car went the other way (a reversed prediction); the standing one stayed
+    cur = frame(0.5, {"a": channel(ego(), objects=[obj("m", -5.0, 0.0), obj("s", 20.0, 0.0)])})
+    p, c = prev.channels["a"].objects, cur.channels["a"].objects
+    assert ompv(p, 0.5, c, 1.0, 3.0) == pytest.approx(0.5)
+    assert ompv(p, 0.5, c, 1.0, 3.0, standing=0.5) == 0.0
+    # nothing moves: nothing to judge
+    still = frame(0.5, {"a": channel(ego(), objects=[obj("s", 20.0, 0.0)])}).channels["a"].objects
+    assert ompv(still, 0.5, still, 1.0, 3.0, standing=0.5) == 1.0
+
+
+def test_standing_ompv_when_everything_is_gone():
+    from monitor.prediction import ompv
+
+    prev = frame(0.0, {"a": channel(ego(), objects=[
+        obj("m", 0.0, 0.0, prediction=[[0.5, 5.0, 0.0]]), obj("s", 20.0, 0.0)])})
+    none = frame(0.5, {"a": channel(ego())}).channels["a"].objects
+    # the moving car is gone (a miss), the standing one does not count
+    assert ompv(prev.channels["a"].objects, 0.5, none, 1.0, 3.0, standing=0.5) == 0.0
