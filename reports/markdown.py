@@ -117,6 +117,8 @@ def render_markdown(result: RunResult) -> str:
         f"{md_escape(h.root_text)}",
         "",
     ]
+    if h.worst_note:  # the colour rule (docs/reports.md, "Node colours") hid a worse tick
+        out += [h.worst_note[0].upper() + h.worst_note[1:] + ".", ""]  # our own words
     if h.root_shares:
         shares = ", ".join(f"{label} {share}" for _, label, share in h.root_shares)
         out += [f"Share of the run: {shares}.", ""]

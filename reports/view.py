@@ -117,7 +117,7 @@ def fmt_ratio(value: float | None) -> str:
 
 @dataclass(frozen=True)
 class Headline:
-    verdict: str
+    verdict: str  # the root goal's colour (evaluator.status.summarize), as in the diagram
     verdict_label: str
     root_id: str
     root_text: str
@@ -145,6 +145,7 @@ class Headline:
     dropouts: list[tuple[str, int]]
     # a ROS 2 bag's topics that were missing or stale at some ticks: (topic, ticks, late)
     topic_gaps: list[tuple[str, int, int]] = field(default_factory=list)
+    worst_note: str = ""  # the run's verdict (worst tick status) when the colour differs
 
 
 @dataclass(frozen=True)
@@ -321,6 +322,19 @@ def _shares(status: NodeStatus | None, period: float) -> list[tuple[str, str, st
     return out
 
 
+def _worst_note(result: RunResult, root: NodeStatus | None) -> str:
+    """`worst tick: no data (all warm-up)` when the run's verdict (the root goal's worst status
+    on any tick, `result.verdict`) is not the colour the root goal's shares give it."""
+    summary = summarize(root, result.case.period)
+    if summary.status == result.verdict:
+        return ""
+    label = STATUS_LABELS.get(result.verdict, result.verdict)
+    n = summary.ticks.get(result.verdict, 0)
+    warm = " (all warm-up)" if result.verdict == "no-data" and n == summary.warmup_ticks else ""
+    return (f"worst tick: {label}{warm}, {fmt_share(n, summary.total)} of the run "
+            "(the verdict in result.json)")
+
+
 def _meta_text(value: object) -> str:
     if isinstance(value, str):
         return value
@@ -353,8 +367,9 @@ def build_view(result: RunResult) -> ReportView:
         episodes_by_node.setdefault(episode.node_id, []).append(number)
 
     headline = Headline(
-        verdict=result.verdict,
-        verdict_label=STATUS_LABELS.get(result.verdict, result.verdict),
+        verdict=status_of[case.root_id],
+        verdict_label=STATUS_LABELS.get(status_of[case.root_id], status_of[case.root_id]),
+        worst_note=_worst_note(result, status_by_node.get(case.root_id)),
         root_id=case.root_id,
         root_text=text_of.get(case.root_id, ""),
         module=case.module,

@@ -151,3 +151,34 @@ def test_a_warm_up_tick_leaves_the_node_satisfied_and_the_share_says_so(
     section = html.split('id="node-Sn8"', 1)[1].split('id="node-', 1)[0]
     assert "no data &lt;0.1 % (all warm-up) · satisfied 99.9 %" in section
     assert "pill satisfied" in section.split("</h3>")[0]
+
+
+def test_the_verdict_card_follows_the_root_s_colour_and_names_the_worst_tick(
+    reference_result: RunResult,
+) -> None:
+    """A run whose root goal lacked data only on its first tick: the card reads satisfied, like
+    the root in the diagram, and says the verdict in result.json is no data (all warm-up)."""
+    from reports.markdown import render_markdown
+
+    root = next(s for s in reference_result.status if s.node_id == "G1")
+    total, first = sum(root.ticks.values()), root.timeline[0]
+    warm = NodeStatus(node_id="G1", worst="no-data", ticks={"no-data": 1, "satisfied": total - 1},
+                      timeline=[StatusInterval(status="no-data", start=first.start,
+                                               end=first.start, ticks=1),
+                                StatusInterval(status="satisfied", start=first.start + 0.1,
+                                               end=root.timeline[-1].end, ticks=total - 1)])
+    status = [warm if s.node_id == "G1" else s for s in reference_result.status]
+    run = reference_result.model_copy(update={"status": status, "verdict": "no-data"})
+    html = render_html(run)
+    card = html.split('<div class="verdict', 1)[1].split('<div class="facts">', 1)[0]
+    assert card.startswith(' bg-satisfied">') and '<div class="word">satisfied</div>' in card
+    assert "worst tick: no data (all warm-up), &lt;0.1 % of the run (the verdict in result.json)" \
+        in card  # fmt: skip
+    assert re.search(r'<g class="gsn-node st-satisfied[^"]*" id="diagram-G1"', html)
+    md = render_markdown(run)
+    assert "**Top claim G1: SATISFIED**" in md and "Worst tick: no data (all warm-up)" in md
+    # unchanged, the card takes G1's colour, and names the worst tick only when it differs
+    plain = render_html(reference_result)
+    colour = summarize(root, reference_result.case.period).status
+    assert f'<div class="verdict bg-{colour}">' in plain
+    assert ("worst tick:" in plain) == (colour != reference_result.verdict)
