@@ -35,8 +35,9 @@ FAMILY_SIGNALS: dict[str, tuple[str, ...]] = {
     "prediction_reversed": ("ots", "ompv"),
     # one channel's ego estimate drifts away from the truth
     "localisation_drift": ("els", "ego_dist"),
-    # one channel repeats its last frame (ego, objects, plan) for 2-3 s
-    "frozen_channel": ("els", "ets"),
+    # one channel repeats its last frame (ego, objects, plan) for 2-3 s (relative to its own
+    # frozen ego its plan is unchanged: ets with ets_relative and chpps cannot see it)
+    "frozen_channel": ("els",),
 }
 
 #: Seconds after a fault's end in which an SPI episode still counts as its detection.

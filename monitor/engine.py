@@ -260,18 +260,24 @@ class MetricEngine:
                     sa.objects, sa.ego, self.coverage[a],
                     sb.objects, sb.ego, self.coverage[b], p.coverage_margin,
                 )  # fmt: skip
+                ranges = (None, None)
+                if p.ols_range_scale > 0.0:
+                    ranges = (np.hypot(oa.pos[:, 0] - sa.ego.x, oa.pos[:, 1] - sa.ego.y),
+                              np.hypot(ob.pos[:, 0] - sb.ego.x, ob.pos[:, 1] - sb.ego.y))
                 cmp = compare_objects(oa, ob, p.pairing_gate, p.trajectory_decay, core_a, core_b,
-                                      p.standing_motion)
+                                      p.standing_motion, *ranges, p.ols_range_scale,
+                                      p.ots_time_scale)
                 ages_a, ages_b = self._lone[(a, b)]
                 age_a = ages_a.update(t, oa.pos, oa.vel, cmp.lone_a)
                 age_b = ages_b.update(t, ob.pos, ob.vel, cmp.lone_b)
                 vals.update(cmp.scores(benefit_of_doubt(age_a, p.lone_horizon),
                                        benefit_of_doubt(age_b, p.lone_horizon)))
                 vals["lone_age"] = max(age_a.max(initial=0.0), age_b.max(initial=0.0))
-                vals["ets"] = ets(sa.plan, sb.plan, p.trajectory_decay)
+                shift = (sa.ego.x - sb.ego.x, sa.ego.y - sb.ego.y)
+                vals["ets"] = ets(sa.plan, sb.plan, p.trajectory_decay,
+                                  shift if p.ets_relative == 1 else None)
                 vals["plan_lat"] = plan_lateral(
-                    sa.plan, sb.plan, (sa.ego.x - sb.ego.x, sa.ego.y - sb.ego.y),
-                    (sa.ego.yaw, sb.ego.yaw), p.plan_lat_horizon,
+                    sa.plan, sb.plan, shift, (sa.ego.yaw, sb.ego.yaw), p.plan_lat_horizon,
                 )
                 self._crpps_inputs.append(crpps_inputs(sa.plan, sb.plan))
                 window.push(t, vals["els"])

@@ -158,11 +158,19 @@ def _object_kernel(
     core_a: np.ndarray,
     core_b: np.ndarray,
     standing: float,
+    range_a: np.ndarray,
+    range_b: np.ndarray,
+    range_scale: float,
+    time_scale: float,
 ) -> tuple[float, float, float, float, int, int, np.ndarray, np.ndarray]:
     """(ols, oos, oas, ots) summed over the counted pairs of two object sets, the number of
     counted pairs, the number of them ots counts, and the flags of the unpaired core objects
     of A and of B. With `standing` > 0 a pair whose two predicted motions both end within
     `standing` metres of their objects is left out of ots (spi-reference "Standing objects").
+    With `range_scale` > 0 a pair's centre distance is divided by 1 + r / range_scale (r the
+    mean of the two objects' ranges `range_a`, `range_b` from their egos), with `time_scale`
+    > 0 each ots point's distance by 1 + dt / time_scale (spi-reference "Tolerances that grow
+    with range and look-ahead").
 
     A pair counts when either of its objects is core, an unpaired object when it is core
     (`monitor.coverage.common_view`; without coverage every object is core).
@@ -192,7 +200,10 @@ def _object_kernel(
         if not (core_a[i] or core_b[j]):
             continue
         n += 1
-        ols += 1.0 / (1.0 + dist[k])
+        d_pair = dist[k]
+        if range_scale > 0.0:
+            d_pair = d_pair / (1.0 + 0.5 * (range_a[i] + range_b[j]) / range_scale)
+        ols += 1.0 / (1.0 + d_pair)
         d = abs((yaw_a[i] - yaw_b[j]) % two_pi)
         oos += 1.0 - min(d, two_pi - d) / math.pi
         # the areas are computed here, not by `Objects.areas`: only this metric reads them
@@ -220,7 +231,12 @@ def _object_kernel(
             if lb > 0:
                 q = min(p, lb - 1)
                 xb, yb = pred_b[j, q, 1] - pos_b[j, 0], pred_b[j, q, 2] - pos_b[j, 1]
-            num += w[p] * (1.0 / (1.0 + math.hypot(xa - xb, ya - yb)))
+            gap = math.hypot(xa - xb, ya - yb)
+            if time_scale > 0.0:
+                q_t = pred_a[i, min(p, la - 1), 0] if la > 0 else (
+                    pred_b[j, min(p, lb - 1), 0] if lb > 0 else 0.0)
+                gap = gap / (1.0 + q_t / time_scale)
+            num += w[p] * (1.0 / (1.0 + gap))
             den += w[p]
             if p == length - 1 and (math.hypot(xa, ya) > standing
                                     or math.hypot(xb, yb) > standing):
@@ -293,11 +309,16 @@ def compare_objects(
     core_a: np.ndarray | None = None,
     core_b: np.ndarray | None = None,
     standing: float = 0.0,
+    range_a: np.ndarray | None = None,
+    range_b: np.ndarray | None = None,
+    range_scale: float = 0.0,
+    time_scale: float = 0.0,
 ) -> ObjectComparison:
     """Pair two channels' objects and sum their similarities (one kernel call).
 
     `core_a` / `core_b` flag the objects well inside both channels' coverage
-    (`monitor.coverage.common_view`); None: every object is core.
+    (`monitor.coverage.common_view`); None: every object is core. `range_a` / `range_b`: each
+    object's distance from its own channel's ego (needed with `range_scale` > 0).
     """
     all_a = _all_core(len(a)) if core_a is None else core_a
     all_b = _all_core(len(b)) if core_b is None else core_b
@@ -308,6 +329,9 @@ def compare_objects(
         a.pos, a.yaw, a.half, a.footprints, a.pred, a.pred_len,
         b.pos, b.yaw, b.half, b.footprints, b.pred, b.pred_len,
         float(gate), w, all_a, all_b, float(standing),
+        np.zeros(len(a)) if range_a is None else range_a,
+        np.zeros(len(b)) if range_b is None else range_b,
+        float(range_scale), float(time_scale),
     )  # fmt: skip
     return ObjectComparison((ols, oos, oas, ots), int(n), lone_a, lone_b, int(n_ots))
 
@@ -368,7 +392,9 @@ def common_range(plan_a: np.ndarray, plan_b: np.ndarray) -> tuple[np.ndarray, np
     return a, b
 
 
-def ets(plan_a: np.ndarray, plan_b: np.ndarray, decay: float) -> float | None:
+def ets(
+    plan_a: np.ndarray, plan_b: np.ndarray, decay: float, shift: tuple[float, float] | None = None,
+) -> float | None:
     """Weighted point-wise similarity of two plans on the canonical time grid over the time
     range both cover (spi-reference "ets"); None if a plan is empty or the ranges do not
     overlap."""
@@ -378,6 +404,11 @@ def ets(plan_a: np.ndarray, plan_b: np.ndarray, decay: float) -> float | None:
     n = min(len(a), len(b))
     if n == 0:
         return None
+    if shift is not None:
+        # spi-reference "ets" Decision (ets_relative): plan B moved by ego A minus ego B
+        b = b.copy()
+        b[:, 1] += shift[0]
+        b[:, 2] += shift[1]
     return _ets_kernel(a, b, _weights(decay, n))
 
 

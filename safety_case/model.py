@@ -86,6 +86,18 @@ class MetricParams(BaseModel):
         0.0, ge=0, le=100,
         description="objects moving less [m] over the compared time are left out of ots, ompv",
     )
+    ols_range_scale: float = Field(
+        0.0, ge=0, le=10_000,
+        description="ols divides a pair's distance by 1 + range / this [m] (0: off)",
+    )
+    ots_time_scale: float = Field(
+        0.0, ge=0, le=600,
+        description="ots divides each point's distance by 1 + dt / this [s] (0: off)",
+    )
+    ets_relative: int = Field(
+        0, ge=0, le=1,
+        description="1: ets compares each plan relative to its channel's ego position",
+    )
     plan_standstill: float = Field(
         1.0, ge=0, le=10,
         description="a plan within this distance [m] of its first point stands at that point",

@@ -186,3 +186,44 @@ def test_standing_ompv_when_everything_is_gone():
     none = frame(0.5, {"a": channel(ego())}).channels["a"].objects
     # the moving car is gone (a miss), the standing one does not count
     assert ompv(prev.channels["a"].objects, 0.5, none, 1.0, 3.0, standing=0.5) == 0.0
+
+
+def test_ols_tolerance_grows_with_range():
+    from monitor.similarity import compare_objects
+
+    a = frame(0.0, {"a": channel(ego(), objects=[obj("1", 50.0, 0.0)])}).channels["a"].objects
+    b = frame(0.0, {"b": channel(ego(), objects=[obj("2", 51.0, 0.0)])}).channels["b"].objects
+    ranges = (np.array([50.0]), np.array([51.0]))
+    # 1 m apart at a mean range of 50.5 m: d = 1 / (1 + 50.5 / 50) -> ols = 1 / (1 + d)
+    cmp = compare_objects(a, b, 3.0, 0.95, None, None, 0.0, *ranges, 50.0, 0.0)
+    want = 1.0 / (1.0 + 1.0 / (1.0 + 50.5 / 50.0))
+    assert cmp.scores(np.zeros(0), np.zeros(0))["ols"] == pytest.approx(want)
+    # off (0): the study's absolute metres
+    cmp = compare_objects(a, b, 3.0, 0.95, None, None, 0.0, *ranges, 0.0, 0.0)
+    assert cmp.scores(np.zeros(0), np.zeros(0))["ols"] == pytest.approx(0.5)
+
+
+def test_ots_tolerance_grows_with_look_ahead():
+    from monitor.similarity import compare_objects
+
+    pa = [[1.0, 1.0, 0.0], [2.0, 2.0, 0.0]]
+    pb = [[1.0, 1.0, 1.0], [2.0, 2.0, 2.0]]  # 1 m apart at 1 s, 2 m at 2 s
+    a = frame(0.0, {"a": channel(ego(), objects=[obj("1", 0, 0, prediction=pa)])})
+    b = frame(0.0, {"b": channel(ego(), objects=[obj("2", 0, 0, prediction=pb)])})
+    oa, ob = a.channels["a"].objects, b.channels["b"].objects
+    w = 0.95
+    # time_scale 1 s: both points read 1 / (1 + 1) and 2 / (1 + 2): inv 1/(1+0.5), 1/(1+2/3)
+    cmp = compare_objects(oa, ob, 3.0, w, None, None, 0.0, None, None, 0.0, 1.0)
+    want = (1 / 1.5 + w * (1 / (1 + 2 / 3))) / (1 + w)
+    assert cmp.scores(np.zeros(0), np.zeros(0))["ots"] == pytest.approx(want)
+    cmp = compare_objects(oa, ob, 3.0, w, None, None, 0.0, None, None, 0.0, 0.0)
+    assert cmp.scores(np.zeros(0), np.zeros(0))["ots"] == pytest.approx((0.5 + w / 3) / (1 + w))
+
+
+def test_ets_relative_takes_the_egos_offset_out():
+    from monitor.similarity import ets
+
+    a = _straight(0.0)
+    b = _straight(1.0)  # channel b's ego, and so its plan, 1 m to the left
+    assert ets(a, b, 0.95) == pytest.approx(0.5)
+    assert ets(a, b, 0.95, shift=(0.0, -1.0)) == pytest.approx(1.0)
