@@ -14,7 +14,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
-from evaluator.result import RunResult
+from evaluator.result import RunResult, result_digest
 from evaluator.session import DEFAULT_MAX_NO_DATA, RunOptions, evaluate_stream
 from safety_case.checks import check_file, sort_findings
 from safety_case.findings import CaseError, Finding, has_errors
@@ -82,7 +82,8 @@ def write_result(result: RunResult, out_dir: Path) -> Path:
     out_dir.mkdir(parents=True, exist_ok=True)
     target = out_dir / "result.json"
     partial = out_dir / "result.json.partial"
-    partial.write_text(result.model_dump_json(indent=1), encoding="utf-8")
+    sealed = result.model_copy(update={"content_digest": result_digest(result)})
+    partial.write_text(sealed.model_dump_json(indent=1), encoding="utf-8")
     partial.replace(target)
     return target
 

@@ -18,6 +18,7 @@ from pathlib import Path
 from casewatch.crash import write_crash_log
 from evaluator.ground_truth import LabelsError
 from evaluator.inputs import path_digest
+from evaluator.result import result_digest
 from evaluator.session import DEFAULT_MAX_NO_DATA, InputError, RunOptions, evaluate_stream
 from evaluator.signal_store import FILE_NAME as SIGNALS_FILE
 from evaluator.stl_engines import EngineMismatch
@@ -131,8 +132,8 @@ def run_job(job: Job) -> LogSummary:
     except (InputError, LabelsError, CaseError, OSError) as exc:
         return LogSummary(stream=job.stream, out_dir=str(out), ok=False, error=str(exc),
                           seconds=round(time.perf_counter() - started, 3))
-    except EngineMismatch as exc:  # a bug in one of the STL engines, never a verdict
-        return LogSummary(stream=job.stream, out_dir=str(out), ok=False, crashed=True,
+    except EngineMismatch as exc:  # a bug in one of the STL engines, never a verdict: exit 4
+        return LogSummary(stream=job.stream, out_dir=str(out), ok=False, engines_disagree=True,
                           error=str(exc), seconds=round(time.perf_counter() - started, 3))
     except Exception as exc:  # a bug: keep the other logs going, exit 3 at the end
         log = write_crash_log(exc, ["run", job.case_path, job.stream, "-o", job.out_dir], out)
@@ -164,12 +165,16 @@ def read_summary(folder: Path) -> dict:
 
 def reusable(job: Job, case_digest: str) -> LogSummary | None:
     """The summary of a log already judged completely with this case from this stream (its
-    result.json's case digest and stream sha256 match), else None (`--resume`)."""
+    result.json's case digest and stream sha256 match, and its own content digest still
+    matches its content: an edited or damaged result is judged again), else None
+    (`--resume`)."""
     from reports.render import ResultError, load_result
 
     try:
         result = load_result(Path(job.out_dir) / "result.json")
     except ResultError:
+        return None
+    if result.content_digest is None or result.content_digest != result_digest(result):
         return None
     if not result.complete or result.case.digest != case_digest:
         return None

@@ -1,8 +1,9 @@
 """The `casewatch` command line. It only parses arguments and dispatches to a command module.
 
-Exit codes are shared by every command: 0 success, 1 findings/violations, 2 usage or input
-that cannot be used, 3 an internal error (a bug: one line on the terminal, the traceback in
-`casewatch-crash.log`, see `casewatch/crash.py`).
+Exit codes are shared by every command: 0 success, 1 findings/violations (a damaged log
+included), 2 usage or input that cannot be used, 3 an internal error (a bug: one line on the
+terminal, the traceback in `casewatch-crash.log`, see `casewatch/crash.py`), 4 the rtamt and
+numpy STL engines disagreeing (`run --stl-engine both`; README.md, "Exit codes").
 
 Only the chosen command's module is imported (they pull in numpy, numba, pydantic, jinja2...):
 `casewatch --help` lists the commands from `COMMANDS` alone and answers in well under 0.3 s.

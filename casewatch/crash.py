@@ -19,6 +19,9 @@ from casewatch import __version__
 
 #: The exit code of an internal error (0 fine, 1 findings, 2 unusable input).
 INTERNAL_ERROR = 3
+#: The exit code of the rtamt and numpy STL engines disagreeing (`--stl-engine both`): a bug in
+#: one of them, never a verdict, told apart from other internal errors.
+ENGINES_DISAGREE = 4
 CRASH_LOG = "casewatch-crash.log"
 
 

@@ -8,6 +8,7 @@ The schema is documented in `docs/results.md`; bump `RESULT_VERSION` on any inco
 
 from __future__ import annotations
 
+import hashlib
 from collections.abc import Mapping
 from typing import Literal
 
@@ -376,3 +377,14 @@ class RunResult(_Record):
     # penalty and CARLA scores of the traffic-rule events (evaluator.scoring); None: no rules
     scores: dict | None = None
     odd: list[OddSummary] = []  # per context node with an `odd:` specification
+    #: sha256 of this record's own JSON with this field null (`result_digest`): `--resume`
+    #: re-judges a log whose result.json no longer matches it (edited, damaged); None in
+    #: results written before it existed
+    content_digest: str | None = None
+
+
+def result_digest(result: RunResult) -> str:
+    """The sha256 of `result`'s compact JSON with `content_digest` null: what the field holds
+    when casewatch writes the record, and what `--resume` recomputes from the file."""
+    body = result.model_copy(update={"content_digest": None}).model_dump_json()
+    return hashlib.sha256(body.encode("utf-8")).hexdigest()

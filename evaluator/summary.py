@@ -41,6 +41,7 @@ class LogSummary(BaseModel):
     ok: bool  # False when the log could not be judged (then `error` says why)
     error: str = ""
     crashed: bool = False  # the error was an internal one (a bug; traceback in the log folder)
+    engines_disagree: bool = False  # the rtamt and numpy STL engines disagreed (a bug; exit 4)
     no_data_share: float | None = None  # share of ticks the root goal was `no-data`
     too_little_data: bool = False  # that share exceeded the run's --max-no-data
     verdict: str = ""
@@ -145,6 +146,8 @@ def summarise(logs: list[LogSummary], case_path: str, case_digest: str) -> dict[
         "logs": len(logs),
         "logs_failed": len(logs) - len(judged),
         "logs_crashed": sum(log.crashed for log in logs),
+        "logs_engines_disagree": sum(log.engines_disagree for log in logs),
+        "logs_damaged": sum(log.defects > 0 for log in judged),
         "logs_without_data": sum(log.too_little_data for log in judged),
         "hours": round(hours, 6),
         "frames": sum(log.frames for log in judged),

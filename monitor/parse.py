@@ -62,6 +62,20 @@ class FrameDefect(Exception):
 _NUMBER_TYPES = frozenset({float, int})
 
 
+#: How deep the header's `meta` may nest (objects and lists); result.json carries it.
+MAX_META_DEPTH = 32
+
+
+def _depth(value: Any, limit: int = MAX_META_DEPTH + 1) -> int:
+    """Nesting depth of a decoded JSON value (0 for a scalar), counted up to `limit` + 1."""
+    depth, level = 0, [value]
+    while level and depth <= limit:
+        level = [v for x in level for v in (x.values() if isinstance(x, dict) else
+                                           x if isinstance(x, list) else ())]  # fmt: skip
+        depth += 1
+    return depth - 1 if not level else depth
+
+
 def _is_num(v: Any) -> bool:
     # bool is an int subclass in Python but never a number in a frame.
     return isinstance(v, (float, int)) and type(v) is not bool
@@ -448,6 +462,9 @@ def parse_header(obj: Any) -> Header:
     meta = h.get("meta", {})
     if not isinstance(meta, dict):
         raise FrameDefect("bad-header", "header.meta: expected an object")
+    if _depth(meta) > MAX_META_DEPTH:  # result.json repeats meta: its writer has a depth limit
+        raise FrameDefect("bad-header", f"header.meta: nested deeper than {MAX_META_DEPTH} "
+                          "levels of objects and lists")  # fmt: skip
     conditions: dict[str, OddValue] = {}
     conditions_problem = None
     if meta.get("odd") is not None:

@@ -50,7 +50,13 @@ def decode(text: str) -> object:
             return orjson.loads(text)
         except orjson.JSONDecodeError:
             pass
-    return json.loads(text)
+    return json.loads(text, parse_int=_integer)
+
+
+def _integer(digits: str) -> int | float:
+    """A JSON integer; one beyond the range of a float (a 401-digit `t`) reads as infinity, so
+    the frame's finiteness checks make it a `non-finite` defect instead of an OverflowError."""
+    return int(digits) if len(digits) < 300 else float(digits)
 
 
 @dataclass(frozen=True)

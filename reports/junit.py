@@ -13,7 +13,7 @@ from __future__ import annotations
 import re
 import xml.etree.ElementTree as ET
 
-from evaluator.policy import gated
+from evaluator.policy import damaged, gated
 from evaluator.result import Episode, FormulaStats, RunResult
 from reports.view import fmt_share, fmt_time
 
@@ -130,6 +130,17 @@ def render_junit(result: RunResult) -> str:
                 result.fail_on,
             )
             tests, failures, errors = tests + 1, failures + f_count, errors + e_count
+    if damaged(result.stream.defect_count):  # a finding under every --fail-on policy
+        stream_case = ET.SubElement(suite, "testcase", classname=f"casewatch.{slug}.stream",
+                                    name="stream read without damage")  # fmt: skip
+        message = (f"the log is damaged: {result.stream.defect_count} stream defect(s); the "
+                   "frames they lost were not judged")
+        failure = ET.SubElement(stream_case, "failure", message=xml_text(message),
+                                type="casewatch.damage")  # fmt: skip
+        failure.text = xml_text("\n".join(
+            [message, *(f"  line {d.line}: {d.kind}: {d.message}"
+                        for d in result.stream.defects[:JUNIT_EPISODE_CAP])]))  # fmt: skip
+        tests, failures = tests + 1, failures + 1
     if not result.complete:
         case = ET.SubElement(
             suite, "testcase", classname=f"casewatch.{slug}.run", name="run completed"

@@ -22,6 +22,8 @@ from pydantic import (
     StrictBool,
     StrictInt,
     StrictStr,
+    ValidationInfo,
+    field_validator,
     model_validator,
 )
 from pydantic_core import PydanticCustomError
@@ -301,6 +303,24 @@ class RawNode(BaseModel):
     additionalInformation: object = None
     defeated: StrictBool | None = None  # gsn2x dialectic extension
     defeatedRelation: StrictStr | None = None
+
+    @field_validator("spi", "hazard", "contract", mode="before")
+    @classmethod
+    def _binding_written(cls, value: object, info: ValidationInfo) -> object:
+        """`spi:` (or `hazard:`, `contract:`) written with nothing after it would leave the
+        node silently unmonitored: a binding must say what to judge (CW018)."""
+        if value is None:
+            example = {"spi": "spi: {signal: els, threshold: '>= 0.6'}",
+                       "hazard": "hazard: {when: 'lead_thw < 1.0'}",
+                       "contract": "contract: {use: lane_keeping}"}[info.field_name or "spi"]
+            raise PydanticCustomError(
+                "spi_shape",
+                "`{binding}:` is empty (null), so nothing would be monitored; write the binding "
+                "(e.g. {example}) or remove the key (a node without one is evidence outside "
+                "the monitor)",
+                {"binding": info.field_name, "example": example},
+            )
+        return value
 
 
 #: gsn2x's `nodeType` names -> our types (an id without a type prefix needs one).

@@ -36,7 +36,7 @@ from spec.ast import Node as AstNode
 from spec.codes import formula_finding
 from spec.emit import interval_text, number_text, period_fraction, to_rtamt, to_text
 from spec.model import CompiledFormula, CompiledSpec, FormulaKind
-from spec.parser import FormulaError, parse_formula, yaml_position
+from spec.parser import FormulaError, parse_formula, parse_rtamt, yaml_position
 from spec.signals import resolve_signals
 from spec.timing import (
     bound_ticks,
@@ -383,21 +383,52 @@ def _compile_one(
             formula = parse_formula(src.text)
         except FormulaError as err:
             line, col = _at(case, src, err.col, err.line)
+            what = "does not parse" if err.code == "CW040" else "is nested too deeply"
             return None, [
                 formula_finding(
-                    "CW040",
-                    f"{src.role or 'formula'} of node {src.node.id} does not parse: "
-                    f"{err.message}",
+                    err.code,
+                    f"{src.role or 'formula'} of node {src.node.id} {what}: {err.message}",
                     case.path,
                     line,
                     col,
-                    hint=f"{src.text}\n{' ' * (err.col - 1)}^",
+                    hint=_caret_hint(src.text, err.col),
                 )
             ]
     findings = _check(case, src, formula, period, mode)
     if has_errors(findings):
         return None, findings
     monitored = Not(formula) if src.kind == "hazard" else formula
+    rtamt_text = to_rtamt(monitored, period)
+    try:
+        negations = _nested_negations(parse_rtamt(rtamt_text, float(period)))
+    except FormulaError as err:  # CW051: too deep for rtamt as it receives the formula
+        return None, [
+            formula_finding(
+                err.code,
+                f"{src.role or 'formula'} of node {src.node.id} is nested too deeply for rtamt: "
+                f"{err.message}",
+                case.path,
+                src.mark.line,
+                src.mark.col,
+                hint="a `sum` reaches this near 75 samples (sum[0:7.4s] at 0.1 s); sum over a "
+                "shorter window",
+            )
+        ]
+    if negations > MAX_NEGATIONS:
+        return None, [
+            formula_finding(
+                "CW051",
+                f"{src.role or 'formula'} of node {src.node.id} is nested too deeply: it nests "
+                f"{negations} `not` inside each other as rtamt receives it (a hazard adds one, "
+                f"a repeated window two); at most {MAX_NEGATIONS}, since rtamt 0.4.10 takes "
+                "time exponential in that number to parse it (20 take 12 s)",
+                case.path,
+                src.mark.line,
+                src.mark.col,
+                hint="cancel double negations ('not not p' is 'p'), or move `not` inward: "
+                "'not (a and b)' is '(not a) or (not b)'",
+            )
+        ]
     known, _ = resolve_signals(formula, case.monitor.channels, case.monitor.signals)
     spi = src.node.spi if src.kind == "spi" else None
     compiled = CompiledFormula(
@@ -406,7 +437,7 @@ def _compile_one(
         node_text=src.node.text,
         kind=src.kind,
         source=src.text,
-        rtamt=to_rtamt(monitored, period),
+        rtamt=rtamt_text,
         signals=known,
         signal=spi.signal if spi and spi.stl is None else None,
         threshold=(
@@ -426,6 +457,34 @@ def _compile_one(
         rule=src.node.hazard.use if src.kind == "hazard" and src.node.hazard else None,
     )
     return compiled, findings
+
+
+def _caret_hint(text: str, col: int, width: int = 160) -> str:
+    """The formula with a caret under `col`; a long formula is cut to `width` characters
+    around the caret, so one finding never prints kilobytes."""
+    start = max(0, min(col - 1 - width // 2, len(text) - width))
+    shown = text[start:start + width]
+    left = "..." if start > 0 else ""
+    right = "..." if start + width < len(text) else ""
+    return f"{left}{shown}{right}\n{' ' * (len(left) + col - 1 - start)}^"
+
+
+#: `not` nested inside each other in the rtamt text, at most (CW051; see _nested_negations).
+MAX_NEGATIONS = 12
+
+
+def _nested_negations(node: AstNode) -> int:
+    """The most `not` on one path from the root to a leaf. rtamt 0.4.10's parser takes time
+    exponential in it (0.2 s at 14, 3 s at 18, 12 s at 20), whatever sits between them."""
+    deepest, level = 0, [(node, 0)]
+    while level:
+        deeper = []
+        for current, count in level:
+            count += isinstance(current, Not)
+            deepest = max(deepest, count)
+            deeper.extend((child, count) for child in children(current))
+        level = deeper
+    return deepest
 
 
 def _persist_ticks(spi: SpiBinding | None, period: Fraction) -> int:

@@ -82,6 +82,7 @@ class FormulaError(Exception):
     col: int
     text: str = ""
     line: int = 1  # 1-based line inside the formula text (multi-line YAML values)
+    code: str = "CW040"  # CW051 for a formula nested too deeply
 
     def __str__(self) -> str:
         return f"column {self.col}: {self.message}"
@@ -89,6 +90,32 @@ class FormulaError(Exception):
     def yaml_position(self, mark: Mark) -> tuple[int, int]:
         """Where this error sits in the YAML file, given the formula value's `formula_mark`."""
         return yaml_position(mark, self.line, self.col)
+
+
+#: Operators nested inside each other, at most (CW051). Python evaluates a formula, and rtamt
+#: parses and evaluates it, recursively: a bound here, not the interpreter's stack, decides
+#: (rtamt 0.4.10 runs out of stack near 200 nested `and`).
+MAX_NESTING = 100
+#: The same bound on the text rtamt receives (`parse_rtamt`), where an expanded `sum` nests two
+#: levels per sample: rtamt 0.4.10 evaluates 150 nested `and` and fails at 172 levels (a sum
+#: of 85 samples) with RecursionError.
+MAX_RTAMT_NESTING = 150
+
+
+def _check_nesting(tree: Tree, text: str, limit: int = MAX_NESTING) -> None:
+    """Raise CW051 when the parse tree nests deeper than `limit` (counted without recursion:
+    a 2001-term conjunction is 2000 levels deep)."""
+    deepest, level = 0, [tree]
+    while level:
+        deepest += 1
+        if deepest > limit + 1:
+            raise FormulaError(
+                f"the formula nests more than {limit} operators inside each other (a chain of "
+                "`and` nests one level per term, a `sum` as rtamt receives it two per sample); "
+                "split it over several nodes or shorten it",
+                1, text, 1, code="CW051",
+            )  # fmt: skip
+        level = [c for node in level for c in node.children if isinstance(c, Tree)]
 
 
 @cache
@@ -141,6 +168,7 @@ def parse_formula(text: str) -> Formula:
         tree = _parser().parse(text)
     except UnexpectedInput as exc:
         raise _syntax_error(text, exc) from None
+    _check_nesting(tree, text)
     node = _Builder(text).build(tree)
     return _need_formula(node, tree, text)
 
@@ -155,6 +183,7 @@ def parse_rtamt(text: str, period: float) -> Formula:
         tree = _parser().parse(text)
     except UnexpectedInput as exc:
         raise _syntax_error(text, exc) from None
+    _check_nesting(tree, text, MAX_RTAMT_NESTING)
     node = _Builder(text, term_prev=Fraction(repr(float(period)))).build(tree)
     return _need_formula(node, tree, text)
 
@@ -165,6 +194,7 @@ def parse_term(text: str) -> Term:
         tree = _parser().parse(text)
     except UnexpectedInput as exc:
         raise _syntax_error(text, exc) from None
+    _check_nesting(tree, text)
     node = _Builder(text).build(tree)
     return _need_term(node, tree, text)
 

@@ -20,13 +20,13 @@ from casewatch import api, batch
 from casewatch.commands.common import prepare_case
 from casewatch.commands.export_scenarios import add_options as add_scenario_options
 from casewatch.commands.export_scenarios import run_export
-from casewatch.crash import INTERNAL_ERROR
+from casewatch.crash import ENGINES_DISAGREE, INTERNAL_ERROR
 from casewatch.dask_engine import EngineError
 from casewatch.progress import FleetProgress, StreamProgress
 from casewatch.stream_hints import RefusalHints, channel_hint, refusal_lines
 from evaluator.eventlog import Event
 from evaluator.ground_truth import LabelsError
-from evaluator.policy import FAIL_ON, gated
+from evaluator.policy import FAIL_ON, damaged, gated
 from evaluator.result import DataGap, Episode, EpisodeOpen, NearMiss, OddChange, RunResult
 from evaluator.session import DEFAULT_MAX_NO_DATA, InputError, RunOptions, evaluate_stream
 from evaluator.signal_store import FILE_NAME as SIGNALS_FILE
@@ -187,7 +187,7 @@ def _run_single(args, case, spec, formats: tuple[str, ...]) -> int:
         return 2
     except EngineMismatch as exc:
         print(f"casewatch run: {stream}: {exc}", file=sys.stderr)
-        return INTERNAL_ERROR
+        return ENGINES_DISAGREE
     path = api.write_result(result, args.out)
     written = api.render(args.out, formats) if formats else {}
     if not args.quiet:
@@ -213,6 +213,11 @@ def _run_single(args, case, spec, formats: tuple[str, ...]) -> int:
         for line in channel_hint(result):
             print(f"  {line}", file=sys.stderr)
         return 2
+    if damaged(result.stream.defect_count):  # a finding under every --fail-on policy
+        print(f"casewatch run: {stream}: the log is damaged ({result.stream.defect_count} stream "
+              "defect(s), listed in result.json); the frames they lost were not judged: a "
+              "finding, not a pass", file=sys.stderr)  # fmt: skip
+        return 1
     return 1 if any(gated(e.kind, args.fail_on) for e in result.episodes) else 0
 
 
@@ -289,10 +294,15 @@ def _run_many(args, case, formats: tuple[str, ...]) -> int:
         print(f"{summary['logs']} logs, {summary['hours']:.3f} h judged, "
               f"{summary['logs_failed']} failed, {summary['logs_without_data']} with too little "
               f"data; summary: {args.out / 'summary.json'}")
+    for log in summary["per_log"]:  # even with --quiet: exit 3 and 4 never pass unexplained
+        if args.quiet and (log.get("crashed") or log.get("engines_disagree")):
+            print(f"casewatch run: {log['stream']}: {log['error']}", file=sys.stderr)
     if summary["logs_crashed"]:
         return INTERNAL_ERROR
+    if summary.get("logs_engines_disagree"):
+        return ENGINES_DISAGREE
     if summary["logs_failed"] or summary["logs_without_data"]:
         return 2
     episodes = sum(int(f["episodes"]) for f in summary["formulas"]
                    if gated(f["kind"], args.fail_on))  # fmt: skip
-    return 1 if episodes else 0
+    return 1 if episodes or summary.get("logs_damaged") else 0

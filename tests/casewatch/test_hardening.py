@@ -238,3 +238,157 @@ def test_infinite_robustness_is_written_read_and_rendered(tmp_path, capsys, old,
     assert episode.worst_robustness == float("-inf")
     assert main(["report", str(out), "--format", "html,md,junit"]) == 0
     assert "worst robustness -inf" in (out / "report.md").read_text()
+
+
+# -- issue 31: exit codes that say one thing -------------------------------------------------
+
+
+def _disagreeing_engines(monkeypatch) -> None:
+    """The numpy engine off by one at every value: `--stl-engine both` must catch it."""
+    import evaluator.session as session
+    from evaluator.stl_engines import WholeLog
+
+    real = session.evaluate_whole_log
+
+    def off_by_one(*args, **kwargs):
+        whole = real(*args, **kwargs)
+        return WholeLog({k: v + 1.0 for k, v in whole.values.items()}, whole.ticks, whole.t)
+
+    monkeypatch.setattr(session, "evaluate_whole_log", off_by_one)
+
+
+def test_engines_disagreeing_exit_4_not_3(tmp_path, capsys, monkeypatch):
+    _disagreeing_engines(monkeypatch)
+    case, stream = write_case(tmp_path / "case.yaml"), write_stream(tmp_path / "s.jsonl")
+    assert main(["run", str(case), str(stream), "-o", str(tmp_path / "o"), "--quiet",
+                 "--stl-engine", "both"]) == 4  # fmt: skip
+    assert "the rtamt and numpy STL engines disagree on" in capsys.readouterr().err
+
+
+def test_a_fleet_with_disagreeing_engines_exits_4_and_says_so_even_quiet(tmp_path, capsys,
+                                                                         monkeypatch):
+    _disagreeing_engines(monkeypatch)
+    case = write_case(tmp_path / "case.yaml")
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    write_stream(logs / "a.jsonl")
+    out = tmp_path / "out"
+    assert main(["run", str(case), str(logs), "-o", str(out), "--quiet", "--format", "none",
+                 "--stl-engine", "both"]) == 4  # fmt: skip
+    summary = json.loads((out / "summary.json").read_text())
+    assert (summary["logs_crashed"], summary["logs_engines_disagree"]) == (0, 1)
+    err = capsys.readouterr().err
+    assert "a.jsonl: the rtamt and numpy STL engines disagree on" in err
+
+
+def test_a_quiet_fleet_with_a_crashing_log_names_it(tmp_path, capsys, monkeypatch):
+    case = write_case(tmp_path / "case.yaml")
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    write_stream(logs / "a.jsonl")
+
+    def boom(*args, **kwargs):
+        raise KeyError("forced")
+
+    monkeypatch.setattr("casewatch.batch.evaluate_stream", boom)
+    out = tmp_path / "out"
+    assert main(["run", str(case), str(logs), "-o", str(out), "--quiet", "--format", "none"]) == 3
+    err = capsys.readouterr().err
+    assert f"a.jsonl: internal error (KeyError: 'forced'); please attach {out / 'a'}" in err
+
+
+# -- issue 31: a damaged log never exits 0 ---------------------------------------------------
+
+
+def _calm_stream(path: Path, frames: int = 60) -> list[str]:
+    """Frames 3.5-9.4 s: both channels agree throughout (no episode), except tfuse absent
+    5.0-5.5 s; as JSON lines."""
+    rows = [json.dumps(frame(i)) for i in range(35, 35 + frames)]
+    path.write_text("\n".join(rows) + "\n")
+    return rows
+
+
+@pytest.mark.parametrize("fail_on", ["any", "hazard", "spi", "never"])
+def test_a_truncated_log_is_a_damage_finding_under_every_policy(tmp_path, capsys, fail_on):
+    case = write_case(tmp_path / "case.yaml")
+    clean = tmp_path / "clean.jsonl"
+    rows = _calm_stream(clean)
+    out = tmp_path / "o"
+    args = ["--format", "junit", "--fail-on", fail_on, "--max-no-data", "1"]
+    assert main(["run", str(case), str(clean), "-o", str(out), *args]) == 0
+    cut = tmp_path / "cut.jsonl.gz"
+    whole = gzip.compress(("\n".join(rows) + "\n").encode(), mtime=0)
+    cut.write_bytes(whole[: len(whole) * 6 // 10])  # cut at 60 %
+    capsys.readouterr()
+    assert main(["run", str(case), str(cut), "-o", str(out), *args]) == 1
+    err = capsys.readouterr().err
+    assert "the log is damaged (1 stream defect(s), listed in result.json)" in err
+    result = json.loads((out / "result.json").read_text())
+    assert result["episodes"] == [] and result["stream"]["defects"][0]["kind"] == \
+        "truncated-stream"  # fmt: skip
+    junit = (out / "junit.xml").read_text()
+    assert 'type="casewatch.damage"' in junit and 'name="stream read without damage"' in junit
+
+
+def test_frames_refused_as_non_increasing_make_a_damaged_fleet_log(tmp_path, capsys):
+    case = write_case(tmp_path / "case.yaml")
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    rows = _calm_stream(logs / "a.jsonl")
+    (logs / "b.jsonl").write_text("\n".join(rows[:30] + rows[:30]) + "\n")  # 30 refused
+    out = tmp_path / "out"
+    assert main(["run", str(case), str(logs), "-o", str(out), "--quiet", "--format", "none",
+                 "--max-no-data", "1"]) == 1  # fmt: skip
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["logs_damaged"] == 1 and summary["formulas"][0]["episodes"] == 0
+    assert [log["defects"] for log in summary["per_log"]] == [0, 30]
+
+
+# -- issue 31: --resume re-verifies a result's own digest ------------------------------------
+
+
+def test_resume_judges_again_a_result_edited_after_it_was_written(tmp_path):
+    from evaluator.result import result_digest
+    from reports.render import load_result
+
+    case = write_case(tmp_path / "case.yaml")
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    write_stream(logs / "a.jsonl")
+    write_stream(logs / "b.jsonl")
+    out = tmp_path / "out"
+    args = ["run", str(case), str(logs), "-o", str(out), "--quiet", "--format", "none"]
+    assert main(args) == 1
+    for name in ("a", "b"):
+        result = load_result(out / name / "result.json")
+        assert result.content_digest == result_digest(result) and result.verdict == "undermined"
+    # a forged verdict whose input digests still match
+    forged = json.loads((out / "b" / "result.json").read_text())
+    forged["verdict"], forged["episodes"] = "satisfied", []
+    (out / "b" / "result.json").write_text(json.dumps(forged))
+    assert main([*args, "--resume"]) == 1
+    summary = json.loads((out / "summary.json").read_text())
+    by_name = {Path(log["stream"]).name: log for log in summary["per_log"]}
+    assert by_name["a.jsonl"]["seconds"] == 0.0  # intact: reused
+    assert by_name["b.jsonl"]["seconds"] > 0.0  # edited: judged again
+    assert summary["verdicts"] == {"undermined": 2}
+    assert load_result(out / "b" / "result.json").verdict == "undermined"
+
+
+# -- issue 31: a null binding is a check error ---------------------------------------------
+
+
+@pytest.mark.parametrize(("old", "new", "where"), [
+    ('spi: {signal: els, threshold: ">= 0.6"}', "spi: null", ":17:8: CW018 error: node Sn1, `spi`: "
+     "`spi:` is empty (null), so nothing would be monitored"),
+    ('hazard: {when: "speed > 20"}', "hazard:", ":21:10: CW018 error: node CSn1, `hazard`: "
+     "`hazard:` is empty (null)"),
+])  # fmt: skip
+def test_a_null_spi_or_hazard_is_a_check_error(tmp_path, capsys, old, new, where):
+    from tests.evaluator.streams import SMALL_CASE
+
+    case = tmp_path / "case.yaml"
+    case.write_text(SMALL_CASE.replace(old, new))
+    assert main(["check", str(case)]) == 1
+    assert main(["run", str(case), "-", "-o", str(tmp_path / "o")]) == 2
+    assert f"{case}{where}" in capsys.readouterr().out

@@ -1,0 +1,42 @@
+"""Issue 31: recursion is bounded by the checks (CW051), not by Python's stack or rtamt's."""
+
+from __future__ import annotations
+
+import pytest
+
+from spec.compiler import MAX_NEGATIONS, check_formulas
+from spec.parser import MAX_NESTING, FormulaError, parse_formula
+from tests.spec.cases import hazard_node, make_case, stl_node
+
+
+def _found(*nodes) -> list[tuple[str, str]]:
+    return [(f.code, f.message) for f in check_formulas(make_case(*nodes))]
+
+
+def test_a_2001_term_conjunction_is_a_finding_not_a_recursion_error() -> None:
+    ((code, message),) = _found(stl_node("Sn1", " and ".join(["els > 0"] * 2001)))
+    assert code == "CW051"
+    assert message.startswith("formula of node Sn1 is nested too deeply: the formula nests "
+                              f"more than {MAX_NESTING} operators")  # fmt: skip
+
+
+def test_the_nesting_limit_is_exact() -> None:
+    parse_formula(" and ".join(["x > 0"] * MAX_NESTING))  # 99 `and`: fine
+    with pytest.raises(FormulaError) as caught:
+        parse_formula(" and ".join(["x > 0"] * (MAX_NESTING + 2)))
+    assert caught.value.code == "CW051"
+
+
+def test_nested_negations_are_bounded_where_rtamt_parses_in_exponential_time() -> None:
+    assert _found(stl_node("Sn1", "not " * MAX_NEGATIONS + "els > 0")) == []
+    ((code, message),) = _found(stl_node("Sn1", "not " * (MAX_NEGATIONS + 1) + "els > 0"))
+    assert code == "CW051" and f"it nests {MAX_NEGATIONS + 1} `not` inside each other" in message
+    # a hazard is monitored as `not (when)`: one more
+    ((code, message),) = _found(hazard_node("CSn1", "not " * MAX_NEGATIONS + "els > 0"))
+    assert code == "CW051" and f"it nests {MAX_NEGATIONS + 1} `not`" in message
+
+
+def test_a_sum_too_long_for_rtamt_is_a_finding() -> None:
+    assert _found(stl_node("Sn1", "sum[0:5s](abs(els - 1)) < 3")) == []  # 51 samples
+    ((code, message),) = _found(stl_node("Sn1", "sum[0:9.9s](abs(els - 1)) < 3"))  # 100
+    assert code == "CW051" and "is nested too deeply for rtamt" in message
