@@ -12,7 +12,7 @@ import hashlib
 from collections.abc import Mapping
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict
+from pydantic import BaseModel, ConfigDict, field_validator
 
 from safety_case.model import Case
 
@@ -376,11 +376,58 @@ class RunResult(_Record):
     track: list[list[float]] = []
     # penalty and CARLA scores of the traffic-rule events (evaluator.scoring); None: no rules
     scores: dict | None = None
+
+    @field_validator("scores")
+    @classmethod
+    def _scores_shape(cls, value: dict | None) -> dict | None:
+        """The shape the reports read (evaluator.scoring writes it): a damaged or edited
+        result.json is refused with the key at fault instead of crashing a report."""
+        if value is not None:
+            _check_scores(value)
+        return value
     odd: list[OddSummary] = []  # per context node with an `odd:` specification
     #: sha256 of this record's own JSON with this field null (`result_digest`): `--resume`
     #: re-judges a log whose result.json no longer matches it (edited, damaged); None in
     #: results written before it existed
     content_digest: str | None = None
+
+
+#: Keys of `scores` whose values are text; every other leaf is a number or null.
+_SCORE_TEXTS = frozenset({"made_of", "reason"})
+
+
+def _check_scores(scores: dict) -> None:
+    """Raise ValueError naming the first key of `scores` whose value the reports cannot read."""
+    for key in ("penalty", "carla"):
+        if key not in scores:
+            raise ValueError(f"scores.{key}: missing (null when there is no such score)")
+        if scores[key] is not None and not isinstance(scores[key], dict):
+            raise ValueError(f"scores.{key}: expected an object or null")
+    for key, number in (("penalty", "score"), ("carla", "driving_score")):
+        part = scores[key]
+        if part is not None and not _is_number(part.get(number)):
+            raise ValueError(f"scores.{key}.{number}: expected a number")
+    for where in (scores, scores["penalty"] or {}):
+        rules = where.get("per_rule", {})
+        rows = rules.values() if isinstance(rules, dict) else [None]
+        if not all(isinstance(r, dict) and all(_is_number(r.get(k)) for k in
+                                               ("events", "while_speeding", "penalty"))
+                   for r in rows):  # fmt: skip
+            raise ValueError("scores per_rule: expected rule -> {events, while_speeding, "
+                             "penalty} numbers")  # fmt: skip
+    stack: list[tuple[str, object]] = [("scores", scores)]
+    while stack:
+        path, node = stack.pop()
+        if isinstance(node, dict):
+            stack.extend((f"{path}.{k}", v) for k, v in node.items())
+        elif isinstance(node, list):
+            stack.extend((f"{path}[{i}]", v) for i, v in enumerate(node))
+        elif isinstance(node, str) and path.rsplit(".", 1)[-1] not in _SCORE_TEXTS:
+            raise ValueError(f"{path}: expected a number, got text")
+
+
+def _is_number(value: object) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool)
 
 
 def result_digest(result: RunResult) -> str:

@@ -322,8 +322,16 @@ class _Builder:
         for k, name in enumerate(module.uses):
             mark = items[k].mark if k < len(items) else entry.key_mark  # type: ignore[attr-defined]
             target = Path(self.path).parent / name
-            if not target.exists() and name in PACKAGED_MODULES:
-                target = PACKAGED_MODULES[name]  # shipped with casewatch (traffic-rules)
+            try:  # a NUL byte or a 300-character name is no file name (ValueError, OSError)
+                if not target.exists() and name in PACKAGED_MODULES:
+                    target = PACKAGED_MODULES[name]  # shipped with casewatch (traffic-rules)
+                target.resolve()
+            except (OSError, ValueError) as exc:
+                shown = repr(name) if len(name) <= 60 else f"{name[:57]!r}... ({len(name)} chars)"
+                self.add("CW028", f"module `uses` {shown}: not a usable file name "
+                         f"({getattr(exc, 'strerror', None) or exc})", mark,
+                         "name a YAML file relative to this one, e.g. uses: [rules.gsn.yaml]")
+                continue
             if str(target.resolve()) in chain:
                 self.add("CW028", f"module `uses` {name}, which uses this module again (a cycle: "
                          f"{' -> '.join(Path(c).name for c in chain)} -> {target.name})", mark)

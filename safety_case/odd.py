@@ -118,10 +118,11 @@ def parse_odd(data: object, source: str = "", signals: set[str] | None = None) -
 
 def read_odd_file(path: str | Path, signals: set[str] | None = None) -> OddSpec:
     """An ODD specification file (YAML); `OddError` for anything unusable."""
-    try:
+    try:  # ValueError: a NUL byte in the name
         text = Path(path).read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise OddError(f"{path}: cannot read the ODD specification: "
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        shown = repr(str(path)) if len(str(path)) <= 80 else f"{str(path)[:77]!r}..."
+        raise OddError(f"{shown}: cannot read the ODD specification: "
                        f"{getattr(exc, 'strerror', None) or exc}") from None  # fmt: skip
     try:
         data = yaml.safe_load(text)

@@ -392,3 +392,87 @@ def test_a_null_spi_or_hazard_is_a_check_error(tmp_path, capsys, old, new, where
     assert main(["check", str(case)]) == 1
     assert main(["run", str(case), "-", "-o", str(tmp_path / "o")]) == 2
     assert f"{case}{where}" in capsys.readouterr().out
+
+
+# -- issue 31: the fuzz's crash causes, each from its reproduction ---------------------------
+
+
+def test_an_integer_beyond_float_range_is_a_stream_defect(tmp_path, capsys):
+    case = write_case(tmp_path / "case.yaml")
+    rows = [json.dumps(frame(i)) for i in range(35, 60)]
+    rows[5] = rows[5].replace('"t": 4.0', '"t": ' + "9" * 401, 1)
+    rows[6] = rows[6].replace('"x": 41.0', '"x": ' + "9" * 401, 1)
+    stream = tmp_path / "s.jsonl"
+    stream.write_text("\n".join(rows) + "\n")
+    out = tmp_path / "o"
+    assert main(["run", str(case), str(stream), "-o", str(out), "--quiet", "--format", "none",
+                 "--max-no-data", "1"]) == 1  # fmt: skip
+    defects = json.loads((out / "result.json").read_text())["stream"]["defects"]
+    assert [(d["line"], d["kind"], d["message"]) for d in defects] == [
+        (6, "non-finite", "frame.t: inf is not a finite number"),
+        (7, "non-finite", "channels.lav.ego.x: inf is not a finite number"),
+    ]
+
+
+def test_a_header_meta_nested_900_deep_is_a_bad_header(tmp_path):
+    case = write_case(tmp_path / "case.yaml")
+    stream = write_stream(tmp_path / "s.jsonl", frames=30)
+    lines = stream.read_text().splitlines()
+    lines[0] = lines[0].replace('"meta": {"test": "e2e"}', '"meta": ' + '{"a": ' * 900 + "1"
+                                + "}" * 900)  # fmt: skip
+    stream.write_text("\n".join(lines) + "\n")
+    out = tmp_path / "o"
+    assert main(["run", str(case), str(stream), "-o", str(out), "--quiet"]) == 1
+    result = json.loads((out / "result.json").read_text())
+    assert result["stream"]["defects"] == [{"line": 1, "kind": "bad-header", "message":
+        "header.meta: nested deeper than 32 levels of objects and lists"}]  # fmt: skip
+    assert result["stream"]["frames_read"] == 30
+
+
+@pytest.mark.parametrize(("name", "shown"), [
+    ("a\\0b.yaml", "'a\\x00b.yaml': not a usable file name (embedded null byte)"),
+    ("a" * 300 + ".yaml", "(305 chars): not a usable file name (File name too long)"),
+])  # fmt: skip
+def test_a_module_uses_name_that_is_no_file_name_is_cw028(tmp_path, capsys, name, shown):
+    from tests.evaluator.streams import SMALL_CASE
+
+    case = tmp_path / "case.yaml"
+    case.write_text(SMALL_CASE.replace("brief: One SPI and one hazard}",
+                                       f'brief: x, uses: ["{name}"]}}'))  # fmt: skip
+    assert main(["check", str(case)]) == 1
+    out = capsys.readouterr().out
+    assert f"{case}:1:" in out and "CW028 error: module `uses` " in out and shown in out
+
+
+@pytest.mark.parametrize("name", ["a\\0b.yaml", "b" * 300 + ".yaml"])
+def test_an_odd_file_name_that_is_no_file_name_is_cw009(tmp_path, capsys, name):
+    from tests.evaluator.streams import SMALL_CASE
+
+    text = SMALL_CASE.replace("  supportedBy: [S1]", "  supportedBy: [S1]\n  inContextOf: [C1]",
+                              1) + f'C1:\n  text: the ODD\n  odd: "{name}"\n'  # fmt: skip
+    case = tmp_path / "case.yaml"
+    case.write_text(text)
+    assert main(["check", str(case)]) == 1
+    out = capsys.readouterr().out
+    assert "CW009 error: node C1: `odd`: " in out and "cannot read the ODD specification" in out
+    assert len(out) < 1000
+
+
+@pytest.mark.parametrize(("scores", "expected"), [
+    ("abc", "scores: Input should be a valid dictionary"),
+    ({"penalty": "x", "carla": None}, "scores.penalty: expected an object or null"),
+    ({"penalty": {"score": "x"}, "carla": None}, "scores.penalty.score: expected a number"),
+    ({"per_rule": 1}, "scores.penalty: missing"),
+])  # fmt: skip
+def test_a_result_with_malformed_scores_is_refused_by_report(tmp_path, capsys, scores,
+                                                             expected):  # fmt: skip
+    case, stream = write_case(tmp_path / "case.yaml"), write_stream(tmp_path / "s.jsonl", 30)
+    out = tmp_path / "o"
+    assert main(["run", str(case), str(stream), "-o", str(out), "--quiet", "--format",
+                 "none"]) == 1  # fmt: skip
+    result = json.loads((out / "result.json").read_text())
+    result["scores"] = scores
+    (out / "result.json").write_text(json.dumps(result))
+    assert main(["report", str(out), "--format", "html,md,junit"]) == 2
+    err = capsys.readouterr().err
+    assert expected in err and "internal error" not in err
