@@ -107,6 +107,15 @@ def library(name: str = LIBRARY) -> dict[str, Template]:
     return out
 
 
+def _finite(number: float) -> bool:
+    """math.isfinite, but False for an integer beyond float range (a 401-digit `frames`) instead
+    of an OverflowError."""
+    try:
+        return math.isfinite(number)
+    except OverflowError:
+        return False
+
+
 def _value(param: Param, given: Any, channels: list[str]) -> float | int | str:
     where = f"params.{param.name}"
     if param.kind == "channel":
@@ -118,8 +127,9 @@ def _value(param: Param, given: Any, channels: list[str]) -> float | int | str:
         if not isinstance(given, str) or not _IDENT.match(given):
             raise ContractError(f"`{where}` must be a signal name, got {given!r}", where)
         return given
-    if isinstance(given, bool) or not isinstance(given, int | float) or not math.isfinite(given):
-        raise ContractError(f"`{where}` must be a number, got {given!r}", where)
+    if isinstance(given, bool) or not isinstance(given, int | float) or not _finite(given):
+        shown = repr(given) if len(repr(given)) <= 40 else f"{repr(given)[:37]}..."
+        raise ContractError(f"`{where}` must be a finite number, got {shown}", where)
     value = float(given)
     if param.integer and value != int(value):
         raise ContractError(f"`{where}` must be a whole number, got {given!r}", where)

@@ -191,6 +191,7 @@ class BagReader:
                                f"topic(s) {', '.join(missing)}; what it holds:\n{have}")
             raise BagError(f"{self.name}: topic(s) {', '.join(missing)} from {self.mapping_source}"
                            f" are not in the bag; it has:\n{have}")
+        self._check_roles(conns)  # before the definitions are parsed: the clearest message
         store = self._typestore([conns[t] for t in roles])
         base = base_typestore()
         topics: dict[str, _Topic] = {}
@@ -215,6 +216,23 @@ class BagReader:
                                        sig.field)  # fmt: skip
         self._store = store
         return topics
+
+    def _check_roles(self, conns: dict[str, BagTopic]) -> None:
+        """Every channel topic carries the type its role needs (an older `autoware_auto_*` or a
+        Humble `TrackedObjects` is named as such, not as a definition that does not parse)."""
+        for ch in self.mapping.channels.values():
+            for role in ("odometry", "objects", "plan"):
+                ref = getattr(ch, role)
+                if ref is None:
+                    continue
+                have, want = conns[ref.topic].msgtype, ROLE_TYPES[role]
+                if have != want:
+                    self._bag.close()
+                    old = (" (the older autoware_auto_* messages are not read: record with "
+                           "autoware_msgs 1.x, or convert the bag)"
+                           if "autoware_auto" in have else "")  # fmt: skip
+                    raise BagError(f"{self.name}: topic {ref.topic} carries {have}; as the "
+                                   f"{role} of a channel it must carry {want}{old}")  # fmt: skip
 
     def _typestore(self, conns: list[BagTopic]) -> Typestore:
         """The shipped types, overridden by the definitions the bag carries for its topics."""

@@ -126,3 +126,49 @@ def test_a_convert_crash_leaves_no_folder_at_the_output_path(tmp_path, capsys, m
     assert main(["convert", str(bag), "--topics", topics, "--case", str(case), "-o",
                  str(out)]) == 0  # fmt: skip
     assert out.is_file()
+
+
+def _retyped(source: Path, target: Path, old: str, new: str, definition: str) -> None:
+    """`source` rewritten with the message type `old` renamed `new` (and its definition
+    replaced), as a recorder of another Autoware generation would have written it."""
+    from mcap.reader import make_reader
+    from mcap.writer import Writer
+
+    with open(source, "rb") as fh, open(target, "wb") as out:
+        writer = Writer(out)
+        writer.start(profile="ros2", library="test")
+        reader = make_reader(fh)
+        summary = reader.get_summary()
+        assert summary is not None
+        schemas: dict[int, int] = {}
+        for schema in summary.schemas.values():
+            name, data = schema.name, schema.data
+            if name == old:
+                name, data = new, definition.encode()
+            schemas[schema.id] = writer.register_schema(name, schema.encoding, data)
+        channels = {c.id: writer.register_channel(c.topic, c.message_encoding,
+                                                  schemas[c.schema_id])
+                    for c in summary.channels.values()}  # fmt: skip
+        for _schema, channel, message in reader.iter_messages():
+            writer.add_message(channels[channel.id], message.log_time, message.data,
+                               message.publish_time)  # fmt: skip
+        writer.finish()
+
+
+@pytest.mark.parametrize(("new", "expected"), [
+    ("autoware_perception_msgs/msg/TrackedObjects",
+     "carries autoware_perception_msgs/msg/TrackedObjects; as the objects of a channel it must "
+     "carry autoware_perception_msgs/msg/PredictedObjects"),
+    ("autoware_auto_perception_msgs/msg/PredictedObjects",
+     "must carry autoware_perception_msgs/msg/PredictedObjects (the older autoware_auto_* "
+     "messages are not read"),
+])  # fmt: skip
+def test_objects_of_another_type_are_named_not_dumped(small_bag, tmp_path, capsys, new,
+                                                      expected):  # fmt: skip
+    case, bag, topics = small_bag
+    other = tmp_path / "other.mcap"
+    _retyped(bag / "small.mcap", other, "autoware_perception_msgs/msg/PredictedObjects", new,
+             "this definition { does not parse")  # fmt: skip
+    assert run(case, other, topics, tmp_path / "o") == 2
+    err = capsys.readouterr().err
+    assert expected in err and "cannot be parsed" not in err

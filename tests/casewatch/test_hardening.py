@@ -476,3 +476,21 @@ def test_a_result_with_malformed_scores_is_refused_by_report(tmp_path, capsys, s
     assert main(["report", str(out), "--format", "html,md,junit"]) == 2
     err = capsys.readouterr().err
     assert expected in err and "internal error" not in err
+
+
+@pytest.mark.parametrize(("frames", "expected"), [
+    ("9" * 401, ":11:70: CW008 error: node Sn1: `params.frames` must be a finite number, got "
+     "9999999999999999999999999999999999999..."),
+    ("100", ":11:19: CW051 error: guarantee of node Sn1 is nested too deeply for rtamt"),
+])  # fmt: skip
+def test_library_parameters_that_used_to_crash_are_findings(tmp_path, capsys, frames,
+                                                             expected):  # fmt: skip
+    case = tmp_path / "case.yaml"
+    case.write_text(
+        "module: {name: da}\nmonitor:\n  channels: [lav, tfuse]\n  period: 0.1s\n"
+        '  signals: {gt_lead_gap: "reference gap, m"}\nG1:\n  text: top\n'
+        "  supportedBy: [Sn1]\nSn1:\n  text: lav measures its leader\n"
+        f"  contract: {{use: detection_accuracy, params: {{channel: lav, frames: {frames}}}}}\n"
+    )
+    assert main(["check", str(case)]) == 1
+    assert f"{case}{expected}" in capsys.readouterr().out
