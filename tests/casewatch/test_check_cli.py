@@ -22,7 +22,7 @@ def test_reference_case_passes(capsys: pytest.CaptureFixture[str]) -> None:
     assert run(REFERENCE) == 0
     out, err = capsys.readouterr()
     assert out == ""
-    assert err.strip().endswith(": 0 errors, 0 warnings, 28 nodes")
+    assert err.strip().endswith(": 0 errors, 0 warnings, 30 nodes")
 
 
 def test_errors_exit_1_with_one_line_per_finding(

@@ -233,7 +233,7 @@ def test_reference_case_loads_cleanly() -> None:
     # every judged SPI of spi-reference (ocs is observed, not judged)
     assert spis == {
         "els", "els_var", "eos", "ols", "oos", "oas", "ots", "ets", "crpps",
-        "chpps", "hcs", "ppcs", "ompv", "ss",
+        "chpps", "hcs", "ppcs", "ompv", "ss", "lone_age", "plan_lat",
     }  # fmt: skip
     hazards = {n.id: n.hazard.when for n in result.case.nodes.values() if n.hazard is not None}
     assert hazards["CSn2"] == "lead_thw < 1.0 and ego_speed > 5.0"

@@ -142,7 +142,7 @@ REFERENCE_SAMPLE = {
     "els": 0.7, "els_var": 0.01, "eos": 0.9, "ocs": 1.0, "ols": 0.2, "oos": 0.65, "oas": 0.5,
     "ots": 0.6, "ompv": 0.75, "ets": 0.55, "crpps": 0.8, "chpps": 0.72, "hcs": 0.85,
     "ppcs": 0.85, "ss": 0.95, "ego_dist": 0.3, "lead_thw": 0.8, "ego_speed": 20.0,
-    "follow_thw": 2.5, "follow_speed": 10.0,
+    "follow_thw": 2.5, "follow_speed": 10.0, "lone_age": 0.4, "plan_lat": 0.2,
 }  # fmt: skip
 REFERENCE_EXPECTED = {
     "Sn1": 0.1,  # els >= 0.6: 0.7 - 0.6
@@ -159,6 +159,8 @@ REFERENCE_EXPECTED = {
     "Sn12": 0.05,  # hcs >= 0.8: 0.85 - 0.8
     "Sn13": 0.05,  # ppcs >= 0.8: 0.85 - 0.8
     "Sn14": 0.45,  # ss >= 0.5: 0.95 - 0.5
+    "Sn15": 1.1,  # lone_age <= 1.5: 1.5 - 0.4
+    "Sn16": 0.4,  # plan_lat <= 0.6: 0.6 - 0.2
     # not (els_var > 0.05 or ego_dist > 1.5) = -max(0.01 - 0.05, 0.3 - 1.5) = 0.04
     "CSn1": 0.04,
     # not (lead_thw < 1.0 and ego_speed > 5.0) = -min(1.0 - 0.8, 20 - 5) = -0.2: tailgating
