@@ -15,6 +15,8 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
+from pydantic import ValidationError
+
 from casewatch.crash import write_crash_log
 from evaluator.ground_truth import LabelsError
 from evaluator.inputs import path_digest
@@ -22,7 +24,7 @@ from evaluator.result import result_digest
 from evaluator.session import DEFAULT_MAX_NO_DATA, InputError, RunOptions, evaluate_stream
 from evaluator.signal_store import FILE_NAME as SIGNALS_FILE
 from evaluator.stl_engines import EngineMismatch
-from evaluator.summary import LogSummary, summarise, summarise_result
+from evaluator.summary import FleetSummary, LogSummary, summarise, summarise_result
 from monitor.bags.reader import is_bag
 from monitor.warmup import warm_up
 from safety_case.findings import CaseError
@@ -158,9 +160,15 @@ def read_summary(folder: Path) -> dict:
             raise ValueError("no per_log list")
         if not all(isinstance(log, dict) and "out_dir" in log for log in summary["per_log"]):
             raise ValueError("a log without out_dir")
+        checked = FleetSummary.model_validate(summary)
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        where = ".".join(str(p) for p in first["loc"])
+        raise FleetError(f"{path}: not a casewatch fleet summary ({where}: {first['msg']})"
+                         ) from None  # fmt: skip
     except (OSError, UnicodeDecodeError, ValueError, RecursionError) as exc:
         raise FleetError(f"{path}: not a casewatch fleet summary ({exc})") from None
-    return summary
+    return checked.model_dump()
 
 
 def reusable(job: Job, case_digest: str) -> LogSummary | None:

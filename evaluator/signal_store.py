@@ -175,19 +175,37 @@ def load_signals(path: str | Path) -> SavedSignals:
                if k not in arrays]  # fmt: skip
     if missing:
         raise SignalsError(f"{where}: not a saved-signals file (missing {', '.join(missing)})")
-    if int(arrays["version"]) != FORMAT_VERSION:
-        raise SignalsError(f"{where}: format version {int(arrays['version'])}, this casewatch "
+    scalars = {k: _scalar(arrays[k]) for k in ("version", "period", "max_gap")}
+    bad = [k for k, v in scalars.items() if v is None or not math.isfinite(v) or v <= 0]
+    if bad:  # a NaN or array period would fail far from here (tune, calibrate)
+        raise SignalsError(f"{where}: {', '.join(bad)} must be a finite number above 0, got "
+                           + ", ".join(repr(arrays[k].tolist())[:40] for k in bad))
+    if int(scalars["version"]) != FORMAT_VERSION:  # type: ignore[arg-type]
+        raise SignalsError(f"{where}: format version {scalars['version']:g}, this casewatch "
                            f"reads {FORMAT_VERSION}; run the log again with --save-signals")
+    if arrays["t"].ndim != 1 or arrays["names"].ndim != 1 or arrays["t"].dtype.kind not in "fiu":
+        raise SignalsError(f"{where}: t and names must be lists (1-D arrays), t of numbers")
     t = arrays["t"].astype(np.float64)
+    if not np.isfinite(t).all():
+        raise SignalsError(f"{where}: a tick time is not a finite number")
     names = [str(n) for n in arrays["names"].tolist()]
     values = arrays["values"]
+    if values.dtype.kind not in "fiub":
+        raise SignalsError(f"{where}: values must be numbers, found {values.dtype}")
     if values.ndim != 2 or values.shape != (len(t), len(names)):
         raise SignalsError(f"{where}: values are {values.shape}, expected ({len(t)}, "
                            f"{len(names)}) (ticks x signals)")
     if len(t) and not np.all(np.diff(t) > 0):
         raise SignalsError(f"{where}: tick times do not increase")
-    return SavedSignals(where, t, names, values.astype(np.float64), float(arrays["period"]),
-                        float(arrays["max_gap"]))  # fmt: skip
+    return SavedSignals(where, t, names, values.astype(np.float64), scalars["period"],
+                        scalars["max_gap"])  # type: ignore[arg-type]  # fmt: skip
+
+
+def _scalar(array: np.ndarray) -> float | None:
+    """The number a 0-d numeric array holds, else None."""
+    if array.ndim != 0 or array.dtype.kind not in "fiu":
+        return None
+    return float(array)
 
 
 def nominal_only(log: SavedSignals, labels: list, margin: float) -> SavedSignals:

@@ -53,6 +53,51 @@ class LogSummary(BaseModel):
     ground_truth: list[HazardCount] | None = None  # when the log was judged with labels
 
 
+class FleetFormula(BaseModel):
+    """One formula's totals over a fleet (summary.json `formulas[]`)."""
+
+    model_config = ConfigDict(extra="allow")
+    formula_id: str
+    node_id: str
+    kind: str
+    episodes: int
+    ticks_violated: int
+    ticks_evaluated: int
+    ticks_no_data: int
+    logs_with_episodes: int = 0
+    episodes_per_hour: float | None = None
+    violated_share: float | None = None
+
+
+class FleetCase(BaseModel):
+    model_config = ConfigDict(extra="allow")
+    path: str
+    digest: str
+
+
+class FleetSummary(BaseModel):
+    """What `summarise` writes as summary.json, as its readers (report, diff, tune, calibrate,
+    odd, compare) need it: `batch.read_summary` validates a file with it, so an edited or
+    damaged summary is refused with the key at fault instead of crashing a reader."""
+
+    model_config = ConfigDict(extra="allow")
+    format: str = SUMMARY_FORMAT
+    version: int = SUMMARY_VERSION
+    case: FleetCase | None = None
+    logs: int = 0
+    logs_failed: int = 0
+    logs_crashed: int = 0
+    logs_engines_disagree: int = 0
+    logs_damaged: int = 0
+    logs_without_data: int = 0
+    hours: float = 0.0
+    frames: int = 0
+    verdicts: dict[str, int] = {}
+    ground_truth: dict | None = None
+    formulas: list[FleetFormula] = []
+    per_log: list[LogSummary]
+
+
 def summarise_result(result: RunResult, out_dir: str, seconds: float) -> LogSummary:
     return LogSummary(
         stream=result.stream.path,

@@ -234,3 +234,139 @@ def mutated_streams(draw) -> bytes:
         cut = draw(st.integers(0, len(data)))
         return data[:cut] + b"\xff\xfe" + data[cut:]
     return data
+
+
+# -- issue 31: bags, topic mappings, library uses, ODD files, run and fleet folders ------------
+
+#: Values a hostile mapping, ODD file or result.json puts where a number, text or list belongs.
+HOSTILE_VALUES = [None, True, 0, -1, -0.1, 1e308, "nan", "inf", "1e400", 10**401, "", "a\x00b",
+                  "x" * 300, [], {}, [[[[[[1]]]]]], "\u202e", 0.0]  # fmt: skip
+
+
+@cache
+def small_bag() -> tuple[bytes, str]:
+    """The MCAP bytes and the topic mapping of the small end-to-end stream as a bag."""
+    import contextlib
+    import io
+    import tempfile
+
+    from casewatch.cli import main
+    from tests.evaluator.streams import write_stream
+
+    with tempfile.TemporaryDirectory() as tmp:
+        stream = write_stream(Path(tmp) / "s.jsonl", frames=40)
+        with contextlib.redirect_stderr(io.StringIO()):
+            assert main(["convert", str(stream), "-o", str(Path(tmp) / "bag")]) == 0
+        return ((Path(tmp) / "bag" / "bag.mcap").read_bytes(),
+                (Path(tmp) / "bag.topics.yaml").read_text())  # fmt: skip
+
+
+@st.composite
+def mutated_bags(draw) -> bytes:
+    """The small bag cut short, bit-flipped, with a length field or a type name overwritten."""
+    data = bytearray(small_bag()[0])
+    for _ in range(draw(st.integers(1, 3))):
+        kind = draw(st.sampled_from(["cut", "flip", "length", "zero-run", "type"]))
+        at = draw(st.integers(0, max(0, len(data) - 1)))
+        if kind == "cut":
+            del data[at:]
+        elif kind == "flip" and data:
+            data[at] ^= 1 << draw(st.integers(0, 7))
+        elif kind == "length" and len(data) > at + 8:
+            data[at:at + 8] = draw(st.sampled_from([b"\xff" * 8, b"\x00" * 8,
+                                                    b"\xff\xff\xff\x7f\x00\x00\x00\x00"]))
+        elif kind == "zero-run":
+            data[at:at + draw(st.integers(1, 64))] = b"\x00" * 8
+        elif kind == "type":
+            found = data.find(b"PredictedObjects")
+            if found >= 0:
+                data[found:found + 16] = b"TrackedObjects\x00\x00"
+    return bytes(data)
+
+
+MAPPING_PATHS = [("ego",), ("ego", "length"), ("ego", "width"), ("channels",),
+                 ("channels", "lav"), ("channels", "lav", "odometry"),
+                 ("channels", "tfuse", "objects"), ("signals",), ("signals", "speed"),
+                 ("max_age",), ("max_delay",), ("time",), ("plan_time",), ("coverage",),
+                 ("meta",), ("junk",)]  # fmt: skip
+RAW_MAPPING_EDITS = ["ego: {length: 4.5, width: 1.8}\n", "x: &a [1]\ny: *a\n", "t: !!set {}\n",
+                     "  width: [1.8\n", "\t: tab\n", "max_age: 0\n",
+                     "max_age: " + "9" * 401 + "\n"]  # fmt: skip
+
+
+@st.composite
+def mutated_mappings(draw) -> str:
+    """The small bag's topic mapping with one to three edits: a key set to a hostile value or
+    removed, or raw YAML (duplicate keys, aliases, tags, syntax errors) appended."""
+    tree = yaml.safe_load(small_bag()[1])
+    raw = ""
+    for _ in range(draw(st.integers(1, 3))):
+        path = draw(st.sampled_from(MAPPING_PATHS))
+        kind = draw(st.sampled_from(["set", "set", "delete", "raw"]))
+        if kind == "raw":
+            raw += draw(st.sampled_from(RAW_MAPPING_EDITS))
+            continue
+        parent = tree
+        for step in path[:-1]:
+            parent = parent.get(step) if isinstance(parent, dict) else None
+        if not isinstance(parent, dict):
+            continue
+        if kind == "delete":
+            parent.pop(path[-1], None)
+        else:
+            parent[path[-1]] = draw(st.sampled_from(HOSTILE_VALUES))
+    text = yaml.safe_dump(tree, sort_keys=False, allow_unicode=True, width=10_000)
+    return text + raw
+
+
+@st.composite
+def mutated_uses(draw) -> tuple[str, dict[str, str]]:
+    """A case that `uses` modules (files beside it): (case text, file name -> text). The
+    modules may be missing, cyclic, hostile names, not YAML, or define a node twice."""
+    from tests.evaluator.streams import SMALL_CASE
+
+    name = draw(st.sampled_from(["rules.gsn.yaml", "a\\0b.yaml", "x" * 300 + ".yaml",
+                                 "traffic-rules", "../outside.yaml", "self.yaml", "", "."]))
+    module = draw(st.sampled_from([
+        "module: {name: rules}\nSn9: {text: extra, spi: {signal: els, threshold: '>= 0.5'}}\n",
+        "module: {name: rules, uses: [case.yaml]}\n",
+        "module: {name: rules}\nSn1: {text: twice}\n",
+        "module: {name: rules}\nmonitor: {channels: [a, b]}\n",
+        ": not yaml [\n", "", "module: {name: rules}\nSn9: null\n",
+        "module: {name: rules}\nG7: {text: " + "{" * 80 + "}" * 80 + "}\n",
+    ]))  # fmt: skip
+    case = SMALL_CASE.replace("brief: One SPI and one hazard}",
+                              f'brief: x, uses: ["{name}"]}}')  # fmt: skip
+    return case, {"rules.gsn.yaml": module, "self.yaml": case}
+
+
+ODD_FILES = [
+    "attributes: {environment.weather: [clear, rain]}\n",
+    "attributes: {road.speed_limit: {min: 0, max: " + "9" * 401 + "}}\n",
+    "attributes: {}\n", "attributes: {x: []}\n", "attributes: {x: {min: 5, max: 1}}\n",
+    "attributes: {" + "a" * 300 + ": [1]}\n", "attributes: {w: [\"a\\0b\"]}\n",
+    "[1, 2]\n", "attributes: {w: [clear]}\ncombinations: [[1, 2, 3]]\n", ": [\n", "",
+    "attributes: {w: " + "[" * 70 + "]" * 70 + "}\n",
+]  # fmt: skip
+
+
+def json_paths(value: object, prefix: tuple = ()) -> list[tuple]:
+    """Every path into a decoded JSON value (keys and list indices), pre-order."""
+    out = [prefix]
+    if isinstance(value, dict):
+        for k, v in value.items():
+            out += json_paths(v, (*prefix, k))
+    elif isinstance(value, list):
+        for i, v in enumerate(value[:3]):
+            out += json_paths(v, (*prefix, i))
+    return out
+
+
+@st.composite
+def result_mutation(draw, result: dict) -> None:
+    """Set one to three values of a result.json (or summary.json) to hostile values, in place."""
+    paths = [p for p in json_paths(result) if p]
+    for _ in range(draw(st.integers(1, 3))):
+        path = draw(st.sampled_from(paths))
+        _set_path(result, path, draw(st.sampled_from([*HOSTILE_VALUES, "Infinity", "-Infinity",
+                                                     float("inf")])))

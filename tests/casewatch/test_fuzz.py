@@ -13,13 +13,25 @@ import json
 import os
 import re
 import tempfile
+from functools import cache
 from pathlib import Path
 
 from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from casewatch.cli import main
 from monitor.reader import read_stream
-from tests.casewatch.fuzz_inputs import CHANNELS, REFERENCE, mutated_cases, mutated_streams
+from tests.casewatch.fuzz_inputs import (
+    CHANNELS,
+    ODD_FILES,
+    REFERENCE,
+    mutated_bags,
+    mutated_cases,
+    mutated_mappings,
+    mutated_streams,
+    mutated_uses,
+    result_mutation,
+)
 
 EXAMPLES = int(os.environ.get("FUZZ_EXAMPLES", "0"))
 FUZZ = settings(
@@ -107,3 +119,131 @@ def assert_never_satisfied_without_data(stream: Path, result: dict) -> None:
     ticks = sum(root["ticks"].values())
     for f in formulas:  # every tick of every formula is either judged or a data gap
         assert f["ticks_evaluated"] + f["ticks_no_data"] == ticks, f["id"]
+
+
+# -- issue 31: bags, topic mappings, uses, ODD files, run and fleet folders ------------------
+
+
+@settings(FUZZ, max_examples=EXAMPLES or 25)
+@given(mutated_bags())
+def test_mutated_bags_never_crash_run_or_convert(data: bytes) -> None:
+    from tests.casewatch.fuzz_inputs import small_bag
+    from tests.evaluator.streams import SMALL_CASE
+
+    with tempfile.TemporaryDirectory() as tmp:
+        bag, topics, case = Path(tmp) / "b.mcap", Path(tmp) / "t.yaml", Path(tmp) / "c.yaml"
+        bag.write_bytes(data)
+        topics.write_text(small_bag()[1])
+        case.write_text(SMALL_CASE)
+        out = Path(tmp) / "o"
+        code, printed = cli("run", str(case), str(bag), "--topics", str(topics), "-o", str(out),
+                            "--quiet", "--format", "junit")  # fmt: skip
+        assert_no_crash(code, printed, f"run of a bag of {len(data)} bytes")
+        if code == 0:  # nothing lost: every frame a bag of 40 ticks holds was judged
+            result = json.loads((out / "result.json").read_text())
+            assert result["stream"]["defect_count"] == 0, result["stream"]["defects"]
+        code, printed = cli("convert", "--list-topics", str(bag))
+        assert_no_crash(code, printed, "convert --list-topics")
+        code, printed = cli("convert", str(bag), "--topics", str(topics), "-o",
+                            str(Path(tmp) / "f.jsonl.gz"))  # fmt: skip
+        assert_no_crash(code, printed, "convert to frames")
+
+
+@settings(FUZZ, max_examples=EXAMPLES or 40)
+@given(mutated_mappings())
+def test_mutated_topic_mappings_never_crash(text: str) -> None:
+    from tests.casewatch.fuzz_inputs import small_bag
+    from tests.evaluator.streams import SMALL_CASE
+
+    with tempfile.TemporaryDirectory() as tmp:
+        bag, topics, case = Path(tmp) / "b.mcap", Path(tmp) / "t.yaml", Path(tmp) / "c.yaml"
+        bag.write_bytes(small_bag()[0])
+        topics.write_text(text, encoding="utf-8")
+        case.write_text(SMALL_CASE)
+        code, printed = cli("run", str(case), str(bag), "--topics", str(topics), "-o",
+                            str(Path(tmp) / "o"), "--quiet", "--format", "none")  # fmt: skip
+        assert_no_crash(code, printed, f"a run with the mapping\n{text}")
+        if code == 2:
+            assert "t.yaml" in printed or "b.mcap" in printed, printed  # names the culprit
+
+
+@settings(FUZZ, max_examples=EXAMPLES or 30)
+@given(mutated_uses())
+def test_cases_using_hostile_modules_never_crash_check_or_compile(data) -> None:
+    case_text, files = data
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, text in files.items():
+            (Path(tmp) / name).write_text(text, encoding="utf-8")
+        case = Path(tmp) / "case.yaml"
+        case.write_text(case_text, encoding="utf-8")
+        code, printed = cli("check", str(case))
+        assert_no_crash(code, printed, f"check of\n{case_text}\nusing {files}")
+        code, printed = cli("compile", str(case), "-o", str(Path(tmp) / "c"))
+        assert_no_crash(code, printed, "compile")
+
+
+@settings(FUZZ, max_examples=EXAMPLES or 12)
+@given(st.sampled_from(ODD_FILES))
+def test_hostile_odd_files_never_crash_check(odd_text: str) -> None:
+    from tests.evaluator.streams import SMALL_CASE
+
+    text = SMALL_CASE.replace("  supportedBy: [S1]", "  supportedBy: [S1]\n  inContextOf: [C1]",
+                              1) + "C1:\n  text: the ODD\n  odd: odd.yaml\n"  # fmt: skip
+    with tempfile.TemporaryDirectory() as tmp:
+        (Path(tmp) / "odd.yaml").write_text(odd_text, encoding="utf-8")
+        case = Path(tmp) / "case.yaml"
+        case.write_text(text)
+        code, printed = cli("check", str(case))
+        assert_no_crash(code, printed, f"check with the ODD file\n{odd_text}")
+
+
+@cache
+def _fleet() -> bytes:
+    """A fleet folder (two small logs, signals saved) as a tar archive, judged once."""
+    import io as _io
+    import tarfile
+
+    from tests.evaluator.streams import SMALL_CASE, write_stream
+
+    with tempfile.TemporaryDirectory() as tmp:
+        logs = Path(tmp) / "logs"
+        logs.mkdir()
+        write_stream(logs / "a.jsonl", frames=60)
+        write_stream(logs / "b.jsonl", frames=40)
+        (Path(tmp) / "case.yaml").write_text(SMALL_CASE)
+        code, printed = cli("run", str(Path(tmp) / "case.yaml"), str(logs), "-o",
+                            str(Path(tmp) / "fleet"), "--quiet", "--format", "none",
+                            "--save-signals")  # fmt: skip
+        assert code == 1, printed
+        buffer = _io.BytesIO()
+        with tarfile.open(fileobj=buffer, mode="w") as tar:
+            tar.add(tmp, arcname=".")
+        return buffer.getvalue()
+
+
+@settings(FUZZ, max_examples=EXAMPLES or 20)
+@given(st.data())
+def test_mutated_run_and_fleet_folders_never_crash_the_commands_that_read_them(data) -> None:
+    import io as _io
+    import tarfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        with tarfile.open(fileobj=_io.BytesIO(_fleet())) as tar:
+            tar.extractall(tmp, filter="data")
+        root = Path(tmp)
+        fleet = root / "fleet"
+        target = data.draw(st.sampled_from(["a/result.json", "b/result.json", "summary.json"]))
+        record = json.loads((fleet / target).read_text())
+        data.draw(result_mutation(record))
+        (fleet / target).write_text(json.dumps(record))
+        case, logs = str(root / "case.yaml"), str(root / "logs")
+        for argv in (
+            ["report", str(fleet / "a")],
+            ["report", str(fleet)],
+            ["compare", str(fleet), "-o", str(root / "cmp"), "--by", "test"],
+            ["odd", str(fleet), "-o", str(root / "odd")],
+            ["diff", str(fleet), str(fleet), "-o", str(root / "diff")],
+            ["run", case, logs, "-o", str(fleet), "--quiet", "--format", "none", "--resume"],
+        ):
+            code, printed = cli(*argv)
+            assert_no_crash(code, printed, f"{argv[0]} after setting {target} to\n{record}")

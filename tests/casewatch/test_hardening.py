@@ -494,3 +494,29 @@ def test_library_parameters_that_used_to_crash_are_findings(tmp_path, capsys, fr
     )
     assert main(["check", str(case)]) == 1
     assert f"{case}{expected}" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(("period", "expected"), [
+    (float("nan"), "period must be a finite number above 0, got nan"),
+    ([0.1, 0.2], "period must be a finite number above 0, got [0.1, 0.2]"),
+])  # fmt: skip
+def test_saved_signals_with_a_bad_period_are_refused_by_calibrate(tmp_path, capsys, period,
+                                                                  expected):  # fmt: skip
+    import numpy as np
+
+    case = write_case(tmp_path / "case.yaml")
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    write_stream(logs / "a.jsonl", frames=40)
+    fleet = tmp_path / "fleet"
+    assert main(["run", str(case), str(logs), "-o", str(fleet), "--quiet", "--format", "none",
+                 "--save-signals"]) == 1  # fmt: skip
+    npz = fleet / "a" / "signals.npz"
+    with np.load(npz, allow_pickle=False) as saved:
+        arrays = {k: saved[k] for k in saved.files}
+    arrays["period"] = np.array(period)
+    np.savez_compressed(npz, **arrays)
+    assert main(["calibrate", str(case), str(fleet), "--false-alarms-per-hour", "10", "-o",
+                 str(tmp_path / "cal")]) == 2  # fmt: skip
+    err = capsys.readouterr().err
+    assert f"{npz}: {expected}" in err and "internal error" not in err
