@@ -136,12 +136,26 @@ class ChannelParams:
     plan_foresight: float | None = None
 
     def meta(self) -> dict[str, Any]:
-        """Every parameter, for the stream header."""
-        return asdict(self)
+        """Every parameter, for the stream header. The stack sampler's parameters
+        (`SAMPLER_FIELDS`) are listed only when set, so the headers of the drives generated
+        before them (the bundled data) regenerate byte for byte."""
+        out = asdict(self)
+        for name, default in SAMPLER_FIELDS.items():
+            if out[name] == default:
+                del out[name]
+        return out
 
     def coverage(self) -> dict[str, float]:
         """The sensing coverage written to the header's `coverage` key."""
         return {"fov_deg": float(self.fov_deg), "range_m": float(self.range_m)}
+
+
+#: Parameters added with the stack sampler (`examples.sim.stacks`) and their defaults, which
+#: keep the original models.
+SAMPLER_FIELDS: dict[str, Any] = {
+    "pos_white_growth": 0.0, "miss_edge": 0.0, "plan_noise_lon": 0.0, "plan_noise_lat": 0.0,
+    "pred_noise_lon": 0.0, "pred_noise_lat": 0.0, "plan_foresight": None,
+}
 
 
 #: The all-round channel (the study's LAV stack: 360-degree LiDAR perception).
@@ -378,10 +392,12 @@ def true_plan_points(
     return np.column_stack([dt, m.x[idx], m.y[idx]])
 
 
-#: Largest change of speed [m/s^2] of a plan beyond its foresight (`limit_foresight`): a
-#: planner's comfortable braking and acceleration. It still plans the gentle stop at a red
-#: light; the hard braking of a surprise is not in its plan until it happens.
+#: Largest acceleration and deceleration [m/s^2] of a plan beyond its foresight
+#: (`limit_foresight`): a planner's comfortable acceleration, and the braking it plans for what
+#: it knows ahead (a red light, a turn; SUMO's normal deceleration). The emergency braking of a
+#: surprise is not in its plan until it happens.
 FORESIGHT_ACCEL = 3.0
+FORESIGHT_DECEL = 3.0
 
 
 def limit_foresight(
@@ -389,8 +405,8 @@ def limit_foresight(
 ) -> tuple[np.ndarray, np.ndarray]:
     """`pts` ([dt, x, y] on the 0.1 s grid, the ego's true future) and the headings along it,
     the progress beyond `foresight` seconds following the true progress with its speed
-    changing by at most FORESIGHT_ACCEL, along the route the ego will take (its true path
-    further on, straight on past its end)."""
+    changing by at most FORESIGHT_ACCEL / FORESIGHT_DECEL, along the route the ego will take
+    (its true path further on, straight on past its end)."""
     ahead = true_plan_points(gt, tick, 4.0 * float(pts[-1, 0]) + 10.0, 0.1, motion)
     k = tick + np.arange(len(ahead))
     ahead_yaw = np.unwrap(motion.yaw[k])
@@ -404,7 +420,7 @@ def limit_foresight(
     for k in range(max(f, 0) + 1, len(s)):
         h = dt[k] - dt[k - 1]
         wanted = (s[k] - s_new[k - 1]) / h
-        speed = max(0.0, min(max(wanted, speed - FORESIGHT_ACCEL * h),
+        speed = max(0.0, min(max(wanted, speed - FORESIGHT_DECEL * h),
                              speed + FORESIGHT_ACCEL * h))
         s_new[k] = s_new[k - 1] + speed * h
     x = np.interp(s_new, s_ahead, ahead[:, 1])

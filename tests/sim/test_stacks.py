@@ -51,3 +51,15 @@ def test_min_coverage() -> None:
     half, reach = min_coverage(a, b)
     assert half == pytest.approx(math.radians(min(a.fov_deg, b.fov_deg)) / 2)
     assert reach == min(a.range_m, b.range_m)
+
+
+def test_sampler_fields_default_to_the_original_models() -> None:
+    from dataclasses import fields
+
+    from examples.sim.channels import LAV, SAMPLER_FIELDS, ChannelParams
+
+    defaults = {f.name: f.default for f in fields(ChannelParams)}
+    assert {n: defaults[n] for n in SAMPLER_FIELDS} == SAMPLER_FIELDS
+    # the original models' headers do not list them; a sampled stack's do
+    assert not set(SAMPLER_FIELDS) & set(LAV.meta())
+    assert set(SAMPLER_FIELDS) <= set(sample_pair(1, "mid")[0].meta())
