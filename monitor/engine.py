@@ -416,7 +416,8 @@ class MetricEngine:
     def _safety(
         self, t: float, states: dict[str, ChannelState], out: dict[str, float | None]
     ) -> None:
-        matrix = safety_matrix(self.channels, states, self.params.pet_ref)
+        matrix = safety_matrix(self.channels, states, self.params.pet_ref,
+                               self.params.plan_standstill > 0)
         per_channel: list[float | None] = []
         for ij, v in matrix.items():
             out[self._ss_names[ij]] = v

@@ -661,7 +661,8 @@ def prediction_horizon(objects: Objects) -> float:
 
 
 def safety_matrix(
-    channels: list[str], states: dict[str, ChannelState], pet_ref: float
+    channels: list[str], states: dict[str, ChannelState], pet_ref: float,
+    standing_is_clear: bool = False,
 ) -> dict[tuple[str, str], float | None]:
     """ss_ij for every ordered pair of declared channels: None when i or j is absent or plan i
     is empty; 1.0 when plan i has one point or channel j sees no object.
@@ -669,7 +670,11 @@ def safety_matrix(
     Plan i is compared with world model j over the horizon both cover (spi-reference "Safety
     score", common horizon): cut to j's longest prediction. Beyond it j says nothing about
     where its objects go; read as "staying at their last point" they stood in the plan's way
-    (a plan of 8 s against predictions of 2 s ran into every lead it followed)."""
+    (a plan of 8 s against predictions of 2 s ran into every lead it followed).
+
+    `standing_is_clear` (the engine sets it with `plan_standstill` > 0, spi-reference
+    "Standing plans"): a plan whose points all coincide scores 1.0 against every world model;
+    it drives into nothing."""
     out: dict[tuple[str, str], float | None] = {}
     present = [c for c in channels if c in states]
     worlds = [j for j in present if len(states[j].objects)]
@@ -684,7 +689,8 @@ def safety_matrix(
             continue
         for j in present:
             out[(i, j)] = 1.0
-        if len(plan) >= 2 and worlds:
+        standing = standing_is_clear and bool((plan[:, 1:3] == plan[0, 1:3]).all())
+        if len(plan) >= 2 and worlds and not standing:
             scored[i] = plan
     if not scored:
         return out

@@ -227,3 +227,14 @@ def test_ets_relative_takes_the_egos_offset_out():
     b = _straight(1.0)  # channel b's ego, and so its plan, 1 m to the left
     assert ets(a, b, 0.95) == pytest.approx(0.5)
     assert ets(a, b, 0.95, shift=(0.0, -1.0)) == pytest.approx(1.0)
+
+
+def test_a_standing_plan_drives_into_nothing():
+    from monitor.safety_score import safety_matrix
+
+    # a standing plan whose footprint overlaps a standing car 4 m ahead (both 4.5 m long)
+    plan = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]]
+    car = obj("c", 4.0, 0.0, 0.0, 4.5, 1.8)
+    f = frame(0.0, {"a": channel(ego(0, 0, 0, 4.5, 1.8), plan=plan, objects=[car])})
+    assert safety_matrix(["a"], f.channels, 2.0)[("a", "a")] == 0.0
+    assert safety_matrix(["a"], f.channels, 2.0, standing_is_clear=True)[("a", "a")] == 1.0
