@@ -160,7 +160,7 @@ def read_summary(folder: Path) -> dict:
             raise ValueError("no per_log list")
         if not all(isinstance(log, dict) and "out_dir" in log for log in summary["per_log"]):
             raise ValueError("a log without out_dir")
-        checked = FleetSummary.model_validate(summary)
+        FleetSummary.model_validate(summary)  # types of what is there; the file as written
     except ValidationError as exc:
         first = exc.errors()[0]
         where = ".".join(str(p) for p in first["loc"])
@@ -168,7 +168,7 @@ def read_summary(folder: Path) -> dict:
                          ) from None  # fmt: skip
     except (OSError, UnicodeDecodeError, ValueError, RecursionError) as exc:
         raise FleetError(f"{path}: not a casewatch fleet summary ({exc})") from None
-    return checked.model_dump()
+    return summary
 
 
 def reusable(job: Job, case_digest: str) -> LogSummary | None:

@@ -392,10 +392,6 @@ class RunResult(_Record):
     content_digest: str | None = None
 
 
-#: Keys of `scores` whose values are text; every other leaf is a number or null.
-_SCORE_TEXTS = frozenset({"made_of", "reason"})
-
-
 def _check_scores(scores: dict) -> None:
     """Raise ValueError naming the first key of `scores` whose value the reports cannot read."""
     for key in ("penalty", "carla"):
@@ -415,15 +411,13 @@ def _check_scores(scores: dict) -> None:
                    for r in rows):  # fmt: skip
             raise ValueError("scores per_rule: expected rule -> {events, while_speeding, "
                              "penalty} numbers")  # fmt: skip
-    stack: list[tuple[str, object]] = [("scores", scores)]
-    while stack:
-        path, node = stack.pop()
-        if isinstance(node, dict):
-            stack.extend((f"{path}.{k}", v) for k, v in node.items())
-        elif isinstance(node, list):
-            stack.extend((f"{path}[{i}]", v) for i, v in enumerate(node))
-        elif isinstance(node, str) and path.rsplit(".", 1)[-1] not in _SCORE_TEXTS:
-            raise ValueError(f"{path}: expected a number, got text")
+    texts = [("scores.reason", scores.get("reason"))] + [
+        (f"scores.{key}.made_of", (scores[key] or {}).get("made_of"))
+        for key in ("penalty", "carla")
+    ]
+    for path, text in texts:
+        if text is not None and not isinstance(text, str):
+            raise ValueError(f"{path}: expected text or null")
 
 
 def _is_number(value: object) -> bool:

@@ -75,6 +75,28 @@ class FleetCase(BaseModel):
     digest: str
 
 
+class FleetLog(BaseModel):
+    """A `per_log` entry as read back: only `out_dir` is required (summaries written by hand or
+    by older versions carry less), every field present must have its type."""
+
+    model_config = ConfigDict(extra="allow")
+    out_dir: str
+    stream: str = ""
+    ok: bool = True
+    error: str = ""
+    crashed: bool = False
+    engines_disagree: bool = False
+    no_data_share: float | None = None
+    too_little_data: bool = False
+    verdict: str = ""
+    frames: int = 0
+    duration_s: float = 0.0
+    defects: int = 0
+    seconds: float = 0.0
+    formulas: list[FormulaCount] = []
+    ground_truth: list[HazardCount] | None = None
+
+
 class FleetSummary(BaseModel):
     """What `summarise` writes as summary.json, as its readers (report, diff, tune, calibrate,
     odd, compare) need it: `batch.read_summary` validates a file with it, so an edited or
@@ -95,7 +117,7 @@ class FleetSummary(BaseModel):
     verdicts: dict[str, int] = {}
     ground_truth: dict | None = None
     formulas: list[FleetFormula] = []
-    per_log: list[LogSummary]
+    per_log: list[FleetLog]
 
 
 def summarise_result(result: RunResult, out_dir: str, seconds: float) -> LogSummary:
