@@ -419,6 +419,10 @@ def typestore_for(definitions: tuple[tuple[str, str, str], ...]) -> Typestore:
         elif fmt == "idl" and text:
             for part in text.split("=" * 80 + "\n"):
                 body = part.split("\n", 1)[1] if part.startswith("IDL: ") else part
+                # rosbag2 writes each IDL with its `#include` lines, which rosbags' parser
+                # refuses; the included types are in the same text or shipped, so drop them
+                body = "\n".join(line for line in body.splitlines()
+                                 if not line.lstrip().startswith("#"))  # fmt: skip
                 if body.strip():
                     types.update(get_types_from_idl(body))
     store = get_typestore(Stores.EMPTY)

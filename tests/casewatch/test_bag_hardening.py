@@ -3,6 +3,7 @@ or never stop; each is now unusable input (exit 2) with a message naming what is
 
 from __future__ import annotations
 
+import json
 import struct
 from pathlib import Path
 
@@ -128,7 +129,8 @@ def test_a_convert_crash_leaves_no_folder_at_the_output_path(tmp_path, capsys, m
     assert out.is_file()
 
 
-def _retyped(source: Path, target: Path, old: str, new: str, definition: str) -> None:
+def _retyped(source: Path, target: Path, old: str, new: str, definition: str,
+             encoding: str | None = None) -> None:
     """`source` rewritten with the message type `old` renamed `new` (and its definition
     replaced), as a recorder of another Autoware generation would have written it."""
     from mcap.reader import make_reader
@@ -142,10 +144,10 @@ def _retyped(source: Path, target: Path, old: str, new: str, definition: str) ->
         assert summary is not None
         schemas: dict[int, int] = {}
         for schema in summary.schemas.values():
-            name, data = schema.name, schema.data
+            name, data, kind = schema.name, schema.data, schema.encoding
             if name == old:
-                name, data = new, definition.encode()
-            schemas[schema.id] = writer.register_schema(name, schema.encoding, data)
+                name, data, kind = new, definition.encode(), encoding or kind
+            schemas[schema.id] = writer.register_schema(name, kind, data)
         channels = {c.id: writer.register_channel(c.topic, c.message_encoding,
                                                   schemas[c.schema_id])
                     for c in summary.channels.values()}  # fmt: skip
@@ -172,3 +174,19 @@ def test_objects_of_another_type_are_named_not_dumped(small_bag, tmp_path, capsy
     assert run(case, other, topics, tmp_path / "o") == 2
     err = capsys.readouterr().err
     assert expected in err and "cannot be parsed" not in err
+
+
+def test_idl_definitions_with_include_lines_are_read(small_bag, tmp_path):
+    """rosbag2 writes `ros2idl` definitions with `#include` lines, which rosbags' IDL parser
+    refuses: the signal topic as such a definition is read like the original."""
+    case, bag, topics = small_bag
+    idl = ("=" * 80 + "\nIDL: std_msgs/msg/Float64\n#include \"std_msgs/msg/Empty.idl\"\n\n"
+           "module std_msgs {\n  module msg {\n    struct Float64 {\n      double data;\n"
+           "    };\n  };\n};\n")  # fmt: skip
+    other = tmp_path / "idl.mcap"
+    _retyped(bag / "small.mcap", other, "std_msgs/msg/Float64", "std_msgs/msg/Float64", idl,
+             "ros2idl")  # fmt: skip
+    assert run(case, other, topics, tmp_path / "o") == 1  # the stream's els episode
+    result = json.loads((tmp_path / "o" / "result.json").read_text())
+    hazard = next(f for f in result["formulas"] if f["id"] == "CSn1")
+    assert result["stream"]["defects"] == [] and hazard["ticks_evaluated"] == 100
