@@ -37,6 +37,7 @@ DEFECT_KINDS: dict[str, str] = {
     "missing-field": "a required field is absent",
     "wrong-type": "a field has the wrong JSON type or shape",
     "non-finite": "a number is NaN, infinite or null where a value is required",
+    "out-of-range": "a position, velocity, size or trajectory value beyond ±1e9",
     "unknown-channel": "a channel not declared (header or caller) appears",
     "non-increasing-t": "frame time does not increase strictly",
     "bad-trajectory": "plan or prediction dt negative or not strictly increasing",
@@ -61,6 +62,11 @@ class FrameDefect(Exception):
 #: The Python types a JSON number decodes to (bool, a subclass of int, is deliberately absent).
 _NUMBER_TYPES = frozenset({float, int})
 
+
+#: Largest magnitude of a position, velocity, size or trajectory value (metres, m/s, s): map
+#: coordinates (UTM eastings are about 10^6 m) stay far below; 1e308 would overflow the
+#: geometry of the metrics (a GEOS error in the Frechet distance of plans).
+MAX_MAGNITUDE = 1e9
 
 #: How deep the header's `meta` may nest (objects and lists); result.json carries it.
 MAX_META_DEPTH = 32
@@ -95,6 +101,9 @@ def _number(d: dict[str, Any], key: str, where: str, default: float | None = Non
         )
     if not math.isfinite(v):
         raise FrameDefect("non-finite", f"{where}.{key}: {v} is not a finite number")
+    if key != "t" and abs(v) > MAX_MAGNITUDE:  # `t` has its own bound (bad-time)
+        raise FrameDefect("out-of-range", f"{where}.{key}: {v:g} is beyond ±{MAX_MAGNITUDE:g} "
+                          "(metres, m/s, radians: a drive's values are far smaller)")  # fmt: skip
     return float(v)
 
 
@@ -125,6 +134,10 @@ def _points(v: Any, where: str, ncols: int, what: str) -> np.ndarray:
     if not np.isfinite(arr).all():
         row = int(np.nonzero(~np.isfinite(arr).all(axis=1))[0][0])
         raise FrameDefect("non-finite", f"{where}[{row}]: NaN, inf or null in {v[row]!r:.60}")
+    if len(arr) and np.abs(arr).max() > MAX_MAGNITUDE:
+        row = int(np.nonzero((np.abs(arr) > MAX_MAGNITUDE).any(axis=1))[0][0])
+        raise FrameDefect("out-of-range", f"{where}[{row}]: a value beyond ±{MAX_MAGNITUDE:g} "
+                          f"in {v[row]!r:.60}")  # fmt: skip
     return arr
 
 

@@ -27,6 +27,7 @@ from monitor.bags.decode import (
     TrajectoryRecord,
 )
 from monitor.frames import Ego, Objects, box_footprint, is_convex
+from monitor.parse import MAX_MAGNITUDE
 
 #: Corner signs of a box footprint, in `box_footprint`'s order.
 _BOX_SIGNS = np.sign(box_footprint(2.0, 2.0))
@@ -62,6 +63,9 @@ def to_world(v_body: np.ndarray, yaw: np.ndarray) -> np.ndarray:
 def _finite(values: np.ndarray, what: str) -> None:
     if not np.isfinite(values).all():
         raise RecordDefect("non-finite", f"{what}: NaN or infinity in a pose or velocity")
+    if values.size and np.abs(values).max() > MAX_MAGNITUDE:  # as a stream's (monitor.parse)
+        raise RecordDefect("out-of-range", f"{what}: a pose or velocity beyond "
+                           f"±{MAX_MAGNITUDE:g}")  # fmt: skip
 
 
 def ego_state(rec: OdometryRecord, footprint: np.ndarray, stamp_ns: int, tick_ns: int,

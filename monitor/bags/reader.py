@@ -121,6 +121,7 @@ class BagReader:
 
     #: The defect kinds a bag can have (docs/bags.md documents each).
     DEFECT_KINDS = ("bad-message", "bad-stamp", "late-message", "truncated-bag", "non-finite",
+                    "out-of-range",
                     "bad-trajectory", "bad-footprint")  # fmt: skip
 
     def __init__(

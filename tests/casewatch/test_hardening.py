@@ -520,3 +520,21 @@ def test_saved_signals_with_a_bad_period_are_refused_by_calibrate(tmp_path, caps
                  str(tmp_path / "cal")]) == 2  # fmt: skip
     err = capsys.readouterr().err
     assert f"{npz}: {expected}" in err and "internal error" not in err
+
+
+def test_plan_and_object_points_at_1e308_are_out_of_range_defects(tmp_path, capsys):
+    """They crashed the plan metrics (a GEOS error in the Frechet distance); now each such
+    frame is a defect and the run, with nothing left to judge, is unusable input."""
+    rows = []
+    for i in range(20):
+        row = frame(i)
+        for state in row["channels"].values():
+            state["plan"] = [[0.0, 1e308, 1e308], [0.5, -1e308, 1e308], [1.0, 1e308, -1e308]]
+        rows.append(json.dumps(row))
+    stream = tmp_path / "s.jsonl"
+    stream.write_text("\n".join(rows) + "\n")
+    out = tmp_path / "o"
+    assert main(["run", str(REFERENCE), str(stream), "-o", str(out), "--quiet", "--format",
+                 "none"]) == 2  # fmt: skip
+    assert "line 1: out-of-range: channels.lav.plan[0]: a value beyond ±1e+09 in [0.0, 1e+308" in (
+        capsys.readouterr().err)
