@@ -23,7 +23,7 @@ from monitor.frames import ChannelState, Coverage, Frame
 from monitor.history import PlanHistory, chpps_frame, els_var
 from monitor.lone import LoneAges, benefit_of_doubt
 from monitor.prediction import ompv
-from monitor.resample import hold_standing, resample_objects, resample_plan
+from monitor.resample import hold_standing, resample_objects, resample_plan, smooth_plan
 from monitor.safety_score import arbitrate, safety_matrix
 from monitor.similarity import (
     compare_objects,
@@ -234,9 +234,12 @@ class MetricEngine:
         (spi-reference "Resampling"): every metric below reads these, never the raw samples."""
         step = self.params.resample_step
         still = self.params.plan_standstill
+        span = self.params.plan_smoothing
         return {
-            c: ChannelState(s.ego, hold_standing(resample_plan(s.plan, step), still),
-                            resample_objects(s.objects, step))
+            c: ChannelState(
+                s.ego, hold_standing(resample_plan(smooth_plan(s.plan, span), step), still),
+                resample_objects(s.objects, step),
+            )
             for c, s in frame.channels.items()
         }
 

@@ -292,3 +292,67 @@ def hold_standing(plan: np.ndarray, radius: float) -> np.ndarray:
     out[:, 1] = plan[0, 1]
     out[:, 2] = plan[0, 2]
     return out
+
+
+@kernel
+def _smooth_plan(plan, half):  # pragma: no cover - compiled
+    """Each point replaced by a least-squares quadratic in time through the points within
+    `half` seconds of it, evaluated at its time (points with fewer than three neighbours,
+    themselves included, are kept)."""
+    n = plan.shape[0]
+    out = plan.copy()
+    lo = 0
+    hi = 0
+    for k in range(n):
+        tk = plan[k, 0]
+        while lo < n and plan[lo, 0] < tk - half - 1e-9:
+            lo += 1
+        if hi < k:
+            hi = k
+        while hi < n and plan[hi, 0] <= tk + half + 1e-9:
+            hi += 1
+        m = hi - lo
+        if m < 3:
+            continue
+        # normal equations of x(t) = c0 + c1 u + c2 u^2, u = (t - tk) / half
+        s0 = 0.0
+        s1 = 0.0
+        s2 = 0.0
+        s3 = 0.0
+        s4 = 0.0
+        bx0 = bx1 = bx2 = 0.0
+        by0 = by1 = by2 = 0.0
+        for j in range(lo, hi):
+            u = (plan[j, 0] - tk) / half
+            u2 = u * u
+            s0 += 1.0
+            s1 += u
+            s2 += u2
+            s3 += u2 * u
+            s4 += u2 * u2
+            bx0 += plan[j, 1]
+            bx1 += plan[j, 1] * u
+            bx2 += plan[j, 1] * u2
+            by0 += plan[j, 2]
+            by1 += plan[j, 2] * u
+            by2 += plan[j, 2] * u2
+        # Cramer's rule for the constant term c0 of the symmetric 3x3 system
+        det = s0 * (s2 * s4 - s3 * s3) - s1 * (s1 * s4 - s2 * s3) + s2 * (s1 * s3 - s2 * s2)
+        if abs(det) < 1e-12:
+            continue
+        cx = (bx0 * (s2 * s4 - s3 * s3) - s1 * (bx1 * s4 - s3 * bx2)
+              + s2 * (bx1 * s3 - s2 * bx2)) / det
+        cy = (by0 * (s2 * s4 - s3 * s3) - s1 * (by1 * s4 - s3 * by2)
+              + s2 * (by1 * s3 - s2 * by2)) / det
+        out[k, 1] = cx
+        out[k, 2] = cy
+    return out
+
+
+def smooth_plan(plan: np.ndarray, span: float) -> np.ndarray:
+    """The plan with its sample noise smoothed (spi-reference "Plan smoothing"): every point
+    replaced by a least-squares quadratic in time through the points within span / 2 of it.
+    Exact for motion of constant acceleration; `span` 0 returns the plan as it is."""
+    if span <= 0.0 or len(plan) < 3:
+        return plan
+    return _smooth_plan(np.ascontiguousarray(plan, dtype=float), 0.5 * float(span))

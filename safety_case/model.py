@@ -98,6 +98,10 @@ class MetricParams(BaseModel):
         0, ge=0, le=1,
         description="1: ets compares each plan relative to its channel's ego position",
     )
+    plan_smoothing: float = Field(
+        0.0, ge=0, le=10,
+        description="span [s] of the quadratic fits that smooth a plan's sample noise (0: off)",
+    )
     plan_standstill: float = Field(
         1.0, ge=0, le=10,
         description="a plan within this distance [m] of its first point stands at that point",

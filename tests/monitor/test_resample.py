@@ -215,3 +215,20 @@ def test_uneven_samples_of_a_car_starting_off_never_go_backwards():
     # the same samples reversed in space (driving towards -x) mirror exactly
     mirrored = resample_plan(plan * np.array([1.0, -1.0, 1.0]), 0.1)[:, 1]
     np.testing.assert_allclose(mirrored, -x, atol=1e-12)
+
+
+def test_plan_smoothing_is_exact_for_constant_acceleration_and_damps_noise():
+    from monitor.resample import smooth_plan
+
+    t = np.arange(0.0, 3.01, 0.1)
+    plan = np.column_stack([t, 5 + 3 * t + 0.7 * t * t, -1 + 2 * t - 0.3 * t * t])
+    assert np.abs(smooth_plan(plan, 2.0) - plan).max() < 1e-9
+    assert smooth_plan(plan, 0.0) is plan
+    # white noise of 0.2 m along x, every 0.1 s: the 2 s quadratic fits leave about a third
+    noisy = plan.copy()
+    noisy[:, 1] += np.random.default_rng(0).normal(0.0, 0.2, len(t))
+    err = smooth_plan(noisy, 2.0)[:, 1] - plan[:, 1]
+    assert np.std(err) < 0.5 * np.std(noisy[:, 1] - plan[:, 1])
+    # two points: nothing to fit
+    two = plan[:2]
+    assert smooth_plan(two, 2.0) is two
