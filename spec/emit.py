@@ -244,7 +244,31 @@ def new_rtamt_spec(text: str, variables: list[str], period: float) -> Any:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # rtamt warns about undeclared io types; not ours
         spec.parse()
+    _single_children(spec.ast)
     return spec
+
+
+def _single_children(ast: Any) -> None:
+    """rtamt 0.4.10's `Addition` (and `Xor`) node adds its two children twice (BinaryNode's
+    constructor and its own), and the visitors that build and reset the online operators visit
+    every child: a `sum` expanded into nested `x + (prev ...)` then costs 2^samples at the first
+    update and at every reset (a 20-sample sum: 13 s). Evaluation reads only the first two
+    children, so dropping the repeats changes no value; without this fence the rtamt engine
+    hangs on sums that CW049 allows."""
+    stack = list(getattr(ast, "specs", []))
+    seen: set[int] = set()
+    while stack:
+        node = stack.pop()
+        if id(node) in seen:
+            continue
+        seen.add(id(node))
+        children = getattr(node, "children", None)
+        if not isinstance(children, list):
+            continue
+        if (len(children) == 4 and children[2] is children[0]
+                and children[3] is children[1]):  # fmt: skip
+            del children[2:]
+        stack.extend(children)
 
 
 def build_rtamt_monitor(formula: CompiledFormula, period: float) -> Any:

@@ -40,3 +40,31 @@ def test_a_sum_too_long_for_rtamt_is_a_finding() -> None:
     assert _found(stl_node("Sn1", "sum[0:5s](abs(els - 1)) < 3")) == []  # 51 samples
     ((code, message),) = _found(stl_node("Sn1", "sum[0:9.9s](abs(els - 1)) < 3"))  # 100
     assert code == "CW051" and "is nested too deeply for rtamt" in message
+
+
+def test_rtamt_builds_a_long_sum_in_linear_time() -> None:
+    """rtamt 0.4.10's Addition holds its children twice; unfenced, a 20-sample sum took 13 s
+    to build its operators (2^20 visits), and again at every reset. The fence drops the
+    repeats: every Addition has two children, and the values are the sum's."""
+    import time
+    from fractions import Fraction
+
+    from spec.emit import new_rtamt_spec, to_rtamt
+
+    text = to_rtamt(parse_formula("sum[0:6.9](abs(x - y)) < 3"), Fraction(1, 10))  # 70
+    started = time.perf_counter()
+    monitor = new_rtamt_spec(text, ["x", "y"], 0.1)
+    # before any update (which is where rtamt would visit the repeats): fails fast unfenced
+    stack, additions = list(monitor.ast.specs), 0
+    while stack:
+        node = stack.pop()
+        if type(node).__name__ == "Addition":
+            assert len(node.children) == 2
+            additions += 1
+        stack.extend(node.children)
+    assert additions == 69  # a sum of 70 samples adds 69 times
+    values = [monitor.update(i * 0.1, [("x", 1.0), ("y", 2.0)]) for i in range(72)]
+    monitor.reset()
+    again = monitor.update(0.0, [("x", 1.0), ("y", 2.0)])
+    assert time.perf_counter() - started < 5.0
+    assert values[69:] == [3.0 - 70, 3.0 - 70, 3.0 - 70] and again == float("-inf")
