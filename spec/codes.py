@@ -17,7 +17,7 @@ FORMULA_CODES: dict[str, tuple[Severity, str]] = {
     "CW048": ("error", "time window longer than 10^6 sampling periods"),
     "CW049": ("error", "`sum` window of more than 100 samples"),
     "CW050": ("warning", "a window reads no sample at the start, fixing the verdict there"),
-    "CW051": ("error", "formula nested too deeply (operators, or `not`) for rtamt"),
+    "CW051": ("error", "formula nested deeper than Python and rtamt can evaluate"),
 }
 
 

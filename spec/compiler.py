@@ -400,7 +400,7 @@ def _compile_one(
     monitored = Not(formula) if src.kind == "hazard" else formula
     rtamt_text = to_rtamt(monitored, period)
     try:
-        negations = _nested_negations(parse_rtamt(rtamt_text, float(period)))
+        parse_rtamt(rtamt_text, float(period))  # nesting as rtamt receives it (CW051)
     except FormulaError as err:  # CW051: too deep for rtamt as it receives the formula
         return None, [
             formula_finding(
@@ -412,21 +412,6 @@ def _compile_one(
                 src.mark.col,
                 hint="a `sum` reaches this near 75 samples (sum[0:7.4s] at 0.1 s); sum over a "
                 "shorter window",
-            )
-        ]
-    if negations > MAX_NEGATIONS:
-        return None, [
-            formula_finding(
-                "CW051",
-                f"{src.role or 'formula'} of node {src.node.id} is nested too deeply: it nests "
-                f"{negations} `not` inside each other as rtamt receives it (a hazard adds one, "
-                f"a repeated window two); at most {MAX_NEGATIONS}, since rtamt 0.4.10 takes "
-                "time exponential in that number to parse it (20 take 12 s)",
-                case.path,
-                src.mark.line,
-                src.mark.col,
-                hint="cancel double negations ('not not p' is 'p'), or move `not` inward: "
-                "'not (a and b)' is '(not a) or (not b)'",
             )
         ]
     known, _ = resolve_signals(formula, case.monitor.channels, case.monitor.signals)
@@ -467,24 +452,6 @@ def _caret_hint(text: str, col: int, width: int = 160) -> str:
     left = "..." if start > 0 else ""
     right = "..." if start + width < len(text) else ""
     return f"{left}{shown}{right}\n{' ' * (len(left) + col - 1 - start)}^"
-
-
-#: `not` nested inside each other in the rtamt text, at most (CW051; see _nested_negations).
-MAX_NEGATIONS = 12
-
-
-def _nested_negations(node: AstNode) -> int:
-    """The most `not` on one path from the root to a leaf. rtamt 0.4.10's parser takes time
-    exponential in it (0.2 s at 14, 3 s at 18, 12 s at 20), whatever sits between them."""
-    deepest, level = 0, [(node, 0)]
-    while level:
-        deeper = []
-        for current, count in level:
-            count += isinstance(current, Not)
-            deepest = max(deepest, count)
-            deeper.extend((child, count) for child in children(current))
-        level = deeper
-    return deepest
 
 
 def _persist_ticks(spi: SpiBinding | None, period: Fraction) -> int:

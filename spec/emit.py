@@ -249,12 +249,14 @@ def new_rtamt_spec(text: str, variables: list[str], period: float) -> Any:
 
 
 def _single_children(ast: Any) -> None:
-    """rtamt 0.4.10's `Addition` (and `Xor`) node adds its two children twice (BinaryNode's
-    constructor and its own), and the visitors that build and reset the online operators visit
-    every child: a `sum` expanded into nested `x + (prev ...)` then costs 2^samples at the first
-    update and at every reset (a 20-sample sum: 13 s). Evaluation reads only the first two
-    children, so dropping the repeats changes no value; without this fence the rtamt engine
-    hangs on sums that CW049 allows."""
+    """rtamt 0.4.10's `Addition` and `Xor` nodes add their two children twice, and `Neg` (`not`)
+    its one child twice (the base constructor and their own), and the visitors that build and
+    reset the online operators visit every child: a `sum` expanded into nested `x + (prev ...)`
+    then costs 2^samples at the first update and at every reset (a 20-sample sum: 13 s), and
+    so do nested `not`. Evaluation reads only the first children, so dropping the repeats
+    changes no value; without this fence the rtamt engine hangs on formulas the checks allow."""
+    from rtamt.syntax.node.unary_node import UnaryNode
+
     stack = list(getattr(ast, "specs", []))
     seen: set[int] = set()
     while stack:
@@ -268,6 +270,8 @@ def _single_children(ast: Any) -> None:
         if (len(children) == 4 and children[2] is children[0]
                 and children[3] is children[1]):  # fmt: skip
             del children[2:]
+        elif isinstance(node, UnaryNode) and len(children) == 2 and children[1] is children[0]:
+            del children[1:]
         stack.extend(children)
 
 
