@@ -163,19 +163,21 @@ def ompv(
     object of the same id (or, when the channel does not track, the nearest within `gate`) is
     within `tolerance`. N2 = previous objects + current objects that are new.
 
-    `standing` > 0 (spi-reference "Standing objects"): an object that neither was predicted to
-    move nor moved more than `standing` metres over `elapsed` (a new one: its own prediction
-    over `elapsed`) is left out of N1 and N2. Its prediction holds trivially, and a queue of
-    such objects at a red light outvoted every moving car whose prediction was wrong.
+    `standing` > 0 (spi-reference "Standing objects"): only previous objects found again now
+    that were predicted to move or moved more than `standing` metres over `elapsed` count
+    (N2 = those, N1 = those that followed). A standing object's prediction holds trivially, and
+    a queue of them at a red light outvoted every moving car whose prediction was wrong; an
+    object new or gone since is a question of existence (lone_age's), not of prediction, and
+    counted as a miss it took ompv to exactly 0 whenever the one moving car in view had
+    entered it in the last `ompv_lookback` seconds (9 % of nominal ticks of the sweep).
 
     The id lookup stays in Python (ids are strings); prediction and counting are compiled, and
     the nearest matching is `similarity.pair_objects` (called from Python: numba's disk cache
     would not notice a change to a kernel of another module compiled into this one).
     """
     n_prev, n_cur = len(prev), len(cur)
-    if n_prev == 0 and standing > 0.0 and n_cur:
-        own, _ = _predict(cur.pos, cur.pred, cur.pred_len, float(elapsed))
-        return 0.0 if (np.hypot(*(own - cur.pos).T) > standing).any() else 1.0
+    if n_prev == 0 and standing > 0.0:
+        return 1.0  # nothing was predicted: nothing to check
     if n_prev == 0:
         return 1.0 if n_cur == 0 else 0.0  # every current object is new: a miss
     index_cur = {oid: i for i, oid in enumerate(cur.ids)}
@@ -199,10 +201,7 @@ def ompv(
     seen_at = cur.pos[np.where(has, partner, 0)] if n_cur else prev.pos.copy()
     err = np.hypot(*(predicted - seen_at).T)
     moved = np.where(has, np.hypot(*(seen_at - prev.pos).T), 0.0)
-    counted = (np.hypot(*(predicted - prev.pos).T) > standing) | (moved > standing)
-    followed = counted & has & reaches & (err <= tolerance)
-    new = np.ones(n_cur, dtype=bool)
-    new[ci] = False
-    own, _ = _predict(cur.pos, cur.pred, cur.pred_len, float(elapsed))
-    n2 = int(counted.sum()) + int((new & (np.hypot(*(own - cur.pos).T) > standing)).sum())
+    counted = has & ((np.hypot(*(predicted - prev.pos).T) > standing) | (moved > standing))
+    followed = counted & reaches & (err <= tolerance)
+    n2 = int(counted.sum())
     return 1.0 if n2 == 0 else int(followed.sum()) / n2

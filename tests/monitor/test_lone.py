@@ -184,8 +184,14 @@ def test_standing_ompv_when_everything_is_gone():
     prev = frame(0.0, {"a": channel(ego(), objects=[
         obj("m", 0.0, 0.0, prediction=[[0.5, 5.0, 0.0]]), obj("s", 20.0, 0.0)])})
     none = frame(0.5, {"a": channel(ego())}).channels["a"].objects
-    # the moving car is gone (a miss), the standing one does not count
-    assert ompv(prev.channels["a"].objects, 0.5, none, 1.0, 3.0, standing=0.5) == 0.0
+    # the moving car is gone: existence (lone_age's), not prediction; nothing left to check
+    assert ompv(prev.channels["a"].objects, 0.5, none, 1.0, 3.0, standing=0.5) == 1.0
+    # the study's reading counts it (and the standing car) as misses
+    assert ompv(prev.channels["a"].objects, 0.5, none, 1.0, 3.0) == 0.0
+    # a moving car new since: not a miss either
+    new = frame(0.5, {"a": channel(ego(), objects=[
+        obj("n", 9.0, 9.0, prediction=[[0.5, 14.0, 9.0]])])}).channels["a"].objects
+    assert ompv(prev.channels["a"].objects, 0.5, new, 1.0, 3.0, standing=0.5) == 1.0
 
 
 def test_ols_tolerance_grows_with_range():
