@@ -73,7 +73,7 @@ class _Timed:
 
     __slots__ = ("items", "max_gap")
 
-    def __init__(self, size: int, max_gap: float):
+    def __init__(self, size: int | None, max_gap: float):
         self.items: deque = deque(maxlen=size)
         self.max_gap = max_gap
 
@@ -160,10 +160,9 @@ class MetricEngine:
             for pr in self.pairs
         }
         self._plans = PlanHistory(len(self.channels), p.plan_history, p.max_gap)
-        # ompv compares with the objects of `ompv_lookback` seconds ago: keep that much history
-        # (and one more observation, in case frames come late)
-        depth = max(1, math.ceil(p.ompv_lookback / min(p.resample_step, 0.05)) + 2)
-        self._objects = {c: _Timed(depth, p.max_gap) for c in self.channels}
+        # ompv compares with the objects of `ompv_lookback` seconds ago: the history is pruned
+        # by time in _motion_prediction, whatever the frame rate
+        self._objects = {c: _Timed(None, p.max_gap) for c in self.channels}
         self._ego = {c: _PoseWindow(p.comfort_span, p.max_gap) for c in self.channels}
         #: crpps Fréchet inputs per pair of the current step (None: no value), see _similarity
         self._crpps_inputs: list[tuple[np.ndarray, np.ndarray] | None] = []
@@ -340,6 +339,9 @@ class MetricEngine:
                         p.standing_motion,
                     )
             prev.push(t, s.objects)
+            # keep one observation at least ompv_lookback old, and everything newer
+            while len(prev.items) > 1 and t - prev.items[1][0] >= p.ompv_lookback - 1e-9:
+                prev.items.popleft()
         chpps_list, crpps_fd = chpps_frame(plans, t, p.trajectory_decay, self._crpps_inputs)
         self._crpps(crpps_fd, out)
         chpps_values = dict(zip(self.channels, chpps_list, strict=True))
