@@ -51,6 +51,10 @@ WARMING_UP = "(sum window filling)"
 #: the (re)start: the violation has not lasted `for:` of data (docs/formulas.md).
 PERSISTING = "(for window filling)"
 
+#: What a data gap names at a tick whose robustness is not a number (a division 0 / 0 of
+#: signals, `inf - inf`): neither a pass nor a violation (docs/formulas.md).
+UNDEFINED = "(not a number)"
+
 #: Receives each episode at its onset and when it closes, and each data gap when it closes.
 EventSink = Callable[[Episode | EpisodeOpen | NearMiss | DataGap | OddChange], None]
 
@@ -193,6 +197,8 @@ class Evaluator:
             return math.nan, [WARMING_UP]
         if robustness < 0 and feed.index <= feed.formula.persist_ticks:
             return math.nan, [PERSISTING]
+        if math.isnan(robustness):  # 0 / 0 of two signals, inf - inf: no verdict either way
+            return math.nan, [UNDEFINED]
         return robustness, []
 
     def _judge(self, state: FormulaState, t: float, values: Mapping[str, float | None]) -> Verdict:

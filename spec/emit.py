@@ -245,7 +245,31 @@ def new_rtamt_spec(text: str, variables: list[str], period: float) -> Any:
         warnings.simplefilter("ignore")  # rtamt warns about undeclared io types; not ours
         spec.parse()
     _single_children(spec.ast)
+    _ieee_division()
     return spec
+
+
+def _ieee_division() -> None:
+    """rtamt 0.4.10 divides with Python's `/`, which raises ZeroDivisionError when a divisor
+    signal reaches 0 at run time (`els / (els - els)`: CW045 only refuses the constant 0). The
+    numpy engine divides as IEEE 754 does (x / 0 = +-inf, 0 / 0 = NaN, a tick without a verdict
+    in evaluator.core); rtamt's division operation is given the same rule, once."""
+    from rtamt.semantics.arithmetic.discrete_time.online import division_operation
+
+    operation = division_operation.DivisionOperation
+    if getattr(operation, "_casewatch_ieee", False):
+        return
+
+    def update(self: Any, left: float, right: float) -> float:
+        try:
+            return left / right
+        except ZeroDivisionError:
+            if left == 0 or math.isnan(left):
+                return math.nan
+            return math.copysign(math.inf, left) * math.copysign(1.0, right)
+
+    operation.update = update  # type: ignore[method-assign]
+    operation._casewatch_ieee = True  # type: ignore[attr-defined]
 
 
 def _single_children(ast: Any) -> None:

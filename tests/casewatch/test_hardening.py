@@ -538,3 +538,38 @@ def test_plan_and_object_points_at_1e308_are_out_of_range_defects(tmp_path, caps
                  "none"]) == 2  # fmt: skip
     assert "line 1: out-of-range: channels.lav.plan[0]: a value beyond ±1e+09 in [0.0, 1e+308" in (
         capsys.readouterr().err)
+
+
+@pytest.mark.parametrize("engine", ["rtamt", "numpy", "both"])
+def test_a_division_by_a_signal_reaching_zero_is_ieee_not_a_crash(tmp_path, engine):
+    """`els / (els - els)` divides by 0 at every tick (CW045 only refuses the constant 0):
+    rtamt raised ZeroDivisionError; both engines now divide as IEEE 754 does (els > 0: +inf,
+    a pass of `> 1`), and a 0 / 0 would be a tick without a verdict."""
+    from tests.evaluator.streams import SMALL_CASE
+
+    case = tmp_path / "case.yaml"
+    case.write_text(SMALL_CASE.replace('spi: {signal: els, threshold: ">= 0.6"}',
+                                       'spi: {stl: "els / (els - els) > 1"}'))  # fmt: skip
+    stream = write_stream(tmp_path / "s.jsonl", frames=40)
+    out = tmp_path / "o"
+    assert main(["run", str(case), str(stream), "-o", str(out), "--quiet", "--format", "none",
+                 "--stl-engine", engine]) == 0  # fmt: skip
+    sn1 = next(f for f in json.loads((out / "result.json").read_text())["formulas"]
+               if f["id"] == "Sn1")  # fmt: skip
+    assert (sn1["ticks_evaluated"], sn1["ticks_violated"], sn1["worst_robustness"]) == (
+        40, 0, "Infinity")
+
+
+def test_a_not_a_number_robustness_is_no_data() -> None:
+    from evaluator.core import UNDEFINED, Evaluator
+    from spec.compiler import compile_case
+    from tests.spec.cases import make_case, stl_node
+
+    case = make_case(stl_node("Sn1", "x / y > 1"), signals={"x": "a", "y": "b"})
+    spec, _ = compile_case(case)
+    evaluator = Evaluator(case, spec)
+    statuses = [evaluator.step(i / 10, {"x": x, "y": y})["Sn1"]
+                for i, (x, y) in enumerate([(4.0, 2.0), (0.0, 0.0), (1.0, 0.0), (1.0, 2.0)])]
+    assert statuses == ["satisfied", "no-data", "satisfied", "violated"]
+    evaluator.finish()
+    assert [g.missing for g in evaluator.data_gaps] == [[UNDEFINED]]
