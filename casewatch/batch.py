@@ -155,7 +155,8 @@ def read_summary(folder: Path) -> dict:
     `out_dir` (what `diff`, `tune`, `calibrate` and `report` read of a fleet)."""
     path = Path(folder) / "summary.json"
     try:
-        summary = json.loads(path.read_text(encoding="utf-8"))
+        summary = json.loads(path.read_text(encoding="utf-8"),
+                             parse_int=lambda d: int(d) if len(d) < 300 else float(d))
         if not isinstance(summary, dict) or not isinstance(summary.get("per_log"), list):
             raise ValueError("no per_log list")
         if not all(isinstance(log, dict) and "out_dir" in log for log in summary["per_log"]):

@@ -30,6 +30,10 @@ class ResultError(Exception):
     """`result.json` cannot be read as a casewatch result; the message says why and where."""
 
 
+def _integer(digits: str) -> int | float:
+    return int(digits) if len(digits) < 300 else float(digits)
+
+
 def load_result(path: Path | str) -> RunResult:
     """Read and validate a `result.json`."""
     path = Path(path)
@@ -42,7 +46,9 @@ def load_result(path: Path | str) -> RunResult:
     except OSError as exc:
         raise ResultError(f"{path}: cannot read: {exc.strerror or exc}") from None
     try:
-        data = json.loads(raw.decode("utf-8"))
+        # an integer beyond float range (401 digits) reads as infinity, which the model then
+        # refuses with its key, instead of overflowing where a report divides by it
+        data = json.loads(raw.decode("utf-8"), parse_int=_integer)
     except UnicodeDecodeError as exc:
         raise ResultError(f"{path}: not UTF-8 text (byte {exc.start})") from None
     except json.JSONDecodeError as exc:

@@ -573,3 +573,17 @@ def test_a_not_a_number_robustness_is_no_data() -> None:
     assert statuses == ["satisfied", "no-data", "satisfied", "violated"]
     evaluator.finish()
     assert [g.missing for g in evaluator.data_gaps] == [[UNDEFINED]]
+
+
+def test_a_401_digit_count_in_result_json_is_refused_not_an_overflow(tmp_path, capsys):
+    case, stream = write_case(tmp_path / "case.yaml"), write_stream(tmp_path / "s.jsonl", 30)
+    out = tmp_path / "o"
+    assert main(["run", str(case), str(stream), "-o", str(out), "--quiet", "--format",
+                 "none"]) == 1  # fmt: skip
+    text = (out / "result.json").read_text()
+    (out / "result.json").write_text(text.replace('"ticks_violated": ',
+                                                  '"ticks_violated": ' + "9" * 401 + ", "
+                                                  '"ticks_violated_was": ', 1))  # fmt: skip
+    assert main(["report", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "formulas.0.ticks_violated: Input should be a finite number" in err
