@@ -12,8 +12,9 @@ Runs exactly what a user would type, in eight parts:
         --out out/demo-bags                   # as a ROS 2 bag with a real stack's timing
     casewatch run examples/odd/contracts-case.yaml examples/data/odd-grid --jobs 2 \
         --format none --quiet -o out/demo-odd-runs   # contracts over the ODD grid
-    casewatch odd out/demo-odd-runs --by road.type,environment.weather,environment.light \
-        -o out/demo-odd                       # the accepted domain, against the known degradation
+    casewatch odd out/demo-odd-runs \
+        --by environment.weather,environment.intensity,environment.light \
+        --bins intensity=0,30,70,100:light,medium,heavy -o out/demo-odd  # the study's 27 cells
     casewatch run examples/rules/rules-case.yaml examples/data/rules --labels auto --jobs 2 \
         --format none --quiet -o out/demo-rules    # traffic rules against SUMO's truth
     casewatch compare out/demo-rules --net examples/data/rules/rules.net.xml \
@@ -54,7 +55,8 @@ ODD_CASE = REPO / "examples" / "odd" / "contracts-case.yaml"
 ODD_GRID = DATA / "odd-grid"
 OUT_ODD_RUNS = Path("out") / "demo-odd-runs"
 OUT_ODD = Path("out") / "demo-odd"
-ODD_BY = "road.type,environment.weather,environment.light"
+ODD_BY = "environment.weather,environment.intensity,environment.light"
+ODD_BINS = "intensity=0,30,70,100:light,medium,heavy"  # the study's light, medium, heavy
 RULES_CASE = REPO / "examples" / "rules" / "rules-case.yaml"
 RULES_DATA = DATA / "rules"
 OUT_RULES = Path("out") / "demo-rules"
@@ -279,16 +281,26 @@ def odd_part() -> int:
     code, _ = quiet("6-run-odd", lambda: cli(run))
     if code not in (0, 1):
         return failed("the ODD grid run", code, "6-run-odd")
-    odd = ["odd", str(OUT_ODD_RUNS), "--by", ODD_BY, "-o", str(OUT_ODD)]
+    odd = ["odd", str(OUT_ODD_RUNS), "--by", ODD_BY, "--bins", ODD_BINS, "-o", str(OUT_ODD)]
     command("casewatch", *odd)
     code, text = quiet("6-odd", lambda: cli(odd))
     if code not in (0, 1):
         return failed("casewatch odd", code, "6-odd")
     cells = json.loads((OUT_ODD / "odd.json").read_text())["cells"]
     accepted = [c for c in cells if c["accepted"]]
+    # the study's table: a row per weather and intensity, a column per time of day
+    lights = {c["conditions"]["environment.light"] for c in cells}
+    columns = [li for li in ("day", "sunset", "night") if li in lights] + \
+        sorted(str(li) for li in lights - {"day", "sunset", "night"})
+    rows: dict[str, dict[str, str]] = {}
     for c in cells:
-        name = ", ".join(str(v) for v in c["conditions"].values())
-        print(f"  {'accepted' if c['accepted'] else 'rejected'}  {name}")
+        weather, level, light = (c["conditions"][a] for a in ODD_BY.split(","))
+        rows.setdefault(f"{weather} {level}", {})[light] = \
+            "accepted" if c["accepted"] else "rejected"
+    print(("  " + " " * 14 + "".join(f"{col:<10}" for col in columns)).rstrip())
+    for row, verdicts in rows.items():
+        print((f"  {row:<14}" + "".join(f"{verdicts.get(col, '-'):<10}"
+                                         for col in columns)).rstrip())  # fmt: skip
     agree = next((line.strip() for line in text.splitlines()
                   if line.startswith("Against the streams' known degradation")), "")  # fmt: skip
     print(f"  heatmap: {rel(OUT_ODD / 'odd.html')}")

@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -238,7 +239,8 @@ def main(args: argparse.Namespace) -> int:
         print(line)
     problem = binned_domain_problem(report)
     if problem:
-        print(f"No accepted-odd.yaml: {problem}")
+        print(textwrap.fill(f"No accepted-odd.yaml: {problem}", width=100,
+                            subsequent_indent="  "))  # fmt: skip
     truth = [c for c in report["cells"] if "degraded_truth" in c]
     if truth:
         agree = sum(1 for c in truth if c["degraded_truth"] != c["accepted"])
@@ -246,9 +248,11 @@ def main(args: argparse.Namespace) -> int:
               f"{len(truth)} cells agree")
         for c in truth:  # the agreeing ones are in the heatmap's truth column
             if c["degraded_truth"] == c["accepted"]:
-                print(f"  DIFFERS {cell_label(c['conditions'])}: degraded "
-                      f"{'yes' if c['degraded_truth'] else 'no'}, "
-                      f"{'accepted' if c['accepted'] else 'rejected'}")  # fmt: skip
+                print(textwrap.fill(
+                    f"DIFFERS {cell_label(c['conditions'])}: degraded "
+                    f"{'yes' if c['degraded_truth'] else 'no'}, "
+                    f"{'accepted' if c['accepted'] else 'rejected'}", width=100,
+                    initial_indent="  ", subsequent_indent="    "))  # fmt: skip
     where = written if odd is not None else (
         "no ODD written" if problem else "no cell accepted, no ODD written")
     print(f"{args.out / 'odd.html'}, {args.out / 'odd.json'}; {where}")

@@ -15,9 +15,11 @@ from safety_case.odd import parse_odd
 REPO = Path(__file__).resolve().parents[2]
 GRID = REPO / "examples" / "data" / "odd-grid"
 CASE = REPO / "examples" / "odd" / "contracts-case.yaml"
-#: two runs of four highway cells: two degraded (fog by day, rain at night), two not
-DRIVES = [f"odd-highway-{cell}-r{k}" for cell in ("clear-day", "rain-day", "fog-day",
-                                                   "rain-night") for k in (0, 1)]  # fmt: skip
+#: two runs of four cells: two degraded (heavy fog by day, medium rain at night), two not
+DRIVES = [f"odd-{cell}-r{k}" for cell in ("cloudy-light-day", "rain-light-day", "fog-heavy-day",
+                                          "rain-medium-night") for k in (0, 1)]  # fmt: skip
+#: the study's intensity bins
+BINS = ["--bins", "intensity=0,30,70,100:light,medium,heavy"]
 
 
 @pytest.fixture(scope="module")
@@ -36,26 +38,30 @@ def judged(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def test_the_degraded_cells_are_rejected_and_the_rest_is_the_domain(judged, tmp_path, capsys):
     out = tmp_path / "odd"
     code = main(["odd", str(judged), "-o", str(out), "--max-mae",
-                 "lead_gap__camera-gt_lead_gap=3"])  # fmt: skip
+                 "lead_gap__camera-gt_lead_gap=3", *BINS, "--by",
+                 "environment.weather,environment.intensity,environment.light"])  # fmt: skip
     printed = capsys.readouterr().out
     assert code == 0
     report = json.loads((out / "odd.json").read_text())
-    assert report["by"] == ["environment.light", "environment.weather"]  # what varies
-    cells = {(c["conditions"]["environment.weather"], c["conditions"]["environment.light"]): c
-             for c in report["cells"]}  # fmt: skip
-    assert set(cells) == {("clear", "day"), ("rain", "day"), ("fog", "day"), ("rain", "night")}
-    assert {k for k, c in cells.items() if c["accepted"]} == {("clear", "day"), ("rain", "day")}
-    fog = cells[("fog", "day")]
+    assert report["by"] == ["environment.weather", "environment.intensity", "environment.light"]
+    cells = {tuple(c["conditions"].values()): c for c in report["cells"]}
+    assert set(cells) == {("cloudy", "light", "day"), ("rain", "light", "day"),
+                          ("fog", "heavy", "day"), ("rain", "medium", "night")}
+    assert {k for k, c in cells.items() if c["accepted"]} == {("cloudy", "light", "day"),
+                                                              ("rain", "light", "day")}
+    fog = cells[("fog", "heavy", "day")]
     assert fog["rejected_by"][:1] == ["Sn1"] and fog["formulas"]["Sn1"]["rate"] > 0.5
     assert fog["mae"]["lead_gap__camera-gt_lead_gap"]["mae"] > 3
-    assert cells[("clear", "day")]["mae"]["lead_gap__camera-gt_lead_gap"]["mae"] < 1
+    assert cells[("cloudy", "light", "day")]["mae"]["lead_gap__camera-gt_lead_gap"]["mae"] < 1
     sn1 = fog["formulas"]["Sn1"]
     assert sn1["runs_judged"] == 2 and sn1["interval"] == "runs"
     assert sn1["violated_ticks"] <= sn1["judged_ticks"] and sn1["low"] <= sn1["rate"] <= sn1["high"]
     assert "4 of 4 cells agree" in printed
     domain = parse_odd(yaml.safe_load((out / "accepted-odd.yaml").read_text()))
-    assert domain.attributes == {"environment.light": ["day"],
-                                 "environment.weather": ["clear", "rain"]}
+    assert domain.attributes["environment.weather"] == ["cloudy", "rain"]
+    assert domain.attributes["environment.light"] == ["day"]
+    intensity = domain.attributes["environment.intensity"]  # the light bin, as a range
+    assert (intensity.min, intensity.max) == (0.0, 30.0)
     assert domain.combinations == []  # the accepted cells are the whole product
     html = (out / "odd.html").read_text()
     assert "Heatmap" in html and "detection_accuracy" in html and "rejected" in html
@@ -63,12 +69,12 @@ def test_the_degraded_cells_are_rejected_and_the_rest_is_the_domain(judged, tmp_
 
 def test_the_odd_gates_what_the_case_claims(judged, tmp_path):
     """The example case states the accepted ODD on its root goal's context: a fog drive is
-    outside it on every tick, a clear one inside."""
-    for name, expected in (("odd-highway-fog-day-r0", "outside"),
-                           ("odd-highway-clear-day-r0", "inside")):  # fmt: skip
+    outside it on every tick, a cloudy one inside."""
+    for name, expected in (("odd-fog-heavy-day-r0", "outside"),
+                           ("odd-cloudy-light-day-r0", "inside")):  # fmt: skip
         result = json.loads((judged / name / "result.json").read_text())
         (odd,) = result["odd"]
-        assert odd[expected] == 251 and odd["node_id"] == "C1"
+        assert odd[expected] == 201 and odd["node_id"] == "C1"
         statuses = {s["node_id"]: s["ticks"] for s in result["status"]}
         assert ("outside-odd" in statuses["C1"]) == (expected == "outside")
 
@@ -81,7 +87,8 @@ def test_strict_criterion_and_gating_subsets(judged, tmp_path, capsys):
     assert report["gating"] == ["Sn3"] and all(c["accepted"] for c in report["cells"])
     assert "rain" in {c["conditions"]["environment.weather"] for c in report["cells"]}
     capsys.readouterr()
-    # by light alone, each cell holds a degraded condition (fog by day, rain at night)
+    # by light alone, each cell holds a degraded condition (heavy fog by day, medium rain at
+    # night)
     code = main(["odd", str(judged), "-o", str(tmp_path / "none"), "--by", "environment.light",
                  "--formulas", "Sn1"])  # fmt: skip
     assert code == 1 and not (tmp_path / "none" / "accepted-odd.yaml").exists()
@@ -145,10 +152,10 @@ def test_reports_show_the_contracts_and_the_odd(judged):
     from reports.markdown import render_markdown
     from reports.render import load_result
 
-    result = load_result(judged / "odd-highway-fog-day-r0" / "result.json")
+    result = load_result(judged / "odd-fog-heavy-day-r0" / "result.json")
     md = render_markdown(result)
     assert "## Contracts" in md and "`gt_lead_gap < 60.0`" in md
-    assert "| C1 | accepted | 0 | 251 | 0 | `environment.weather` 251 |" in md
+    assert "| C1 | accepted | 0 | 201 | 0 | `environment.weather` 201 |" in md
     html = render_html(result)
     assert "Operational design domain" in html and "outside ODD" in html
     assert "library contract <code>detection_accuracy</code>" in html
@@ -157,10 +164,10 @@ def test_reports_show_the_contracts_and_the_odd(judged):
 def test_runs_under_one_condition_make_one_cell_named_by_all(judged, tmp_path, capsys):
     one = tmp_path / "one"
     one.mkdir()
-    for k in (0, 1):
-        shutil.copytree(judged / f"odd-highway-clear-day-r{k}", one / f"r{k}")
+    for k in (0, 1):  # one drive twice: no two drives share a continuous intensity
+        shutil.copytree(judged / "odd-cloudy-light-day-r0", one / f"r{k}")
     assert main(["odd", str(one / "r0"), str(one / "r1"), "-o", str(tmp_path / "o")]) == 0
     domain = parse_odd(yaml.safe_load((tmp_path / "o" / "accepted-odd.yaml").read_text()))
-    assert domain.attributes["environment.weather"] == ["clear"]
+    assert domain.attributes["environment.weather"] == ["cloudy"]
     assert domain.attributes["road.type"] == ["highway"]
     assert "ACCEPTED" in capsys.readouterr().out
