@@ -12,10 +12,10 @@ A frame without `world` reports nothing.
 Besides the world signals that rules read, a `world` can carry what the CARLA Leaderboard 2.0
 scores and no rule reads (`LEADERBOARD_INPUTS`: driving outside the route's lanes, route
 deviation, blocked, timeouts, an emergency vehicle not yielded to, the surrounding traffic's
-speed) and the side a marking is crossed to (`crossing_side`, which a case declares under
-monitor.signals to use the `broken_wrong_indicator` rule). They are all *not reported* when
-absent: the Leaderboard score then names the infraction "not scored", never "none".
-"""
+speed). They are all *not reported* when absent: the Leaderboard score then names the
+infraction "not scored", never "none". The side a marking is crossed to (`world.crossing`,
+the world signal `crossing_side` that `broken_wrong_indicator` reads) is *not reported* when
+a marking is crossed without it, and 0 when no marking is crossed."""
 
 from __future__ import annotations
 
@@ -49,6 +49,8 @@ WORLD_SIGNALS: dict[str, str] = {
     "3 two-wheeler, 4 object",
     "route_progress": "distance driven along the route [m]",
     "route_length": "length of the route [m]",
+    "crossing_side": "side the ego crosses a marking to: 0 none, 1 left, 2 right (the "
+    "indicator's codes)",
 }
 
 
@@ -66,8 +68,8 @@ LEADERBOARD_INPUTS: dict[str, str] = {
     "1 pedestrian, 2 vehicle, 3 two-wheeler, 4 object",
 }
 
-#: The side the ego crosses a marking to (a case declares it under monitor.signals to use
-#: `broken_wrong_indicator`): 0 not crossing, 1 left, 2 right (the indicator's codes).
+#: The world signal of the side the ego crosses a marking to (`broken_wrong_indicator` reads
+#: it): 0 not crossing, 1 left, 2 right (the indicator's codes).
 CROSSING_SIDE = "crossing_side"
 SIDES = {"left": 1.0, "right": 2.0}
 
@@ -123,8 +125,7 @@ def parse_world(raw: Any) -> dict[str, float | None]:
     unknown = sorted(set(w) - set(KEYS))
     if unknown:
         raise WorldError(f"world.{unknown[0]}: unknown key (known: {', '.join(KEYS)})")
-    out: dict[str, float | None] = dict.fromkeys((*WORLD_SIGNALS, *LEADERBOARD_INPUTS,
-                                                  CROSSING_SIDE))  # fmt: skip
+    out: dict[str, float | None] = dict.fromkeys((*WORLD_SIGNALS, *LEADERBOARD_INPUTS))
     if w.get("speed") is not None:
         out["vehicle_speed"] = _num(w["speed"], "world.speed", allow_negative=False)
     if w.get("speed_limit") is not None:

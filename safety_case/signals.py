@@ -85,6 +85,7 @@ WORLD_METRICS: dict[str, str] = {
     "4 object",
     "route_progress": "distance driven along the route [m]",
     "route_length": "length of the route [m]",
+    "crossing_side": "side the ego crosses a marking to: 0 none, 1 left, 2 right",
     "night": "1 when the conditions say environment.light is night",
     "fog": "1 when the conditions say environment.weather is fog",
 }

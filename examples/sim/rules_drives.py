@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from examples.sim.frames import print_bundle, write_jsonl, write_stream
-from examples.sim.odd_grid import CHANNELS, apply_effect, effects
+from examples.sim.odd_grid import CHANNELS, ChannelEffect, apply_effect
 from examples.sim.rules_net import EXEMPT_CLASS, MAIN, build_rules_net
 from examples.sim.simulate import LANE_CHANGE_DURATION, STEP, GroundTruth, sumo_to_centre
 
@@ -50,10 +50,12 @@ STOP_SIGN = "CSn_stop_sign"
 SOLID_LINE = "CSn_solid_line"
 DOUBLE_SOLID = "CSn_double_solid"
 BROKEN_NO_INDICATOR = "CSn_broken_no_indicator"
+BROKEN_WRONG_INDICATOR = "CSn_broken_wrong_indicator"
 NO_HEADLIGHTS = "CSn_no_headlights"
 NO_FOG_LIGHTS = "CSn_no_fog_lights"
 RULES = (SPEEDING_LIGHT, SPEEDING_HEAVY, COLLISION, COLLISION_VICTIM, RED_LIGHT, STOP_SIGN,
-         SOLID_LINE, DOUBLE_SOLID, BROKEN_NO_INDICATOR, NO_HEADLIGHTS, NO_FOG_LIGHTS)
+         SOLID_LINE, DOUBLE_SOLID, BROKEN_NO_INDICATOR, BROKEN_WRONG_INDICATOR, NO_HEADLIGHTS,
+         NO_FOG_LIGHTS)
 
 HEAVY_FACTOR = 1.2  # speeding above limit * 1.2 is heavy
 SPEEDING_MIN_DURATION = 0.5  # s, a speeding label's duration (its ticks times the period)
@@ -93,6 +95,7 @@ class Agent:
     indicator: bool
     inattentive: bool
     description: str
+    wrong_way_right: bool = False  # indicates left while changing to the right
 
     def lights(self, t: float, night: bool, fog: bool) -> tuple[bool, bool]:
         if self.name == "careful":
@@ -111,7 +114,8 @@ AGENTS: tuple[Agent, ...] = (
     Agent("hurried", 1.3, 2.6, 4.5, 1.0, 3.5, 3.0, True, True, True,
           "30 % above the limit, runs a light that turns yellow less than 3.5 s ahead, rolls "
           "over stop lines at 3 m/s, overtakes across solid and double solid lines (indicator "
-          "on), drives into a stopped car when inattentive, fog lights only from 15 s"),
+          "on; left when changing back to the right), drives into a stopped car when "
+          "inattentive, fog lights only from 15 s", wrong_way_right=True),
     Agent("sloppy", 1.1, 2.0, 3.5, 1.2, None, 1.2, True, False, True,
           "10 % above the limit, creeps over stop lines at 1.2 m/s, changes lanes without "
           "the indicator (also across solid lines), drives into a stopped car when inattentive, "
@@ -323,6 +327,7 @@ def simulate(sc: RulesScenario, agent: Agent, seed: int, work: Path) -> tuple[Gr
     controls: list[Control] = []
     changes = [c for c in sc.changes if agent.illegal_changes or not c.illegal]
     pending_change: LaneChange | None = None
+    change_right = False  # the pending change goes to a lane on the right
     route_length = 0.0
     depart_odo = sc.depart_pos
     prev_global: float | None = None
@@ -419,6 +424,7 @@ def simulate(sc: RulesScenario, agent: Agent, seed: int, work: Path) -> tuple[Gr
                 prev_global = None
             if marking is not None:
                 world["marking"] = marking
+                world["crossing"] = direction
             tr.marking_dir.append(direction)
 
             # --- lights and indicator ---------------------------------------------------
@@ -427,6 +433,8 @@ def simulate(sc: RulesScenario, agent: Agent, seed: int, work: Path) -> tuple[Gr
             changing = pending_change is not None
             if changing and not agent.indicator:
                 ls.vehicle.setSignals("ego", want)  # every tick: suppresses the blinker
+            elif changing and change_right and agent.wrong_way_right:
+                ls.vehicle.setSignals("ego", want | BLINK_LEFT)  # every tick: the wrong blinker
             elif k == 0 or ls.vehicle.getSignals("ego") & (LOW_BEAM | FOG) != want:
                 ls.vehicle.setSignals("ego", want)
             sig = ls.vehicle.getSignals("ego")
@@ -518,6 +526,7 @@ def simulate(sc: RulesScenario, agent: Agent, seed: int, work: Path) -> tuple[Gr
                 if pending_change.to == li:
                     pending_change = None
                 else:
+                    change_right = pending_change.to < li
                     if pending_change.illegal:
                         ls.vehicle.setVehicleClass("ego", EXEMPT_CLASS)
                     ls.vehicle.changeLane("ego", pending_change.to, 10.0)
@@ -676,6 +685,9 @@ def labels(tr: Trace, sc: RulesScenario) -> list[dict[str, Any]]:
     add(DOUBLE_SOLID, _runs([x.get("marking") == "double_solid" for x in w], t))
     add(BROKEN_NO_INDICATOR, _runs([x.get("marking") == "broken" and x["indicator"] == "off"
                                     for x in w], t))
+    add(BROKEN_WRONG_INDICATOR, _runs([x.get("marking") == "broken"
+                                       and x["indicator"] not in ("off", x["crossing"])
+                                       for x in w], t))
     if sc.light == "night":
         add(NO_HEADLIGHTS, _runs([v[k] > MOVING and not w[k]["lights"]["low_beam"]
                                   for k in range(len(t))], t, LIGHTS_MIN_DURATION))
@@ -712,12 +724,32 @@ def header(sc: RulesScenario, agent: Agent, seed: int, channels: tuple) -> dict[
     }}
 
 
+#: What the rule drives' conditions do to the channels: fog a noisy camera that sees 35 m and
+#: a lidar that sees 70 m, night a noisier camera (the ODD grid's effects before it had
+#: intensities, kept so the drives' channels do not change with the grid).
+CONDITION_EFFECTS: dict[str, dict[str, ChannelEffect]] = {
+    "fog": {"camera": ChannelEffect(noise=10.0, miss=5.0, range_m=35.0),
+            "lidar": ChannelEffect(noise=1.5, miss=1.5, range_m=70.0)},
+    "night": {"camera": ChannelEffect(noise=1.8, miss=1.5)},
+}
+
+
+def channel_effects(weather: str, light: str) -> dict[str, ChannelEffect]:
+    """Per channel, the combined effect of `weather` and `light` (factors multiply, the
+    shorter range cap wins)."""
+    out = {c.name: ChannelEffect() for c in CHANNELS}
+    for key in (weather, light):
+        for channel, eff in CONDITION_EFFECTS.get(key, {}).items():
+            out[channel] = out[channel].then(eff)
+    return out
+
+
 def write_drive(sc: RulesScenario, agent: Agent, seed: int, out: Path, work: Path
                 ) -> dict[str, Any]:
     from examples.sim.channels import ChannelModel
 
     gt, tr = simulate(sc, agent, seed, work)
-    eff = effects(sc.weather, sc.light)
+    eff = channel_effects(sc.weather, sc.light)
     channels = tuple(apply_effect(c, eff[c.name]) for c in CHANNELS)
     models = [ChannelModel(gt, p, (), seed) for p in channels]
 

@@ -100,11 +100,11 @@ def test_low_beam_in_fog():
 def test_the_indicator_must_point_the_way_of_a_broken_line_crossing():
     # crossing_side 1 left, 2 right (world.crossing), the indicator's codes. Ticks: a broken
     # line crossed to the left with the left indicator (fine), to the right with the left one
-    # (wrong: an event), to the right with none (broken_no_indicator's, not this rule's)
-    head = HEAD.replace("merge_gap: 1s}", "merge_gap: 1s, signals: {crossing_side: side}}")
+    # (wrong: an event), to the right with none (broken_no_indicator's, not this rule's).
+    # crossing_side is a built-in world signal: nothing to declare
     ticks = [{"marking": m, "indicator": i, "crossing_side": c} for m, i, c in
              [(0, 0, 0), (1, 1, 1), (0, 1, 0), (1, 1, 2), (1, 1, 2), (0, 0, 0), (1, 0, 2)]]
-    result = load_text(head + "  hazard: {use: broken_wrong_indicator}\n", "rules.yaml")
+    result = load_text(HEAD + "  hazard: {use: broken_wrong_indicator}\n", "rules.yaml")
     assert result.case is not None, [f.format() for f in result.findings]
     spec, _ = compile_case(result.case)
     ev = Evaluator(result.case, spec)
@@ -113,10 +113,12 @@ def test_the_indicator_must_point_the_way_of_a_broken_line_crossing():
     ev.finish()
     assert [(e.start, e.end) for e in ev.episodes] == [(0.3, 0.4)]
     assert events("{use: broken_no_indicator}", ticks) == [(0.6, 0.6)]
-    # without the declared side the rule says what to declare
-    undeclared = load_text(HEAD + "  hazard: {use: broken_wrong_indicator}\n", "rules.yaml")
-    (f,) = [f for f in undeclared.findings if f.code == "CW008"]
-    assert "crossing_side" in f.message and "monitor.signals" in f.message
+    # declaring it as a stream signal, as cases did before it was built in, names the clash
+    head = HEAD.replace("merge_gap: 1s}", "merge_gap: 1s, signals: {crossing_side: side}}")
+    declared = load_text(head + "  hazard: {use: broken_wrong_indicator}\n", "rules.yaml")
+    assert declared.case is None
+    assert any("'crossing_side' has the name of a built-in" in f.message
+               for f in declared.findings)
 
 
 def test_fog_lights_in_fog():
@@ -178,8 +180,8 @@ def test_the_traffic_rules_module_is_included_by_name(tmp_path):
                     "G1:\n  text: The ego drives safely\n  supportedBy: [G_traffic_rules]\n")
     c, spec = api.prepare(case)
     rules = {f.rule for f in spec.formulas}
-    # every rule but the one that needs a declared signal (crossing_side)
-    assert rules == set(library(RULES)) - {"broken_wrong_indicator"}
+    # every rule of the library, broken_wrong_indicator too (crossing_side is built in)
+    assert rules == set(library(RULES)) and len(rules) == 12
     assert all(f.node_id == f"CSn_{f.rule}" for f in spec.formulas)
     assert c.nodes["CSn_red_light"].challenges == ["G_traffic_rules"]
     # stop_sign's `once[0:30]` is counted at the case's 50 ms period

@@ -90,6 +90,9 @@ def test_header_and_world(drive: dict) -> None:
         if "stop_sign" in w:
             assert _num(w["stop_sign"]["distance"]) and w["stop_sign"]["distance"] <= 100.0
         assert w.get("marking") is None or w["marking"] in MARKINGS
+        # the side of every marking crossing, and none without one
+        assert w.get("crossing") == (None if w.get("marking") is None else w["crossing"])
+        assert w.get("marking") is None or w["crossing"] in {"left", "right"}
         assert w["indicator"] in INDICATOR
         assert set(w["lights"]) == {"low_beam", "fog"}
         assert all(isinstance(v, bool) for v in w["lights"].values())
@@ -115,7 +118,8 @@ def test_labels_on_grid_within_drive(drive: dict) -> None:
 
 def test_near_misses_are_in_the_bundle() -> None:
     """A light turning red right after the ego crossed, a stop with standstill, a broken-line
-    change with the indicator on, the ego hit by another: present and not labelled."""
+    change with the indicator pointing its way, the ego hit by another: present and not
+    labelled."""
     red_after = stop_ok = signalled = victim = 0
     for d in DRIVES:
         frames = _rows(DATA / d["stream"])[1:]
@@ -124,7 +128,8 @@ def test_near_misses_are_in_the_bundle() -> None:
             if ta and tb and ta["distance"] <= 0 < ta["distance"] + 2.5 \
                     and ta["state"] == "yellow" and tb["state"] == "red":
                 red_after += 1
-            if a["world"].get("marking") == "broken" and a["world"]["indicator"] != "off":
+            if a["world"].get("marking") == "broken" and \
+                    a["world"]["indicator"] == a["world"]["crossing"]:
                 signalled += 1
         for f in frames:
             s = f["world"].get("stop_sign")
