@@ -77,8 +77,8 @@ def test_a_degraded_case_on_a_bundled_drive_shows_exactly_its_new_episodes(tmp_p
     repo = Path(__file__).resolve().parents[2]
     stream = repo / "examples" / "data" / "highway-tailgated.jsonl.gz"
     text = (repo / "examples" / "reference-case.yaml").read_text()
-    degraded = text.replace('spi: {signal: els, threshold: ">= 0.6"}',
-                            'spi: {signal: els, threshold: ">= 0.9"}')  # fmt: skip
+    degraded = text.replace('spi: {signal: els, threshold: ">= 0.6", for: 0.5s}',
+                            'spi: {signal: els, threshold: ">= 0.9", for: 0.5s}')  # fmt: skip
     assert degraded != text
     a = run(tmp_path, "ref", text, stream)
     b = run(tmp_path, "degraded", degraded, stream)

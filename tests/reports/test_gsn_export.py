@@ -52,7 +52,7 @@ def test_the_export_is_plain_gsn2x(tmp_path: Path) -> None:
             assert set(node) <= gsn2x_keys, node_id
     assert set(doc["module"]) == {"name", "brief", "additionalInformation"}
     kept = doc["module"]["additionalInformation"]["casewatch"]
-    assert kept["bindings"]["Sn1"] == {"spi": {"signal": "els", "threshold": ">= 0.6"}}
+    assert kept["bindings"]["Sn1"] == {"spi": {"signal": "els", "threshold": ">= 0.6", "for": 0.5}}
     assert kept["bindings"]["CSn2"]["hazard"]["when"] == "lead_thw < 1.0 and ego_speed > 5.0"
     assert kept["monitor"]["channels"] == ["lav", "tfuse"]
 
