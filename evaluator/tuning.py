@@ -23,7 +23,7 @@ import numpy as np
 
 from evaluator.ground_truth import Label, match_counts, resolve_hazard
 from evaluator.signal_store import SavedSignals
-from evaluator.vector_eval import Unsupported, robustness
+from evaluator.vector_eval import Segments, Unsupported, evaluated_ticks, robustness
 from safety_case.model import Case
 from spec.ast import Compare, Formula, Interval, Node, Num, Signal, Window, children, walk
 from spec.model import CompiledSpec
@@ -197,7 +197,16 @@ def violations(knob: Knob, log: SavedSignals, threshold: float, duration: float)
     except Unsupported as exc:
         raise TuningError(f"{knob.formula_id}: {exc}") from None
     with np.errstate(invalid="ignore"):
-        return rho < 0 if knob.kind == "spi" else rho > 0
+        violated = rho < 0 if knob.kind == "spi" else rho > 0
+    persist = round(duration / log.period) if knob.duration_kind == "for" and duration > 0 else 0
+    if persist and violated.any():
+        # as `casewatch run` judges `for:` (docs/formulas.md): a violation counts once it has
+        # lasted `for:` of data, so the first `for / period` samples after the start of the log
+        # and after every restart (a gap) are no verdict
+        segments = Segments(log.t, evaluated_ticks(formula, columns), log.max_gap)
+        early = segments.index[segments.position < persist]
+        violated[early] = False
+    return violated
 
 
 def episodes_for(knob: Knob, log: SavedSignals, threshold: float, duration: float):

@@ -198,3 +198,22 @@ def test_durations_by_held_out_score_then_room_not_the_shortest_passing():
     assert sw.candidates()[c] == (1.0, 1.0)
     result = tune(sw)
     assert result["heldout"]["fp"] == 0 and result["heldout"]["fn"] == 0
+
+
+def test_violations_follow_run_s_persistence_after_a_restart():
+    """A `for:` SPI's violation counts once it has lasted `for:` of data, as `casewatch run`
+    judges it: after the start and after a gap the first for/period samples give no verdict."""
+    from evaluator.tuning import violations
+    from spec.ast import Num, Signal
+
+    condition = parse_formula("x >= 0.5")
+    assert isinstance(condition.left, Signal) and isinstance(condition.right, Num)
+    knob = Knob("Sn1", "Sn1", "s", "spi", ">= 0.5", condition, (), "x", ">=", True, 0.5,
+                "for", 0.3, 0.0, 0.0)
+    t = np.round(np.concatenate([np.arange(10) * 0.1, 2.0 + np.arange(10) * 0.1]), 6)
+    log = SavedSignals("log", t, ["x"], np.full((20, 1), 0.2), PERIOD, 0.5)
+    # 3 samples of each segment (the start, and after the 1.1 s gap) are no verdict
+    assert violations(knob, log, 0.5, 0.3).tolist() == [False] * 3 + [True] * 7 + \
+        [False] * 3 + [True] * 7
+    # without a `for:` every violated sample counts
+    assert violations(knob, log, 0.5, 0.0).all()
