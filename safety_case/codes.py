@@ -1,8 +1,10 @@
-"""The registry of structural check codes (CW001-CW039) and a helper to build findings from them.
+"""The registry of structural check codes (CW001-CW039, CW060-CW079) and a helper to build
+findings from them.
 
 Every code has a fixed severity and a one-line title; `docs/checks.md` documents the same table
 with a fixing example per code. A retired code is never reused: delete its row's meaning only by
-marking it retired here and in the docs. CW040-CW059 belong to the formula checks in `spec/`.
+marking it retired here and in the docs. CW040-CW059 belong to the formula checks in `spec/`;
+when CW001-CW039 were used up, the structural checks continued at CW060.
 """
 
 from __future__ import annotations
@@ -68,6 +70,7 @@ _TABLE: tuple[tuple[str, Severity, str], ...] = (
     ("CW037", "error", "node unreachable from the root goal"),
     ("CW038", "error", "node marked undeveloped but supported"),
     ("CW039", "warning", "goal or strategy without support, not marked undeveloped"),
+    ("CW060", "warning", "a used module's own `monitor` block is ignored"),
 )
 
 #: code -> CheckCode, in code order.

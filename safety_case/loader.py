@@ -269,6 +269,12 @@ class _Builder:
         self.bindings = kept.get("bindings", {})
         module = self.module(entries.get("module"))
         monitor_entry = entries.get("monitor") or kept.get("monitor")
+        if self.used_by and monitor_entry is not None:
+            self.add("CW060", "this module is used by another, and a case has one monitor: its "
+                     "own `monitor` block is ignored (the using case's channels, period and "
+                     "metrics apply; its contracts and ODDs are still checked against it)",
+                     monitor_entry.key_mark, "move what it sets into the using case's `monitor`, "
+                     "or delete the block here")  # fmt: skip
         monitor = None if self.used_by and monitor_entry is None else self.monitor(monitor_entry)
         self.monitor_config = monitor if monitor is not None else self.inherited
         self.monitor_given = monitor_entry is not None or self.inherited is not None

@@ -13,12 +13,13 @@ DOCS = Path(__file__).resolve().parents[2] / "docs" / "checks.md"
 
 def test_every_code_has_a_failing_fixture() -> None:
     # CW001: test_loader; CW029 (an id in two files): test_modules
-    covered = {f[0] for f in LOADER_FIXTURES + CHECK_FIXTURES} | {"CW001", "CW029"}
+    # CW060 (a used module's monitor): test_gsn2x
+    covered = {f[0] for f in LOADER_FIXTURES + CHECK_FIXTURES} | {"CW001", "CW029", "CW060"}
     assert covered == set(CODES)
 
 
 def test_codes_stay_in_the_structural_range() -> None:
-    assert all(re.fullmatch(r"CW0[0-3]\d", code) for code in CODES)
+    assert all(re.fullmatch(r"CW0[0-3]\d|CW0[67]\d", code) for code in CODES)
 
 
 def test_docs_table_lists_every_code_with_its_severity() -> None:

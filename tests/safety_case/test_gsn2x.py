@@ -116,6 +116,21 @@ def test_module_errors(tmp_path: Path) -> None:
                    f"{tmp_path / 'main.gsn.yaml'}:8"  # fmt: skip
 
 
+def test_a_used_module_s_own_monitor_is_ignored_with_a_warning(tmp_path: Path) -> None:
+    write(tmp_path, "main.yaml", "module: {name: main, brief: top, uses: [rules.yaml]}\n"
+          "monitor: {channels: [a, b], period: 0.1s}\nG1:\n  text: top\n"
+          "  supportedBy: [G2]\n")  # fmt: skip
+    write(tmp_path, "rules.yaml", "module: {name: rules, brief: b}\n"
+          "monitor: {channels: [x, y], period: 0.2s}\nG2:\n  text: rules\n"
+          "  undeveloped: true\n")  # fmt: skip
+    case, findings = check_file(tmp_path / "main.yaml")
+    assert case is not None  # a warning: the case still runs, with its own monitor
+    assert case.monitor.channels == ["a", "b"]
+    (hit,) = [f for f in findings if f.code == "CW060"]
+    assert (Path(hit.path).name, hit.line, hit.severity) == ("rules.yaml", 2, "warning")
+    assert "its own `monitor` block is ignored" in hit.message
+
+
 def test_kept_bindings_and_used_files_that_cannot_be_read(tmp_path: Path) -> None:
     (tmp_path / "latin1.gsn.yaml").write_bytes(b"G-X:\n  text: caf\xe9\n  undeveloped: true\n")
     write(tmp_path, "main.gsn.yaml", "module:\n  name: m\n  brief: b\n  uses: [latin1.gsn.yaml]\n"
