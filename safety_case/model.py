@@ -103,7 +103,7 @@ class MetricParams(BaseModel):
         description="span [s] of the quadratic fits that smooth a plan's sample noise (0: off)",
     )
     plan_standstill: float = Field(
-        1.0, ge=0, le=10,
+        0.0, ge=0, le=10,
         description="a plan within this distance [m] of its first point stands at that point",
     )
 

@@ -232,3 +232,18 @@ def test_plan_smoothing_is_exact_for_constant_acceleration_and_damps_noise():
     # two points: nothing to fit
     two = plan[:2]
     assert smooth_plan(two, 2.0) is two
+
+
+def test_a_plan_within_the_standstill_radius_stands_at_its_first_point():
+    from monitor.resample import hold_standing
+
+    # 0.2 m of along-path noise around a standing ego: every point within 1 m of the first
+    jitter = np.array([[0.0, 5.0, 1.0], [0.5, 5.2, 1.01], [1.0, 4.9, 0.98], [1.5, 5.3, 1.0]])
+    held = hold_standing(jitter, 1.0)
+    assert held[:, 1:].tolist() == [[5.0, 1.0]] * 4
+    assert held[:, 0].tolist() == jitter[:, 0].tolist()
+    # off (0), or a plan reaching farther than the radius: as published
+    assert hold_standing(jitter, 0.0) is jitter
+    moving = jitter.copy()
+    moving[-1, 1] = 6.5
+    assert hold_standing(moving, 1.0) is moving
