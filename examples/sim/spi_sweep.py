@@ -1,6 +1,6 @@
 """The SPI sweep: nominal false alarms and fault detection per SPI, seed and stack profile.
 
-    python -m examples.sim.spi_sweep --seeds 3 4 --profiles low mid high mixed --out out/sweep
+    python -m examples.sim.spi_sweep --seeds 6 7 --profiles low mid high mixed --out out/sweep
     python -m examples.sim.spi_sweep --seeds 1 --profiles mixed --scenarios urban-grid --out /tmp/s
 
 For every seed, scenario and stack profile (`examples.sim.stacks`: two independent stacks drawn
@@ -51,7 +51,7 @@ CASE = ROOT / "examples" / "reference-case.yaml"
 DEFAULT_SCENARIOS = ("highway-tailgating", "urban-grid", "highway-merge-realstack")
 #: Seeds the metrics and thresholds were calibrated on; reported figures use other seeds.
 CALIBRATION_SEEDS = (1, 2)
-REPORT_SEEDS = (3, 4)
+REPORT_SEEDS = (6, 7)
 
 
 @dataclass(frozen=True)

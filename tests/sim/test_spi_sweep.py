@@ -13,7 +13,7 @@ from evaluator.faults import read_fault_labels
 
 pytestmark = pytest.mark.sim
 
-#: A seed nothing was calibrated on (calibration: 1 and 2; the documented report: 3 and 4).
+#: A seed nothing was calibrated on (calibration: 1 and 2; the documented report: 6 and 7).
 SEED = 5
 
 
