@@ -33,12 +33,10 @@ class LoneAges:
     def __init__(self, gate: float, max_gap: float):
         self.gate = gate
         self.max_gap = max_gap
-        self.t: float | None = None
         self.reset()
 
     def reset(self) -> None:
         """Forget every object (a channel absent, a gap)."""
-        self.t = None
         self.pos = np.zeros((0, 2))
         self.vel = np.zeros((0, 2))
         self.age = np.zeros(0)
@@ -55,7 +53,7 @@ class LoneAges:
         lone = np.asarray(lone, dtype=bool)
         age = np.zeros(len(pos))
         keep = np.zeros(len(self.pos), dtype=bool)
-        if self.t is not None and len(self.pos):
+        if len(self.pos):
             recent = t - self.seen <= self.max_gap + 1e-9
             found = np.zeros(len(self.pos), dtype=bool)
             if len(pos) and recent.any():
@@ -67,7 +65,6 @@ class LoneAges:
                 age[cur[cont]] = self.age[idx[prev[cont]]] + (t - self.seen[idx[prev[cont]]])
             # not reported now: remembered until max_gap has passed since last seen
             keep = recent & ~found & (t - self.seen < self.max_gap - 1e-9)
-        self.t = t
         self.pos = np.concatenate([pos[lone], self.pos[keep]])
         self.vel = np.concatenate([vel[lone], self.vel[keep]])
         self.age = np.concatenate([age[lone], self.age[keep]])

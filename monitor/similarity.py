@@ -223,19 +223,19 @@ def _object_kernel(
         for p in range(length):
             # spi-reference "ots" Decision: predicted motion, each prediction relative to its
             # own object's position (where the objects are is ols's question)
-            xa = ya = 0.0
-            if la > 0:
-                q = min(p, la - 1)
-                xa, ya = pred_a[i, q, 1] - pos_a[i, 0], pred_a[i, q, 2] - pos_a[i, 1]
-            xb = yb = 0.0
+            xa = ya = xb = yb = 0.0
+            t_p = 0.0  # the point's time: A's when it predicts, else B's
             if lb > 0:
                 q = min(p, lb - 1)
                 xb, yb = pred_b[j, q, 1] - pos_b[j, 0], pred_b[j, q, 2] - pos_b[j, 1]
+                t_p = pred_b[j, q, 0]
+            if la > 0:
+                q = min(p, la - 1)
+                xa, ya = pred_a[i, q, 1] - pos_a[i, 0], pred_a[i, q, 2] - pos_a[i, 1]
+                t_p = pred_a[i, q, 0]
             gap = math.hypot(xa - xb, ya - yb)
             if time_scale > 0.0:
-                q_t = pred_a[i, min(p, la - 1), 0] if la > 0 else (
-                    pred_b[j, min(p, lb - 1), 0] if lb > 0 else 0.0)
-                gap = gap / (1.0 + q_t / time_scale)
+                gap = gap / (1.0 + t_p / time_scale)
             num += w[p] * (1.0 / (1.0 + gap))
             den += w[p]
             if p == length - 1 and (math.hypot(xa, ya) > standing
@@ -276,7 +276,7 @@ class ObjectComparison:
     pairs: int
     lone_a: np.ndarray
     lone_b: np.ndarray
-    ots_pairs: int = -1  # the pairs ots counts (standing ones left out); -1: all of `pairs`
+    ots_pairs: int  # the pairs ots counts (`pairs` less the standing ones)
 
     def scores(self, keep_a: np.ndarray, keep_b: np.ndarray) -> dict[str, float]:
         """ocs, ols, oos, oas, ots, with every unpaired core object counted (spi-reference
@@ -286,17 +286,14 @@ class ObjectComparison:
         neutral), 0 once unpaired for `lone_horizon` (it scores 0: a full disagreement about
         whether anything is there). The metric is the mean over pairs and unpaired objects."""
         n_lone_a, n_lone_b = int(self.lone_a.sum()), int(self.lone_b.sum())
-        ocs = 1.0 / (1.0 + abs(n_lone_a - n_lone_b))
-        count = self.pairs + n_lone_a + n_lone_b
-        if count == 0:
-            # spi-reference: 1.0 when nothing both channels can compare is there
-            return {"ocs": ocs, "ols": 1.0, "oos": 1.0, "oas": 1.0, "ots": 1.0}
         keep = float(np.sum(keep_a)) + float(np.sum(keep_b))
         lone = n_lone_a + n_lone_b
-        out = {"ocs": ocs}
-        for name, total in zip(("ols", "oos", "oas", "ots"), self.sums, strict=True):
-            pairs = self.ots_pairs if name == "ots" and self.ots_pairs >= 0 else self.pairs
+        out = {"ocs": 1.0 / (1.0 + abs(n_lone_a - n_lone_b))}
+        counts = (self.pairs, self.pairs, self.pairs, self.ots_pairs)
+        for name, total, pairs in zip(("ols", "oos", "oas", "ots"), self.sums, counts,
+                                      strict=True):  # fmt: skip
             mean = total / pairs if pairs else 1.0
+            # spi-reference: 1.0 when nothing both channels can compare is there
             out[name] = (total + keep * mean) / (pairs + lone) if pairs + lone else 1.0
         return out
 
@@ -323,7 +320,7 @@ def compare_objects(
     all_a = _all_core(len(a)) if core_a is None else core_a
     all_b = _all_core(len(b)) if core_b is None else core_b
     if len(a) == 0 and len(b) == 0:
-        return ObjectComparison((0.0, 0.0, 0.0, 0.0), 0, np.zeros(0, bool), np.zeros(0, bool))
+        return ObjectComparison((0.0, 0.0, 0.0, 0.0), 0, np.zeros(0, bool), np.zeros(0, bool), 0)
     w = _weights(decay, max(a.pred.shape[1], b.pred.shape[1], 1))
     ols, oos, oas, ots, n, n_ots, lone_a, lone_b = _object_kernel(
         a.pos, a.yaw, a.half, a.footprints, a.pred, a.pred_len,
