@@ -35,11 +35,12 @@ from evaluator.tuning import (
     Knob,
     TuningError,
     episodes_from,
+    filling,
     formula_for,
     round_sig,
     threshold_candidates,
 )
-from evaluator.vector_eval import Segments, Unsupported, robustness
+from evaluator.vector_eval import Unsupported, robustness
 
 #: `for:` windows [s] swept besides the original one (brief drops, such as a ghost object of a
 #: fraction of a second, are filtered by persistence, not by a threshold).
@@ -108,12 +109,8 @@ def _levels(knob: Knob, log: SavedSignals, duration: float) -> np.ndarray:
                          log.max_gap)  # fmt: skip
     except Unsupported as exc:
         raise TuningError(f"{knob.formula_id}: {exc}") from None
-    persist = round(duration / log.period) if duration > 0 else 0
-    if persist:
-        # `for:` as `casewatch run` judges it: no violation in the first for/period samples
-        # after the start and after every restart (`evaluator.tuning.violations` does the same)
-        segments = Segments(log.t, np.isfinite(log.column(knob.signal)), log.max_gap)
-        rho[segments.index[segments.position < persist]] = np.inf
+    # `for:` as `casewatch run` judges it: never violated while its window fills
+    rho[filling(log, np.isfinite(log.column(knob.signal)), duration)] = np.inf
     return rho if knob.op in (">=", ">") else -rho
 
 

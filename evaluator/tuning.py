@@ -198,15 +198,21 @@ def violations(knob: Knob, log: SavedSignals, threshold: float, duration: float)
         raise TuningError(f"{knob.formula_id}: {exc}") from None
     with np.errstate(invalid="ignore"):
         violated = rho < 0 if knob.kind == "spi" else rho > 0
-    persist = round(duration / log.period) if knob.duration_kind == "for" and duration > 0 else 0
-    if persist and violated.any():
-        # as `casewatch run` judges `for:` (docs/formulas.md): a violation counts once it has
-        # lasted `for:` of data, so the first `for / period` samples after the start of the log
-        # and after every restart (a gap) are no verdict
-        segments = Segments(log.t, evaluated_ticks(formula, columns), log.max_gap)
-        early = segments.index[segments.position < persist]
-        violated[early] = False
+    if knob.duration_kind == "for" and violated.any():
+        violated[filling(log, evaluated_ticks(formula, columns), duration)] = False
     return violated
+
+
+def filling(log: SavedSignals, evaluated: np.ndarray, duration: float) -> np.ndarray:
+    """Indices of the ticks at which an SPI's `for: duration` is still filling: the first
+    duration / period evaluated samples after the start of the log and after every restart (a
+    gap). `casewatch run` judges no violation there (docs/formulas.md), so neither do tune and
+    calibrate."""
+    persist = round(duration / log.period) if duration > 0 else 0
+    if not persist:
+        return np.zeros(0, dtype=np.int64)
+    segments = Segments(log.t, evaluated, log.max_gap)
+    return segments.index[segments.position < persist]
 
 
 def episodes_for(knob: Knob, log: SavedSignals, threshold: float, duration: float):
