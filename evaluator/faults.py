@@ -19,9 +19,10 @@ that SPI there (`detected`).
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
+
+from evaluator.ground_truth import label_interval, label_lines
 
 #: Fault family -> the built-in signals whose SPIs must reveal it.
 FAMILY_SIGNALS: dict[str, tuple[str, ...]] = {
@@ -77,40 +78,21 @@ def read_fault_labels(path: str | Path) -> list[FaultLabel]:
     """Every fault of a fault-labels file, in file order."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8", errors="replace")
+        data = path.read_bytes()
     except OSError as exc:
         raise FaultLabelsError(f"{path}: cannot read fault labels: {exc.strerror}") from None
     out: list[FaultLabel] = []
-    for number, raw in enumerate(text.splitlines(), start=1):
-        if not raw.strip():
-            continue
-        where = f"{path}:{number}"
-        try:
-            item = json.loads(raw)
-        except (json.JSONDecodeError, RecursionError):
-            raise FaultLabelsError(f"{where}: not a JSON object") from None
-        if not isinstance(item, dict):
-            raise FaultLabelsError(f"{where}: expected an object like "
-                                   '{"fault": "object_drop", "start": 4.0, "end": 7.0, '
-                                   '"channel": "lav"}')
+    example = '{"fault": "object_drop", "start": 4.0, "end": 7.0, "channel": "lav"}'
+    for number, where, item in label_lines(path, data, FaultLabelsError, example):
         fault = item.get("fault")
         if fault not in FAMILY_SIGNALS:
             raise FaultLabelsError(f"{where}: 'fault' must be one of "
                                    f"{', '.join(FAMILY_SIGNALS)}, got {fault!r}")
-        bounds = []
-        for key in ("start", "end"):
-            value = item.get(key)
-            if isinstance(value, bool) or not isinstance(value, int | float) or value != value:
-                raise FaultLabelsError(f"{where}: '{key}' must be a number of seconds, "
-                                       f"got {value!r}")
-            bounds.append(float(value))
-        if bounds[1] < bounds[0]:
-            raise FaultLabelsError(f"{where}: 'end' ({bounds[1]}) is before 'start' "
-                                   f"({bounds[0]})")
+        start, end = label_interval(item, where, FaultLabelsError)
         channel = item.get("channel")
         if not isinstance(channel, str) or not channel:
             raise FaultLabelsError(f"{where}: 'channel' must name the faulty channel")
-        out.append(FaultLabel(fault, bounds[0], bounds[1], channel, number))
+        out.append(FaultLabel(fault, start, end, channel, number))
     return out
 
 

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -30,6 +32,48 @@ class LabelsError(ValueError):
     """A labels file that cannot be used; the message names the file, line and field."""
 
 
+def label_lines(
+    path: Path, data: bytes, error: type[ValueError], example: str,
+) -> Iterator[tuple[int, str, dict]]:
+    """(line number, "file:line", object) of every non-blank line of a JSON Lines label file;
+    a line that is not a JSON object raises `error` naming the file and line (`example`: what
+    a line should look like). The hazard labels and the fault labels (`evaluator.faults`) are
+    read through it."""
+    for number, raw in enumerate(data.decode("utf-8", errors="replace").splitlines(), start=1):
+        if not raw.strip():
+            continue
+        where = f"{path}:{number}"
+        try:
+            item = json.loads(raw)
+        except json.JSONDecodeError as exc:
+            raise error(f"{where}: not valid JSON ({exc.msg} at column {exc.colno})") from None
+        except RecursionError:
+            raise error(f"{where}: JSON nested too deeply to be a label") from None
+        if not isinstance(item, dict):
+            raise error(f"{where}: expected an object like {example}")
+        yield number, where, item
+
+
+def label_interval(item: dict, where: str, error: type[ValueError]) -> tuple[float, float]:
+    """A label's closed interval [start, end] in seconds: two finite numbers, end not before
+    start (a NaN bound would match nothing and hide the label), else `error` naming the key."""
+    bounds = []
+    for key in ("start", "end"):
+        value = item.get(key)
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise error(f"{where}: '{key}' must be a number of seconds, got {value!r}")
+        try:
+            number = float(value)
+        except OverflowError:
+            number = math.inf
+        if not math.isfinite(number):
+            raise error(f"{where}: '{key}' must be a finite number of seconds, got {value!r}")
+        bounds.append(number)
+    if bounds[1] < bounds[0]:
+        raise error(f"{where}: 'end' ({bounds[1]}) is before 'start' ({bounds[0]})")
+    return bounds[0], bounds[1]
+
+
 def read_labels(path: str | Path) -> tuple[list[Label], str]:
     """Read a labels file (JSON Lines of `{"hazard", "start", "end"}`); returns labels, sha256."""
     path = Path(path)
@@ -38,33 +82,13 @@ def read_labels(path: str | Path) -> tuple[list[Label], str]:
     except OSError as exc:
         raise LabelsError(f"{path}: cannot read labels file: {exc.strerror}") from None
     labels: list[Label] = []
-    for number, raw in enumerate(data.decode("utf-8", errors="replace").splitlines(), start=1):
-        if not raw.strip():
-            continue
-        where = f"{path}:{number}"
-        try:
-            item = json.loads(raw)
-        except json.JSONDecodeError as exc:
-            raise LabelsError(
-                f"{where}: not valid JSON ({exc.msg} at column {exc.colno})"
-            ) from None
-        except RecursionError:
-            raise LabelsError(f"{where}: JSON nested too deeply to be a label") from None
-        if not isinstance(item, dict):
-            raise LabelsError(f"{where}: expected an object like "
-                              '{"hazard": "CSn1", "start": 12.0, "end": 14.5}')
+    example = '{"hazard": "CSn1", "start": 12.0, "end": 14.5}'
+    for number, where, item in label_lines(path, data, LabelsError, example):
         hazard = item.get("hazard")
         if not isinstance(hazard, str) or not hazard:
             raise LabelsError(f"{where}: 'hazard' must be a node id or hazard name (a string)")
-        bounds = []
-        for key in ("start", "end"):
-            value = item.get(key)
-            if isinstance(value, bool) or not isinstance(value, int | float):
-                raise LabelsError(f"{where}: '{key}' must be a number of seconds, got {value!r}")
-            bounds.append(float(value))
-        if bounds[1] < bounds[0]:
-            raise LabelsError(f"{where}: 'end' ({bounds[1]}) is before 'start' ({bounds[0]})")
-        labels.append(Label(hazard, bounds[0], bounds[1], number))
+        start, end = label_interval(item, where, LabelsError)
+        labels.append(Label(hazard, start, end, number))
     return labels, hashlib.sha256(data).hexdigest()
 
 

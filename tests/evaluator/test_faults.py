@@ -36,7 +36,7 @@ def test_reads_a_fault_labels_file(tmp_path: Path) -> None:
     ('{"fault": "phantom", "start": 3, "end": 2, "channel": "a"}', "'end' (2.0) is before"),
     ('{"fault": "phantom", "start": 1, "end": 2}', "'channel' must name"),
     ("[1, 2]", "expected an object"),
-    ("{oops", "not a JSON object"),
+    ("{oops", "not valid JSON (Expecting property name"),
 ])
 def test_bad_lines_name_file_line_and_key(tmp_path: Path, line: str, message: str) -> None:
     path = tmp_path / "x.fault-labels.jsonl"
@@ -65,3 +65,10 @@ def test_detection_needs_overlap_and_no_alarm_without_the_fault() -> None:
     assert not detected([(10.5, 11.0)], [(11.5, 12.5)], fault)
     # ... one elsewhere does not matter
     assert detected([(10.5, 11.0)], [(30.0, 31.0)], fault)
+
+
+def test_a_bound_that_is_no_finite_number_is_refused(tmp_path: Path) -> None:
+    path = tmp_path / "x.fault-labels.jsonl"
+    path.write_text('{"fault": "phantom", "start": NaN, "end": 2, "channel": "a"}\n')
+    with pytest.raises(FaultLabelsError, match=r":1: 'start' must be a finite number"):
+        read_fault_labels(path)

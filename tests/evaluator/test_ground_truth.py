@@ -84,3 +84,12 @@ def test_read_labels_round_trip(tmp_path):
     path.write_text('{"hazard": "CSn1", "start": 1, "end": 2.5, "source": "geometry"}\n\n')
     labels, digest = read_labels(path)
     assert labels == [Label("CSn1", 1.0, 2.5, 1)] and len(digest) == 64
+
+
+def test_hazard_label_bounds_must_be_finite(tmp_path):
+    from evaluator.ground_truth import LabelsError, read_labels
+
+    path = tmp_path / "d.labels.jsonl"
+    path.write_text('{"hazard": "CSn1", "start": 1, "end": Infinity}\n')
+    with pytest.raises(LabelsError, match=r":1: 'end' must be a finite number of seconds"):
+        read_labels(path)
