@@ -38,7 +38,7 @@ depend on which ticks were asked for before (apart from the track-id bookkeeping
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, fields
 from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
@@ -150,11 +150,12 @@ class ChannelParams:
         return {"fov_deg": float(self.fov_deg), "range_m": float(self.range_m)}
 
 
-#: Parameters added with the stack sampler (`examples.sim.stacks`) and their defaults, which
-#: keep the original models.
+#: Parameters added with the stack sampler (`examples.sim.stacks`) and their defaults (the
+#: dataclass's), which keep the original models.
 SAMPLER_FIELDS: dict[str, Any] = {
-    "pos_white_growth": 0.0, "miss_edge": 0.0, "plan_noise_lon": 0.0, "plan_noise_lat": 0.0,
-    "pred_noise_lon": 0.0, "pred_noise_lat": 0.0, "plan_foresight": None,
+    f.name: f.default for f in fields(ChannelParams)
+    if f.name in ("pos_white_growth", "miss_edge", "plan_noise_lon", "plan_noise_lat",
+                  "pred_noise_lon", "pred_noise_lat", "plan_foresight")
 }
 
 
@@ -408,8 +409,7 @@ def limit_foresight(
     changing by at most FORESIGHT_ACCEL / FORESIGHT_DECEL, along the route the ego will take
     (its true path further on, straight on past its end)."""
     ahead = true_plan_points(gt, tick, 4.0 * float(pts[-1, 0]) + 10.0, 0.1, motion)
-    k = tick + np.arange(len(ahead))
-    ahead_yaw = np.unwrap(motion.yaw[k])
+    ahead_yaw = np.unwrap(motion.yaw[tick + np.arange(len(ahead))])
     seg = np.hypot(np.diff(ahead[:, 1]), np.diff(ahead[:, 2]))
     s_ahead = np.concatenate([[0.0], np.cumsum(seg)])
     dt = pts[:, 0]

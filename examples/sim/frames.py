@@ -59,24 +59,44 @@ def header(sc: Scenario) -> dict[str, Any]:
     return {"header": head}
 
 
+def frame_count(sc: Scenario, gt: GroundTruth) -> int:
+    """The ticks a stream of `sc` holds: t = 0 to the scenario's duration."""
+    return int(np.searchsorted(gt.times, sc.duration + 1e-9, side="right"))
+
+
+def truth_signals(gt: GroundTruth, fol: lab.Following, k: int) -> dict[str, float | None]:
+    """The ground-truth scalar `signals` of tick `k` (see the module docstring)."""
+    e = gt.ego_index
+    return {
+        "speed_limit": _num(gt.speed_limit[k]),
+        "ego_speed": _num(gt.speed[k, e]),
+        "gt_lead_gap": _num(fol.lead_gap[k]),
+        "gt_lead_time_gap": _num(fol.lead_time_gap[k]),
+        "gt_follower_gap": _num(fol.follower_gap[k]),
+        "gt_follower_time_gap": _num(fol.follower_time_gap[k]),
+    }
+
+
+def drive_labels(
+    sc: Scenario, gt: GroundTruth,
+) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+    """The hazard labels (geometry and injected localisation faults, by start) and the SSM
+    conflict labels of a simulated drive."""
+    keep = gt.times[gt.times <= sc.duration + 1e-9]
+    labels = lab.geometry_labels(gt, sc.duration) + lab.fault_labels(sc, keep)
+    labels.sort(key=lambda d: (d["start"], d["hazard"]))
+    return labels, lab.ssm_labels(lab.read_ssm(gt.ssm_file), sc.duration)
+
+
 def frames(sc: Scenario, gt: GroundTruth) -> Iterator[dict[str, Any]]:
     """One frame per tick from t = 0 to the scenario's duration."""
     models = [ChannelModel(gt, params, sc.faults, sc.seed) for params in sc.channels]
     fol = lab.following(gt)
-    e = gt.ego_index
-    n = int(np.searchsorted(gt.times, sc.duration + 1e-9, side="right"))
-    for k in range(n):
+    for k in range(frame_count(sc, gt)):
         yield {
             "t": round(float(gt.times[k]), 3),
             "channels": {m.p.name: m.frame(k) for m in models},
-            "signals": {
-                "speed_limit": _num(gt.speed_limit[k]),
-                "ego_speed": _num(gt.speed[k, e]),
-                "gt_lead_gap": _num(fol.lead_gap[k]),
-                "gt_lead_time_gap": _num(fol.lead_time_gap[k]),
-                "gt_follower_gap": _num(fol.follower_gap[k]),
-                "gt_follower_time_gap": _num(fol.follower_time_gap[k]),
-            },
+            "signals": truth_signals(gt, fol, k),
         }
 
 
@@ -138,10 +158,7 @@ def generate(sc: Scenario, out_dir: Path, work_dir: Path | None = None) -> Gener
     gt = run(sc, work_dir)
     stream = out_dir / f"{sc.name}.jsonl.gz"
     count = write_stream(stream, header(sc), frames(sc, gt))
-    keep = gt.times[gt.times <= sc.duration + 1e-9]
-    labels = lab.geometry_labels(gt, sc.duration) + lab.fault_labels(sc, keep)
-    labels.sort(key=lambda d: (d["start"], d["hazard"]))
-    ssm = lab.ssm_labels(lab.read_ssm(gt.ssm_file), sc.duration)
+    labels, ssm = drive_labels(sc, gt)
     labels_path = out_dir / f"{sc.name}.labels.jsonl"
     ssm_path = out_dir / f"{sc.name}.ssm-labels.jsonl"
     write_jsonl(labels_path, labels)

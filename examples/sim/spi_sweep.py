@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import gzip
 import json
 import os
 import sys
@@ -39,8 +38,15 @@ import numpy as np
 
 from examples.sim import labels as lab
 from examples.sim.channels import ChannelModel
-from examples.sim.frames import _dump, _num, header, write_jsonl
-from examples.sim.inject import FAMILIES, InjectedFault, Injector, plan_faults
+from examples.sim.frames import (
+    drive_labels,
+    frame_count,
+    header,
+    truth_signals,
+    write_jsonl,
+    write_stream,
+)
+from examples.sim.inject import Injector, plan_faults
 from examples.sim.scenarios import SCENARIOS, Scenario
 from examples.sim.simulate import GroundTruth, run
 from examples.sim.stacks import PROFILE_LEVELS, sample_pair
@@ -88,11 +94,9 @@ def write_pair(sc: Scenario, gt: GroundTruth, profile: str, out: Path) -> Drive:
     channels = sample_pair(sc.seed, profile)
     sc = replace(sc, channels=channels)
     models = [ChannelModel(gt, p, sc.faults, sc.seed) for p in sc.channels]
-    n = int(np.searchsorted(gt.times, sc.duration + 1e-9, side="right"))
+    n = frame_count(sc, gt)
     times = gt.times[:n]
-    labels = lab.geometry_labels(gt, sc.duration) + lab.fault_labels(sc, times)
-    labels.sort(key=lambda d: (d["start"], d["hazard"]))
-    ssm = lab.ssm_labels(lab.read_ssm(gt.ssm_file), sc.duration)
+    labels, ssm = drive_labels(sc, gt)
     rng = np.random.default_rng([sc.seed, sorted(PROFILE_LEVELS).index(profile), 29])
     faults = plan_faults(gt, n, channels, rng, labels + ssm)
     busy = np.zeros(n, dtype=bool)
@@ -101,41 +105,30 @@ def write_pair(sc: Scenario, gt: GroundTruth, profile: str, out: Path) -> Drive:
     drops = _dropouts(rng, times, busy, [c.name for c in channels])
     injector = Injector(faults)
     fol = lab.following(gt)
-    e = gt.ego_index
+    clean_rows, fault_rows = [], []
+    for k in range(n):
+        reports, faulted = {}, {}
+        for m in models:
+            report = m.frame(k)  # also in a dropout: the model's track bookkeeping moves on
+            if any(c == m.p.name and a <= k <= b for c, a, b in drops):
+                continue
+            reports[m.p.name] = report
+            faulted[m.p.name] = injector.apply(k, m.p.name, report, m.reported)
+        t, signals = round(float(times[k]), 3), truth_signals(gt, fol, k)
+        clean_rows.append({"t": t, "channels": reports, "signals": signals})
+        fault_rows.append({"t": t, "channels": faulted, "signals": signals})
     head = header(sc)
     head["header"]["meta"]["stack_profile"] = profile
     clean_path = out / f"{sc.name}.jsonl.gz"
     fault_path = out / f"{sc.name}-faults.jsonl.gz"
-    with gzip.open(clean_path, "wt", compresslevel=6) as clean, \
-            gzip.open(fault_path, "wt", compresslevel=6) as faulty:
-        line = _dump(head) + "\n"
-        clean.write(line)
-        faulty.write(line)
-        for k in range(n):
-            reports, faulted = {}, {}
-            for m in models:
-                if any(c == m.p.name and a <= k <= b for c, a, b in drops):
-                    m.frame(k)  # keep the model's track bookkeeping moving
-                    continue
-                report = m.frame(k)
-                reports[m.p.name] = report
-                faulted[m.p.name] = injector.apply(k, m.p.name, report, m.reported)
-            signals = {
-                "speed_limit": _num(gt.speed_limit[k]), "ego_speed": _num(gt.speed[k, e]),
-                "gt_lead_gap": _num(fol.lead_gap[k]),
-                "gt_lead_time_gap": _num(fol.lead_time_gap[k]),
-                "gt_follower_gap": _num(fol.follower_gap[k]),
-                "gt_follower_time_gap": _num(fol.follower_time_gap[k]),
-            }  # fmt: skip
-            t = round(float(times[k]), 3)
-            clean.write(_dump({"t": t, "channels": reports, "signals": signals}) + "\n")
-            faulty.write(_dump({"t": t, "channels": faulted, "signals": signals}) + "\n")
+    write_stream(clean_path, head, clean_rows)
+    write_stream(fault_path, head, fault_rows)
     for stem in (sc.name, f"{sc.name}-faults"):
         write_jsonl(out / f"{stem}.labels.jsonl", labels)
         write_jsonl(out / f"{stem}.ssm-labels.jsonl", ssm)
-    fault_rows = [f.label(times) for f in faults]
-    write_jsonl(out / f"{sc.name}-faults.fault-labels.jsonl", fault_rows)
-    return Drive(sc.seed, profile, sc.name, clean_path, fault_path, fault_rows,
+    fault_labels = [f.label(times) for f in faults]
+    write_jsonl(out / f"{sc.name}-faults.fault-labels.jsonl", fault_labels)
+    return Drive(sc.seed, profile, sc.name, clean_path, fault_path, fault_labels,
                  [(c, float(times[a]), float(times[b])) for c, a, b in drops])
 
 
@@ -200,5 +193,3 @@ def main(argv: list[str] | None = None) -> int:
 if __name__ == "__main__":
     sys.exit(main())
 
-
-__all__ = ["FAMILIES", "Drive", "InjectedFault", "generate", "write_pair"]
