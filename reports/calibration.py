@@ -11,22 +11,15 @@ reads only the plain values of `calibration.json`.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 from reports.page import render_page
+from reports.plot import PlotFrame
 
 #: One colour per `for:` window, in sweep order.
 PALETTE = ("#1f4e8c", "#2e7d32", "#b7860b", "#d35400", "#7b5ea7", "#0e7490", "#c62828")
 
 
-@dataclass(frozen=True)
-class _Frame:
-    width: int = 340
-    height: int = 250
-    left: int = 48
-    top: int = 12
-    inner_w: int = 276
-    inner_h: int = 196
+#: Each SPI's chart box.
+_FRAME = PlotFrame(width=340, height=250, left=48, top=12, inner_w=276, inner_h=196)
 
 
 def _setting(point: dict, op: str) -> str:
@@ -46,7 +39,7 @@ def _detection(point: dict, faults: int) -> str:
 def _plot(row: dict, budget: float) -> dict | None:
     """The SVG geometry of one SPI's curve: polylines per `for:`, the budget line, the chosen
     point and the original."""
-    g = _Frame()
+    g = _FRAME
     curve = [p for p in row["curve"] if p["per_hour"] is not None]
     if not curve:
         return None
@@ -65,7 +58,7 @@ def _plot(row: dict, budget: float) -> dict | None:
             x, y = p["per_hour"] / cap, p["detection"]
         else:
             x, y = (p["threshold"] - lo) / span, p["per_hour"] / cap
-        return round(g.left + x * g.inner_w, 2), round(g.top + (1 - y) * g.inner_h, 2)
+        return round(g.x(x), 2), round(g.y(y), 2)
 
     lines, hidden = [], 0
     for k, d in enumerate(sorted({p["for"] for p in curve})):
@@ -82,16 +75,15 @@ def _plot(row: dict, budget: float) -> dict | None:
         detail = _rate(p) + (f", detected {p['detected']} of {row['faults']}" if tradeoff else "")
         return {"x": at[0], "y": at[1], "title": f"{what}: {_setting(p, row['op'])}: {detail}"}
 
-    budget_at = g.left + budget / cap * g.inner_w if tradeoff else g.top + (
-        1 - budget / cap) * g.inner_h  # fmt: skip
+    budget_at = g.x(budget / cap) if tradeoff else g.y(budget / cap)
     if tradeoff:
         x_label, y_label = "false alarms an hour", "faults detected"
-        x_ticks = [(f"{v * cap:.3g}", g.left + v * g.inner_w) for v in (0.0, 0.5, 1.0)]
-        y_ticks = [(f"{v:.0%}", g.top + (1 - v) * g.inner_h) for v in (0.0, 0.5, 1.0)]
+        x_ticks = [(f"{v * cap:.3g}", g.x(v)) for v in (0.0, 0.5, 1.0)]
+        y_ticks = [(f"{v:.0%}", g.y(v)) for v in (0.0, 0.5, 1.0)]
     else:
         x_label, y_label = f"threshold ({row['parameter']})", "false alarms an hour"
-        x_ticks = [(f"{lo + v * span:.3g}", g.left + v * g.inner_w) for v in (0.0, 0.5, 1.0)]
-        y_ticks = [(f"{v * cap:.3g}", g.top + (1 - v) * g.inner_h) for v in (0.0, 0.5, 1.0)]
+        x_ticks = [(f"{lo + v * span:.3g}", g.x(v)) for v in (0.0, 0.5, 1.0)]
+        y_ticks = [(f"{v * cap:.3g}", g.y(v)) for v in (0.0, 0.5, 1.0)]
     return {
         **g.__dict__, "lines": lines, "hidden": hidden, "cap": f"{cap:.3g}",
         "tradeoff": tradeoff, "budget_at": round(budget_at, 2), "x_label": x_label,

@@ -40,6 +40,27 @@ class Span:
 
 
 @dataclass(frozen=True)
+class PlotFrame:
+    """A small SVG chart's box (the tuning and calibration pages): its size in pixels and the
+    inner area the unit square maps to, y upwards."""
+
+    width: int
+    height: int
+    left: int
+    top: int
+    inner_w: int
+    inner_h: int
+
+    def x(self, u: float) -> float:
+        """Pixel column of `u` in [0, 1] along the x axis."""
+        return self.left + u * self.inner_w
+
+    def y(self, v: float) -> float:
+        """Pixel row of `v` in [0, 1] up the y axis."""
+        return self.top + (1 - v) * self.inner_h
+
+
+@dataclass(frozen=True)
 class PlotView:
     width: float
     height: float

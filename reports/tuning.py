@@ -7,20 +7,12 @@ autoescaping; it reads only the plain values `evaluator.tuning.tune` returns.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 from evaluator.tuning import pr_text
 from reports.page import render_page
+from reports.plot import PlotFrame
 
-
-@dataclass(frozen=True)
-class _Plot:
-    width: int = 300
-    height: int = 240
-    left: int = 42
-    top: int = 10
-    inner_w: int = 246
-    inner_h: int = 196
+#: The precision-recall chart's box.
+_PLOT = PlotFrame(width=300, height=240, left=42, top=10, inner_w=246, inner_h=196)
 
 
 def _pr(row: dict | None) -> str:
@@ -37,21 +29,20 @@ def _setting(point: dict, duration_kind: str | None) -> str:
 
 
 def _plot(result: dict) -> dict:
-    g = _Plot()
+    g = _PLOT
 
     def at(point: dict) -> dict | None:
         if point["precision"] is None or point["recall"] is None:
             return None
         return {
-            "x": round(g.left + point["recall"] * g.inner_w, 2),
-            "y": round(g.top + (1 - point["precision"]) * g.inner_h, 2),
+            "x": round(g.x(point["recall"]), 2),
+            "y": round(g.y(point["precision"]), 2),
             "title": f"{_setting(point, result['duration_kind'])}: P {point['precision']:.0%}, "
                      f"R {point['recall']:.0%}",
         }  # fmt: skip
 
     points = [p for p in (at(c) for c in result["curve"]) if p is not None]
-    ticks = [{"label": f"{v:.1f}", "x": g.left + v * g.inner_w, "y": g.top + (1 - v) * g.inner_h}
-             for v in (0.0, 0.5, 1.0)]  # fmt: skip
+    ticks = [{"label": f"{v:.1f}", "x": g.x(v), "y": g.y(v)} for v in (0.0, 0.5, 1.0)]
     return {**g.__dict__, "points": points, "ticks": ticks, "original": at(result["original"]),
             "tuned": at(result["tuned"]), "hidden": len(result["curve"]) - len(points)}  # fmt: skip
 
