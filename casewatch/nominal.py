@@ -26,7 +26,7 @@ import json
 import sys
 from pathlib import Path
 
-from evaluator.ground_truth import LabelsError, read_labels
+from evaluator.ground_truth import Label, LabelsError, read_labels
 from evaluator.nominal import DEFAULT_MARGIN, NominalShare, nominal_shares
 from reports.render import ResultError, load_result
 
@@ -46,6 +46,16 @@ def ssm_labels_path(labels: Path) -> Path | None:
         return None
     ssm = labels.with_name(labels.name[: -len(".labels.jsonl")] + ".ssm-labels.jsonl")
     return ssm if ssm.is_file() else None
+
+
+def nominal_labels(labels_path: Path, ssm: bool = True) -> list[Label]:
+    """Every interval that is not nominal for a run judged with `labels_path`: its labels and,
+    with `ssm`, the simulator's SSM conflicts beside them (raises `LabelsError`)."""
+    labels, _ = read_labels(labels_path)
+    conflicts = ssm_labels_path(labels_path) if ssm else None
+    if conflicts is not None:
+        labels += read_labels(conflicts)[0]
+    return labels
 
 
 def table(rows: dict[str, list[NominalShare]], limit: float) -> tuple[str, bool]:
@@ -94,10 +104,7 @@ def main(argv: list[str] | None = None) -> int:
                   "with --labels FILE (or --labels auto)", file=sys.stderr)
             return 2
         try:
-            labels, _ = read_labels(result.ground_truth.labels_path)
-            ssm = ssm_labels_path(Path(result.ground_truth.labels_path))
-            if args.ssm and ssm is not None:
-                labels += read_labels(ssm)[0]
+            labels = nominal_labels(Path(result.ground_truth.labels_path), args.ssm)
         except LabelsError as exc:
             print(f"casewatch.nominal: {exc}", file=sys.stderr)
             return 2

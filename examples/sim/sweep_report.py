@@ -17,9 +17,14 @@ from pathlib import Path
 from typing import Any
 
 from casewatch.cli import main as cli
-from casewatch.nominal import ssm_labels_path
-from evaluator.faults import FAMILY_SIGNALS, FaultLabel, detected, read_fault_labels
-from evaluator.ground_truth import read_labels
+from casewatch.nominal import nominal_labels
+from evaluator.faults import (
+    FAMILY_SIGNALS,
+    FaultLabel,
+    detected,
+    fault_labels_path,
+    read_fault_labels,
+)
 from evaluator.nominal import nominal_shares
 from evaluator.result import RunResult
 from reports.render import load_result
@@ -65,30 +70,32 @@ def spi_signals(result: RunResult) -> dict[str, str]:
 
 
 def figures_of(
-    clean: RunResult, faulted: RunResult | None, labels_path: Path,
-    faults: list[FaultLabel], into: dict[str, SpiFigures],
+    clean: RunResult, faulted: RunResult | None, faults: list[FaultLabel],
+    *into: dict[str, SpiFigures],
 ) -> None:
-    """Add one drive pair's figures to `into` (by SPI node id)."""
-    labels, _ = read_labels(labels_path)
-    ssm = ssm_labels_path(labels_path)
-    if ssm is not None:
-        labels += read_labels(ssm)[0]
-    signals = spi_signals(clean)
-    for share in nominal_shares(clean, labels):
-        fig = into.setdefault(share.node_id, SpiFigures(share.node_id, share.signal))
-        fig.evaluated += share.evaluated
-        fig.violated += share.violated
-    if faulted is None:
-        return
-    with_fault, without = spi_episodes(faulted), spi_episodes(clean)
-    for node, signal in signals.items():
-        fig = into.setdefault(node, SpiFigures(node, signal))
-        for fault in faults:
-            if signal not in FAMILY_SIGNALS[fault.fault]:
-                continue
-            row = fig.faults.setdefault(fault.fault, [0, 0])
+    """Add one drive pair's figures to each of `into` (by SPI node id): the clean run's
+    nominal shares (its labels and SSM conflicts not nominal) and, with the faulted run, each
+    fault's detection."""
+    if clean.ground_truth is None:
+        raise ValueError("the clean run was judged without labels")
+    shares = nominal_shares(clean, nominal_labels(Path(clean.ground_truth.labels_path)))
+    found: list[tuple[str, str, str, bool]] = []  # node, signal, family, detected
+    if faulted is not None:
+        with_fault, without = spi_episodes(faulted), spi_episodes(clean)
+        found = [(node, signal, f.fault,
+                  detected(with_fault.get(node, []), without.get(node, []), f))
+                 for node, signal in spi_signals(clean).items()
+                 for f in faults if signal in FAMILY_SIGNALS[f.fault]]  # fmt: skip
+    for target in into:
+        for share in shares:
+            fig = target.setdefault(share.node_id, SpiFigures(share.node_id, share.signal))
+            fig.evaluated += share.evaluated
+            fig.violated += share.violated
+        for node, signal, family, hit in found:
+            row = target.setdefault(node, SpiFigures(node, signal)).faults.setdefault(
+                family, [0, 0])
             row[0] += 1
-            row[1] += detected(with_fault.get(node, []), without.get(node, []), fault)
+            row[1] += hit
 
 
 def _judge(case: Path, folder: Path, out: Path) -> int:
@@ -118,11 +125,8 @@ def judge_and_report(drives: list[Any], case: Path, out: Path, json_path: Path |
     for d in drives:
         clean = load_result(results[str(d.clean.resolve())] / "result.json")
         faulted = load_result(results[str(d.faulted.resolve())] / "result.json")
-        labels = d.clean.with_name(d.clean.name.replace(".jsonl.gz", ".labels.jsonl"))
-        faults = read_fault_labels(
-            d.faulted.with_name(d.faulted.name.replace(".jsonl.gz", ".fault-labels.jsonl")))
-        for into in (groups[(d.seed, d.profile)], total):
-            figures_of(clean, faulted, labels, faults, into)
+        faults = read_fault_labels(fault_labels_path(d.faulted))
+        figures_of(clean, faulted, faults, groups[(d.seed, d.profile)], total)
     print_tables(groups, total)
     if json_path is not None:
         json_path.parent.mkdir(parents=True, exist_ok=True)
