@@ -105,9 +105,13 @@ def _bool(v: Any, where: str) -> float:
     return 1.0 if v else 0.0
 
 
-def _map(v: Any, where: str) -> dict:
+def _map(v: Any, where: str, known: tuple[str, ...] | None = None) -> dict:
+    """`v` as an object; with `known`, none of its keys outside it."""
     if not isinstance(v, dict):
         raise WorldError(f"{where}: expected an object, got {v!r:.40}")
+    unknown = sorted(set(v) - set(known)) if known is not None else []
+    if unknown:
+        raise WorldError(f"{where}.{unknown[0]}: unknown key (known: {', '.join(known)})")
     return v
 
 
@@ -121,10 +125,7 @@ TIMEOUT_KEYS = ("route", "scenario")
 def parse_world(raw: Any) -> dict[str, float | None]:
     """A frame's `world` as world-signal values (see the module docstring); `WorldError` for
     anything malformed."""
-    w = _map(raw, "world")
-    unknown = sorted(set(w) - set(KEYS))
-    if unknown:
-        raise WorldError(f"world.{unknown[0]}: unknown key (known: {', '.join(KEYS)})")
+    w = _map(raw, "world", KEYS)
     out: dict[str, float | None] = dict.fromkeys((*WORLD_SIGNALS, *LEADERBOARD_INPUTS))
     if w.get("speed") is not None:
         out["vehicle_speed"] = _num(w["speed"], "world.speed", allow_negative=False)
@@ -176,11 +177,7 @@ def parse_world(raw: Any) -> dict[str, float | None]:
     out["collision_at_fault"], out["collision_victim"] = float(at_fault), float(victim)
     out["collision_party"], out["collision_victim_party"] = party, victim_party
     if w.get("route") is not None:
-        route = _map(w["route"], "world.route")
-        unknown = sorted(set(route) - set(ROUTE_KEYS))
-        if unknown:
-            raise WorldError(f"world.route.{unknown[0]}: unknown key (known: "
-                             f"{', '.join(ROUTE_KEYS)})")  # fmt: skip
+        route = _map(w["route"], "world.route", ROUTE_KEYS)
         out["route_progress"] = _num(route.get("progress"), "world.route.progress")
         out["route_length"] = _num(route.get("length"), "world.route.length",
                                    allow_negative=False)  # fmt: skip
@@ -190,11 +187,7 @@ def parse_world(raw: Any) -> dict[str, float | None]:
     if w.get("blocked") is not None:
         out["blocked"] = _bool(w["blocked"], "world.blocked")
     if w.get("timeouts") is not None:
-        timeouts = _map(w["timeouts"], "world.timeouts")
-        unknown = sorted(set(timeouts) - set(TIMEOUT_KEYS))
-        if unknown:
-            raise WorldError(f"world.timeouts.{unknown[0]}: unknown key (known: "
-                             f"{', '.join(TIMEOUT_KEYS)})")  # fmt: skip
+        timeouts = _map(w["timeouts"], "world.timeouts", TIMEOUT_KEYS)
         for key in TIMEOUT_KEYS:
             if timeouts.get(key) is not None:
                 out[f"{key}_timeout"] = _bool(timeouts[key], f"world.timeouts.{key}")
