@@ -283,8 +283,8 @@ def hold_standing(plan: np.ndarray, radius: float) -> np.ndarray:
     along, a few cm across, every sample). Read as a path, that noise is a zigzag of tenths of
     a metre: headings from its segments turned the ego's footprint across its neighbours in the
     safety score, and two such zigzags read as different paths in chpps and crpps."""
-    if len(plan) < 2:
-        return plan
+    if radius <= 0.0 or len(plan) < 2:
+        return plan  # off (the study's reading): no work on the hot path
     d = np.hypot(plan[:, 1] - plan[0, 1], plan[:, 2] - plan[0, 2])
     if d.max() >= radius:
         return plan
