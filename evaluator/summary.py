@@ -53,17 +53,11 @@ class LogSummary(BaseModel):
     ground_truth: list[HazardCount] | None = None  # when the log was judged with labels
 
 
-class FleetFormula(BaseModel):
-    """One formula's totals over a fleet (summary.json `formulas[]`)."""
+class FleetFormula(FormulaCount):
+    """One formula's totals over a fleet (summary.json `formulas[]`): a log's counts summed,
+    and what only a fleet has."""
 
     model_config = ConfigDict(extra="allow")
-    formula_id: str
-    node_id: str
-    kind: str
-    episodes: int
-    ticks_violated: int
-    ticks_evaluated: int
-    ticks_no_data: int
     logs_with_episodes: int = 0
     episodes_per_hour: float | None = None
     violated_share: float | None = None
