@@ -23,14 +23,14 @@ lint: $(STAMP)
 	$(BIN)/ruff check .
 
 demo: $(STAMP)
-	$(BIN)/python -m casewatch.demo
+	$(BIN)/python -m tools.demo
 
 bench: $(STAMP)
-	$(BIN)/python -m casewatch.bench
+	$(BIN)/python -m bench
 
 data: $(STAMP)
 	$(BIN)/python -m pip install --quiet -e ".[test,sim]"
 	$(BIN)/python -m examples.sim.build_data
 
 clean:
-	rm -rf $(VENV) out bench/results.json .pytest_cache .ruff_cache
+	rm -rf $(VENV) out .pytest_cache .ruff_cache

@@ -14,13 +14,13 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
-from evaluator.result import RunResult, result_digest
-from evaluator.session import DEFAULT_MAX_NO_DATA, RunOptions, evaluate_stream
-from safety_case.checks import check_file, sort_findings
-from safety_case.findings import CaseError, Finding, has_errors
-from safety_case.model import Case
-from spec.compiler import check_formulas, compile_case
-from spec.model import CompiledSpec
+from casewatch.evaluator.result import RunResult, result_digest
+from casewatch.evaluator.session import DEFAULT_MAX_NO_DATA, RunOptions, evaluate_stream
+from casewatch.safety_case.checks import check_file, sort_findings
+from casewatch.safety_case.findings import CaseError, Finding, has_errors
+from casewatch.safety_case.model import Case
+from casewatch.spec.compiler import check_formulas, compile_case
+from casewatch.spec.model import CompiledSpec
 
 
 def check(path: str | Path, mode: str = "online") -> tuple[Case | None, list[Finding]]:
@@ -92,7 +92,7 @@ def render(
     out_dir: str | Path, formats: Sequence[str] = ("html", "md", "junit")
 ) -> dict[str, Path]:
     """Re-render the reports of a run folder from its result.json alone."""
-    from reports.render import load_result, render_reports
+    from casewatch.reports.render import load_result, render_reports
 
     out = Path(out_dir)
     return render_reports(load_result(out / "result.json"), out, formats)

@@ -18,16 +18,16 @@ from pathlib import Path
 from pydantic import ValidationError
 
 from casewatch.crash import write_crash_log
-from evaluator.ground_truth import LabelsError
-from evaluator.inputs import path_digest
-from evaluator.result import result_digest
-from evaluator.session import DEFAULT_MAX_NO_DATA, InputError, RunOptions, evaluate_stream
-from evaluator.signal_store import FILE_NAME as SIGNALS_FILE
-from evaluator.stl_engines import EngineMismatch
-from evaluator.summary import FleetSummary, LogSummary, summarise, summarise_result
-from monitor.bags.reader import is_bag
-from monitor.warmup import warm_up
-from safety_case.findings import CaseError
+from casewatch.evaluator.ground_truth import LabelsError
+from casewatch.evaluator.inputs import path_digest
+from casewatch.evaluator.result import result_digest
+from casewatch.evaluator.session import DEFAULT_MAX_NO_DATA, InputError, RunOptions, evaluate_stream
+from casewatch.evaluator.signal_store import FILE_NAME as SIGNALS_FILE
+from casewatch.evaluator.stl_engines import EngineMismatch
+from casewatch.evaluator.summary import FleetSummary, LogSummary, summarise, summarise_result
+from casewatch.monitor.bags.reader import is_bag
+from casewatch.monitor.warmup import warm_up
+from casewatch.safety_case.findings import CaseError
 
 STREAM_SUFFIXES = (".jsonl", ".jsonl.gz", ".ndjson", ".ndjson.gz")
 BAG_SUFFIXES = (".mcap", ".db3")
@@ -177,7 +177,7 @@ def reusable(job: Job, case_digest: str) -> LogSummary | None:
     result.json's case digest and stream sha256 match, and its own content digest still
     matches its content: an edited or damaged result is judged again), else None
     (`--resume`)."""
-    from reports.render import ResultError, load_result
+    from casewatch.reports.render import ResultError, load_result
 
     try:
         result = load_result(Path(job.out_dir) / "result.json")

@@ -13,7 +13,7 @@ from __future__ import annotations
 import contextlib
 from collections.abc import Callable, Sequence
 
-from evaluator.summary import LogSummary
+from casewatch.evaluator.summary import LogSummary
 
 #: Times a task is retried when its worker dies under it.
 RETRIES = 3
@@ -44,7 +44,7 @@ def run_on_dask(
         else:
             import dask
 
-            from monitor.warmup import warm_up
+            from casewatch.monitor.warmup import warm_up
 
             # Local workers fork from this process after it has imported casewatch and loaded
             # its compiled kernels (as --jobs does), instead of spawning fresh interpreters

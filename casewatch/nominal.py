@@ -26,9 +26,9 @@ import json
 import sys
 from pathlib import Path
 
-from evaluator.ground_truth import Label, LabelsError, read_labels
-from evaluator.nominal import DEFAULT_MARGIN, NominalShare, nominal_shares
-from reports.render import ResultError, load_result
+from casewatch.evaluator.ground_truth import Label, LabelsError, read_labels
+from casewatch.evaluator.nominal import DEFAULT_MARGIN, NominalShare, nominal_shares
+from casewatch.reports.render import ResultError, load_result
 
 
 def run_folders(out_dir: Path) -> list[Path]:

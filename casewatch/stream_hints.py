@@ -13,8 +13,8 @@ import difflib
 import re
 from pathlib import Path
 
-from evaluator.result import RunResult
-from reports.render import ResultError, load_result
+from casewatch.evaluator.result import RunResult
+from casewatch.reports.render import ResultError, load_result
 
 #: Defects quoted per kind; the rest is counted.
 QUOTED = 2

@@ -18,9 +18,14 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from casewatch import batch
-from evaluator.faults import FaultLabel, FaultLabelsError, fault_labels_path, read_fault_labels
-from evaluator.ground_truth import Label, LabelsError, read_labels
-from evaluator.signal_store import FILE_NAME, SavedSignals, SignalsError, load_signals
+from casewatch.evaluator.faults import (
+    FaultLabel,
+    FaultLabelsError,
+    fault_labels_path,
+    read_fault_labels,
+)
+from casewatch.evaluator.ground_truth import Label, LabelsError, read_labels
+from casewatch.evaluator.signal_store import FILE_NAME, SavedSignals, SignalsError, load_signals
 
 
 class LogsError(ValueError):

@@ -33,19 +33,19 @@ import textwrap
 from pathlib import Path
 
 from casewatch.commands.common import prepare_case, sweep_options_ok
-from casewatch.tuning_logs import LogsError, TuningLog, load_logs
-from evaluator.calibration import (
+from casewatch.evaluator.calibration import (
     CONFIDENCE,
     DEFAULT_MIN_HOURS,
     CalibrationLog,
     calibration_sweep,
     choose,
 )
-from evaluator.nominal import DEFAULT_MARGIN
-from evaluator.signal_store import SignalsError, nominal_only
-from evaluator.tuning import TuningError, knobs
-from reports.calibration import render_calibration
-from safety_case.rewrite import Change, RewriteError, rewrite
+from casewatch.evaluator.nominal import DEFAULT_MARGIN
+from casewatch.evaluator.signal_store import SignalsError, nominal_only
+from casewatch.evaluator.tuning import TuningError, knobs
+from casewatch.reports.calibration import render_calibration
+from casewatch.safety_case.rewrite import Change, RewriteError, rewrite
+from casewatch.tuning_logs import LogsError, TuningLog, load_logs
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

@@ -13,8 +13,8 @@ import sys
 from pathlib import Path
 
 from casewatch import api
-from safety_case.findings import Finding
-from safety_case.model import Case
+from casewatch.safety_case.findings import Finding
+from casewatch.safety_case.model import Case
 
 #: Findings with this code mean the file itself could not be read (exit 2, not 1).
 UNREADABLE_CODES = frozenset({"CW001"})

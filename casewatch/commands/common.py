@@ -7,9 +7,9 @@ from pathlib import Path
 
 from casewatch import api
 from casewatch.batch import FleetError, read_summary
-from safety_case.findings import CaseError
-from safety_case.model import Case
-from spec.model import CompiledSpec
+from casewatch.safety_case.findings import CaseError
+from casewatch.safety_case.model import Case
+from casewatch.spec.model import CompiledSpec
 
 
 def prepare_case(command: str, path: str) -> tuple[Case, CompiledSpec] | None:

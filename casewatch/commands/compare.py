@@ -19,10 +19,10 @@ import sys
 from pathlib import Path
 
 from casewatch.commands.common import UsageError, run_folders
-from evaluator.compare import compare_runs, unknown_keys
-from reports.compare import check_lines, render_compare_html, render_compare_md, stat_text
-from reports.render import ResultError, load_result
-from reports.roadmap import NetworkError, check_markers, read_opendrive, read_sumo_net
+from casewatch.evaluator.compare import compare_runs, unknown_keys
+from casewatch.reports.compare import check_lines, render_compare_html, render_compare_md, stat_text
+from casewatch.reports.render import ResultError, load_result
+from casewatch.reports.roadmap import NetworkError, check_markers, read_opendrive, read_sumo_net
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

@@ -10,10 +10,10 @@ from __future__ import annotations
 import argparse
 import sys
 
-from safety_case.checks import check_file, sort_findings
-from safety_case.findings import has_errors
-from spec.artifacts import write_artifacts
-from spec.compiler import compile_case
+from casewatch.safety_case.checks import check_file, sort_findings
+from casewatch.safety_case.findings import has_errors
+from casewatch.spec.artifacts import write_artifacts
+from casewatch.spec.compiler import compile_case
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

@@ -23,13 +23,13 @@ from pathlib import Path
 import orjson
 import yaml
 
-from monitor.bags.mapping import MappingError, TopicMapping, load_mapping, resolve_mapping
-from monitor.bags.reader import BagError, is_bag, read_bag
-from monitor.bags.storage import StorageError, open_storage
-from monitor.bags.writer import BagWriteError, default_mapping, write_bag
-from monitor.encode import frame_to_dict, header_to_dict
-from monitor.reader import StreamError, read_stream
-from safety_case.findings import CaseError
+from casewatch.monitor.bags.mapping import MappingError, TopicMapping, load_mapping, resolve_mapping
+from casewatch.monitor.bags.reader import BagError, is_bag, read_bag
+from casewatch.monitor.bags.storage import StorageError, open_storage
+from casewatch.monitor.bags.writer import BagWriteError, default_mapping, write_bag
+from casewatch.monitor.encode import frame_to_dict, header_to_dict
+from casewatch.monitor.reader import StreamError, read_stream
+from casewatch.safety_case.findings import CaseError
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

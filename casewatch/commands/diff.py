@@ -25,12 +25,12 @@ from pathlib import Path
 
 from casewatch.batch import labels_for
 from casewatch.commands.common import UsageError, run_folders
-from evaluator.diff import CHANGE_LABELS, diff_runs, regressions, totals
-from evaluator.ground_truth import LabelsError, read_labels, resolve_hazard
-from evaluator.policy import FAIL_ON
-from evaluator.result import LabelInterval, RunResult
-from reports.diff import render_diff_html, render_diff_md
-from reports.render import ResultError, load_result
+from casewatch.evaluator.diff import CHANGE_LABELS, diff_runs, regressions, totals
+from casewatch.evaluator.ground_truth import LabelsError, read_labels, resolve_hazard
+from casewatch.evaluator.policy import FAIL_ON
+from casewatch.evaluator.result import LabelInterval, RunResult
+from casewatch.reports.diff import render_diff_html, render_diff_md
+from casewatch.reports.render import ResultError, load_result
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

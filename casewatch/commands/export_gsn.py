@@ -12,10 +12,10 @@ import argparse
 import sys
 from pathlib import Path
 
-from reports.gsn_export import write_gsn
-from reports.render import ResultError, load_result
-from safety_case.checks import check_file
-from safety_case.findings import has_errors
+from casewatch.reports.gsn_export import write_gsn
+from casewatch.reports.render import ResultError, load_result
+from casewatch.safety_case.checks import check_file
+from casewatch.safety_case.findings import has_errors
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

@@ -19,9 +19,9 @@ import math
 import sys
 from pathlib import Path
 
-from monitor.bags.reader import is_bag
-from reports.render import ResultError, load_result
-from reports.scenario_export import ExportError, export_scenarios
+from casewatch.monitor.bags.reader import is_bag
+from casewatch.reports.render import ResultError, load_result
+from casewatch.reports.scenario_export import ExportError, export_scenarios
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

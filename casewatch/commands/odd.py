@@ -28,7 +28,7 @@ import numpy as np
 import yaml
 
 from casewatch.commands.common import UsageError, run_folders
-from evaluator.odd_analysis import (
+from casewatch.evaluator.odd_analysis import (
     Bins,
     RunInput,
     accepted_odd,
@@ -37,10 +37,10 @@ from evaluator.odd_analysis import (
     parse_bins,
     varying_attributes,
 )
-from evaluator.signal_store import SignalsError, load_signals
-from reports.odd import cell_label, render_odd_html, render_odd_text
-from reports.render import ResultError, load_result
-from safety_case.odd import attribute_problem, odd_to_data
+from casewatch.evaluator.signal_store import SignalsError, load_signals
+from casewatch.reports.odd import cell_label, render_odd_html, render_odd_text
+from casewatch.reports.render import ResultError, load_result
+from casewatch.safety_case.odd import attribute_problem, odd_to_data
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

@@ -6,8 +6,14 @@ import argparse
 import sys
 from pathlib import Path
 
-from evaluator.policy import FAIL_ON
-from reports.render import FORMATS, ResultError, load_result, parse_formats, render_reports
+from casewatch.evaluator.policy import FAIL_ON
+from casewatch.reports.render import (
+    FORMATS,
+    ResultError,
+    load_result,
+    parse_formats,
+    render_reports,
+)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -66,7 +72,7 @@ def main(args: argparse.Namespace) -> int:
 def _fleet(folder: Path) -> int:
     """A fleet folder: its overview page `fleet.html` (the logs' own reports stay as they are)."""
     from casewatch.batch import FleetError, read_summary
-    from reports.fleet import render_fleet
+    from casewatch.reports.fleet import render_fleet
 
     try:
         summary = read_summary(folder)

@@ -22,19 +22,19 @@ from casewatch.commands.export_scenarios import add_options as add_scenario_opti
 from casewatch.commands.export_scenarios import run_export
 from casewatch.crash import ENGINES_DISAGREE, INTERNAL_ERROR
 from casewatch.dask_engine import EngineError
+from casewatch.evaluator.eventlog import Event
+from casewatch.evaluator.ground_truth import LabelsError
+from casewatch.evaluator.policy import FAIL_ON, damaged, gated
+from casewatch.evaluator.result import DataGap, Episode, EpisodeOpen, NearMiss, OddChange, RunResult
+from casewatch.evaluator.session import DEFAULT_MAX_NO_DATA, InputError, RunOptions, evaluate_stream
+from casewatch.evaluator.signal_store import FILE_NAME as SIGNALS_FILE
+from casewatch.evaluator.stl_engines import ENGINES, EngineMismatch
+from casewatch.evaluator.summary import LogSummary
+from casewatch.monitor.bags.reader import is_bag
+from casewatch.monitor.warmup import warm_up
 from casewatch.progress import FleetProgress, StreamProgress
+from casewatch.reports.render import FORMATS, parse_formats
 from casewatch.stream_hints import RefusalHints, channel_hint, refusal_lines
-from evaluator.eventlog import Event
-from evaluator.ground_truth import LabelsError
-from evaluator.policy import FAIL_ON, damaged, gated
-from evaluator.result import DataGap, Episode, EpisodeOpen, NearMiss, OddChange, RunResult
-from evaluator.session import DEFAULT_MAX_NO_DATA, InputError, RunOptions, evaluate_stream
-from evaluator.signal_store import FILE_NAME as SIGNALS_FILE
-from evaluator.stl_engines import ENGINES, EngineMismatch
-from evaluator.summary import LogSummary
-from monitor.bags.reader import is_bag
-from monitor.warmup import warm_up
-from reports.render import FORMATS, parse_formats
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

@@ -20,11 +20,11 @@ import textwrap
 from pathlib import Path
 
 from casewatch.commands.common import prepare_case, sweep_options_ok
+from casewatch.evaluator.signal_store import SignalsError
+from casewatch.evaluator.tuning import TuningError, knobs, labels_of, pr_text, sweep, tune
+from casewatch.reports.tuning import render_tuning
+from casewatch.safety_case.rewrite import Change, RewriteError, rewrite
 from casewatch.tuning_logs import LogsError, load_logs
-from evaluator.signal_store import SignalsError
-from evaluator.tuning import TuningError, knobs, labels_of, pr_text, sweep, tune
-from reports.tuning import render_tuning
-from safety_case.rewrite import Change, RewriteError, rewrite
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

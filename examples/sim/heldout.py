@@ -26,10 +26,10 @@ import sys
 from pathlib import Path
 
 from casewatch.cli import main as cli
-from casewatch.demo import CASE, score_text
 from casewatch.nominal import main as nominal
 from examples.sim.build_data import main as build
 from examples.sim.scenarios import BUNDLED, HIGHWAY_MERGE_REALSTACK
+from tools.demo import CASE, score_text
 
 #: Seeds nothing was tuned on (see the module docstring).
 SEEDS = (101, 202)

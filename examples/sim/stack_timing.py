@@ -37,11 +37,11 @@ import yaml
 from rosbags.rosbag2 import StoragePlugin, Writer
 
 from casewatch import api
-from evaluator.session import RunOptions, evaluate_stream
-from monitor.bags.types import OBJECTS, ODOMETRY, TRAJECTORY
-from monitor.bags.writer import DEFAULT_T0_NS, MessageBuilder, default_mapping
-from monitor.frames import ChannelState
-from monitor.reader import read_stream
+from casewatch.evaluator.session import RunOptions, evaluate_stream
+from casewatch.monitor.bags.types import OBJECTS, ODOMETRY, TRAJECTORY
+from casewatch.monitor.bags.writer import DEFAULT_T0_NS, MessageBuilder, default_mapping
+from casewatch.monitor.frames import ChannelState
+from casewatch.monitor.reader import read_stream
 
 ROOT = Path(__file__).resolve().parents[2]
 CASE = ROOT / "examples" / "reference-case.yaml"

@@ -17,17 +17,17 @@ from pathlib import Path
 from typing import Any
 
 from casewatch.cli import main as cli
-from casewatch.nominal import nominal_labels
-from evaluator.faults import (
+from casewatch.evaluator.faults import (
     FAMILY_SIGNALS,
     FaultLabel,
     detected,
     fault_labels_path,
     read_fault_labels,
 )
-from evaluator.nominal import nominal_shares
-from evaluator.result import RunResult
-from reports.render import load_result
+from casewatch.evaluator.nominal import nominal_shares
+from casewatch.evaluator.result import RunResult
+from casewatch.nominal import nominal_labels
+from casewatch.reports.render import load_result
 
 
 @dataclass

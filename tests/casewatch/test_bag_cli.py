@@ -10,10 +10,10 @@ from pathlib import Path
 import pytest
 
 from casewatch.cli import main
-from monitor.bags.mapping import TopicMapping
-from monitor.bags.writer import default_mapping, write_bag
-from monitor.encode import frame_to_dict, header_to_dict
-from monitor.reader import read_stream
+from casewatch.monitor.bags.mapping import TopicMapping
+from casewatch.monitor.bags.writer import default_mapping, write_bag
+from casewatch.monitor.encode import frame_to_dict, header_to_dict
+from casewatch.monitor.reader import read_stream
 
 REPO = Path(__file__).resolve().parents[2]
 CASE = REPO / "examples" / "reference-case.yaml"

@@ -11,11 +11,11 @@ from pathlib import Path
 import numpy as np
 
 from casewatch import api
-from evaluator.session import RunOptions, evaluate_stream
+from casewatch.evaluator.session import RunOptions, evaluate_stream
+from casewatch.monitor.bags.writer import DEFAULT_T0_NS
+from casewatch.monitor.encode import frame_to_dict, header_to_dict
+from casewatch.monitor.reader import read_stream
 from examples.sim.stack_timing import _overlap, at_instant, record
-from monitor.bags.writer import DEFAULT_T0_NS
-from monitor.encode import frame_to_dict, header_to_dict
-from monitor.reader import read_stream
 from tests.monitor.bagkit import ego_state
 
 REPO = Path(__file__).resolve().parents[2]

@@ -10,8 +10,8 @@ from pathlib import Path
 import pytest
 
 from casewatch.cli import main
-from monitor.bags.mapping import load_mapping
-from monitor.bags.reader import BagReader
+from casewatch.monitor.bags.mapping import load_mapping
+from casewatch.monitor.bags.reader import BagReader
 
 REPO = Path(__file__).resolve().parents[2]
 DOC = (REPO / "docs" / "bags.md").read_text()

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import itertools
 
-from casewatch.bench import build_replay
-from monitor.reader import read_stream
+from bench.suite import build_replay
+from casewatch.monitor.reader import read_stream
 
 
 def test_replay_files_cover_the_hours_with_increasing_times(tmp_path):

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from casewatch.cli import main as cli
-from evaluator.signal_store import FILE_NAME, FORMAT_VERSION
+from casewatch.evaluator.signal_store import FILE_NAME, FORMAT_VERSION
 
 PERIOD = 0.1
 TICKS = 18000  # half an hour

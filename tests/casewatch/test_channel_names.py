@@ -8,7 +8,7 @@ from pathlib import Path
 
 from casewatch import api
 from casewatch.cli import main
-from spec.parser import parse_formula
+from casewatch.spec.parser import parse_formula
 from tests.evaluator.streams import SMALL_CASE, frame
 
 RENAME = {"lav": "chA", "tfuse": "Apollo7"}

@@ -15,8 +15,15 @@ import numpy as np
 import pytest
 
 from casewatch.cli import main
-from evaluator.result import CaseInfo, CaseNode, Episode, FormulaStats, RunResult, StreamInfo
-from reports.roadmap import (
+from casewatch.evaluator.result import (
+    CaseInfo,
+    CaseNode,
+    Episode,
+    FormulaStats,
+    RunResult,
+    StreamInfo,
+)
+from casewatch.reports.roadmap import (
     check_markers,
     fit_transform,
     read_opendrive,

@@ -3,7 +3,7 @@ options, each part ending on its verdict line."""
 
 from __future__ import annotations
 
-from casewatch import demo
+from tools import demo
 
 
 def test_commands_wrap_within_100_columns_between_options(capsys):

@@ -20,7 +20,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from casewatch.cli import main
-from monitor.reader import read_stream
+from casewatch.monitor.reader import read_stream
 from tests.casewatch.fuzz_inputs import (
     CHANNELS,
     ODD_FILES,

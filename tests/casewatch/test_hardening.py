@@ -232,7 +232,7 @@ def test_infinite_robustness_is_written_read_and_rendered(tmp_path, capsys, old,
     assert (first["start"], first["worst_robustness"]) == (0.0, "-Infinity")
     events = [json.loads(line) for line in (out / "events.jsonl").read_text().splitlines()]
     assert any(e.get("worst_robustness") == "-Infinity" for e in events)
-    from reports.render import load_result
+    from casewatch.reports.render import load_result
 
     episode = load_result(out / "result.json").episodes[0]
     assert episode.worst_robustness == float("-inf")
@@ -245,8 +245,8 @@ def test_infinite_robustness_is_written_read_and_rendered(tmp_path, capsys, old,
 
 def _disagreeing_engines(monkeypatch) -> None:
     """The numpy engine off by one at every value: `--stl-engine both` must catch it."""
-    import evaluator.session as session
-    from evaluator.stl_engines import WholeLog
+    import casewatch.evaluator.session as session
+    from casewatch.evaluator.stl_engines import WholeLog
 
     real = session.evaluate_whole_log
 
@@ -348,8 +348,8 @@ def test_frames_refused_as_non_increasing_make_a_damaged_fleet_log(tmp_path, cap
 
 
 def test_resume_judges_again_a_result_edited_after_it_was_written(tmp_path):
-    from evaluator.result import result_digest
-    from reports.render import load_result
+    from casewatch.evaluator.result import result_digest
+    from casewatch.reports.render import load_result
 
     case = write_case(tmp_path / "case.yaml")
     logs = tmp_path / "logs"
@@ -561,8 +561,8 @@ def test_a_division_by_a_signal_reaching_zero_is_ieee_not_a_crash(tmp_path, engi
 
 
 def test_a_not_a_number_robustness_is_no_data() -> None:
-    from evaluator.core import UNDEFINED, Evaluator
-    from spec.compiler import compile_case
+    from casewatch.evaluator.core import UNDEFINED, Evaluator
+    from casewatch.spec.compiler import compile_case
     from tests.spec.cases import make_case, stl_node
 
     case = make_case(stl_node("Sn1", "x / y > 1"), signals={"x": "a", "y": "b"})

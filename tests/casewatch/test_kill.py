@@ -14,10 +14,10 @@ from pathlib import Path
 import pytest
 
 from casewatch import api
-from evaluator.core import Evaluator
-from evaluator.eventlog import event_record
-from monitor.engine import MetricEngine
-from monitor.parse import parse_frame
+from casewatch.evaluator.core import Evaluator
+from casewatch.evaluator.eventlog import event_record
+from casewatch.monitor.engine import MetricEngine
+from casewatch.monitor.parse import parse_frame
 from tests.evaluator.streams import ego, write_case
 
 REPO = Path(__file__).resolve().parents[2]

@@ -10,7 +10,7 @@ import pytest
 import yaml
 
 from casewatch.cli import main
-from safety_case.odd import parse_odd
+from casewatch.safety_case.odd import parse_odd
 
 REPO = Path(__file__).resolve().parents[2]
 GRID = REPO / "examples" / "data" / "odd-grid"
@@ -148,9 +148,9 @@ def test_a_folder_without_runs_is_refused(tmp_path, capsys):
 
 
 def test_reports_show_the_contracts_and_the_odd(judged):
-    from reports.html import render_html
-    from reports.markdown import render_markdown
-    from reports.render import load_result
+    from casewatch.reports.html import render_html
+    from casewatch.reports.markdown import render_markdown
+    from casewatch.reports.render import load_result
 
     result = load_result(judged / "odd-fog-heavy-day-r0" / "result.json")
     md = render_markdown(result)

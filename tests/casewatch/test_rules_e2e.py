@@ -60,9 +60,9 @@ def test_every_event_is_placed_on_the_road(judged, tmp_path, capsys):
 
 
 def test_each_score_says_what_it_is_made_of(judged):
-    from reports.html import render_html
-    from reports.markdown import render_markdown
-    from reports.render import load_result
+    from casewatch.reports.html import render_html
+    from casewatch.reports.markdown import render_markdown
+    from casewatch.reports.render import load_result
 
     result = load_result(judged / "urban-lights-hurried" / "result.json")
     p, c = result.scores["penalty"], result.scores["carla"]

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from safety_case.model import (
+from casewatch.safety_case.model import (
     Case,
     HazardBinding,
     Module,

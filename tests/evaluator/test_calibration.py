@@ -11,7 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from evaluator.calibration import (
+from casewatch.evaluator.calibration import (
     CalibrationLog,
     _levels,
     calibration_sweep,
@@ -19,10 +19,10 @@ from evaluator.calibration import (
     poisson_upper,
     violated_at,
 )
-from evaluator.faults import FaultLabel
-from evaluator.signal_store import SavedSignals, nominal_only
-from evaluator.tuning import Knob, violations
-from spec.ast import Compare, Num, Signal
+from casewatch.evaluator.faults import FaultLabel
+from casewatch.evaluator.signal_store import SavedSignals, nominal_only
+from casewatch.evaluator.tuning import Knob, violations
+from casewatch.spec.ast import Compare, Num, Signal
 
 PERIOD = 0.1
 HOUR = 36000  # ticks

@@ -8,14 +8,14 @@ import json
 import pytest
 
 from casewatch import api
-from evaluator.core import Evaluator
-from evaluator.odd_analysis import accepted_odd, cluster_rate, t95, wilson
-from evaluator.odd_check import OddCheck
-from evaluator.session import RunOptions, evaluate_stream
-from monitor.parse import FrameDefect, parse_frame, parse_header
-from safety_case.loader import load_text
-from safety_case.odd import flatten_conditions, odd_to_data, parse_odd
-from spec.compiler import compile_case
+from casewatch.evaluator.core import Evaluator
+from casewatch.evaluator.odd_analysis import accepted_odd, cluster_rate, t95, wilson
+from casewatch.evaluator.odd_check import OddCheck
+from casewatch.evaluator.session import RunOptions, evaluate_stream
+from casewatch.monitor.parse import FrameDefect, parse_frame, parse_header
+from casewatch.safety_case.loader import load_text
+from casewatch.safety_case.odd import flatten_conditions, odd_to_data, parse_odd
+from casewatch.spec.compiler import compile_case
 from tests.evaluator.streams import ego
 
 CASE = """\
@@ -262,8 +262,8 @@ def test_the_accepted_odd_is_a_product_or_its_combinations():
 
 def test_leaving_and_reentering_the_odd_are_events():
     from casewatch.commands.run import event_line
-    from evaluator.eventlog import event_record
-    from evaluator.result import OddChange
+    from casewatch.evaluator.eventlog import event_record
+    from casewatch.evaluator.result import OddChange
 
     result = load_text(CASE, "case.yaml")
     spec, _ = compile_case(result.case)
@@ -303,7 +303,7 @@ def test_an_assumption_restarts_after_a_stream_gap(tmp_path, engine):
 
 
 def test_unreadable_conditions_are_a_defect_and_report_nothing(tmp_path):
-    from monitor.reader import StreamReader
+    from casewatch.monitor.reader import StreamReader
 
     stream = tmp_path / "s.jsonl"
     header = {"header": {"channels": ["lav", "tfuse"], "period": 0.1,

@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-from evaluator.diff import diff_runs, is_empty, regressions, totals
-from evaluator.result import LabelInterval, RunResult
-from reports.diff import render_diff_html, render_diff_md
-from reports.sample import sample_result
+from casewatch.evaluator.diff import diff_runs, is_empty, regressions, totals
+from casewatch.evaluator.result import LabelInterval, RunResult
+from casewatch.reports.diff import render_diff_html, render_diff_md
+from tools.sample import sample_result
 
 
 def with_csn2(run: RunResult, spans: list[tuple[float, float]]) -> RunResult:

@@ -1,6 +1,6 @@
 """Episodes: consecutive violating ticks, merged across short clean stretches."""
 
-from evaluator.episodes import EpisodeTracker
+from casewatch.evaluator.episodes import EpisodeTracker
 
 P = 0.1
 
@@ -71,7 +71,7 @@ def test_onset_is_announced_once_the_episode_is_certain():
     # min_duration 0.3 s, merge_gap 0.5 s, period 0.1 s: ticks 0.0 and 0.1 violate (0.2 s, not
     # yet certain), 0.2 is clean, 0.3 violates again: the same episode, now 0.4 s long, so it
     # is announced at 0.3 s with its start 0.0; later ticks do not announce it again
-    from evaluator.episodes import EpisodeTracker
+    from casewatch.evaluator.episodes import EpisodeTracker
 
     tracker = EpisodeTracker(0.5, 0.3, 0.1)
     seen = []

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from evaluator.faults import (
+from casewatch.evaluator.faults import (
     DETECTION_SLACK,
     FAMILY_SIGNALS,
     FaultLabel,

@@ -4,8 +4,8 @@ import json
 
 import pytest
 
-from evaluator.ground_truth import Label, LabelsError, read_labels, score_events
-from evaluator.result import Episode
+from casewatch.evaluator.ground_truth import Label, LabelsError, read_labels, score_events
+from casewatch.evaluator.result import Episode
 
 HAZARDS = {"CSn1": "Inconsistent ego localization", "CSn2": "Ego tailgating identified"}
 
@@ -87,7 +87,7 @@ def test_read_labels_round_trip(tmp_path):
 
 
 def test_hazard_label_bounds_must_be_finite(tmp_path):
-    from evaluator.ground_truth import LabelsError, read_labels
+    from casewatch.evaluator.ground_truth import LabelsError, read_labels
 
     path = tmp_path / "d.labels.jsonl"
     path.write_text('{"hazard": "CSn1", "start": 1, "end": Infinity}\n')

@@ -8,7 +8,7 @@ import json
 import pytest
 
 from casewatch import api
-from evaluator.session import RunOptions, evaluate_stream
+from casewatch.evaluator.session import RunOptions, evaluate_stream
 from tests.evaluator.streams import SMALL_CASE, ego
 
 
@@ -53,8 +53,8 @@ def test_near_misses_are_reported_not_violations(tmp_path):
 
 
 def test_reports_list_near_misses(tmp_path):
-    from reports.html import render_html
-    from reports.markdown import render_markdown
+    from casewatch.reports.html import render_html
+    from casewatch.reports.markdown import render_markdown
 
     text = SMALL_CASE.replace('threshold: ">= 0.6"}', 'threshold: ">= 0.6", warn: 0.2}')
     (tmp_path / "case.yaml").write_text(text)

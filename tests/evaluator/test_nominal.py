@@ -7,10 +7,10 @@ import json
 import numpy as np
 import pytest
 
+from casewatch.evaluator.ground_truth import Label
+from casewatch.evaluator.nominal import nominal_mask, nominal_shares
+from casewatch.evaluator.result import FormulaStats, NodeStatus, RunResult, StatusInterval
 from casewatch.nominal import main as nominal_main
-from evaluator.ground_truth import Label
-from evaluator.nominal import nominal_mask, nominal_shares
-from evaluator.result import FormulaStats, NodeStatus, RunResult, StatusInterval
 
 
 def formula(node: str, signal: str, kind: str = "spi") -> FormulaStats:
@@ -49,7 +49,7 @@ def test_shares_count_only_evaluated_nominal_ticks():
 
 
 def test_cli_needs_labels_and_prints_the_table(tmp_path, capsys):
-    from evaluator.result import CaseInfo, GroundTruth, HazardScore, StreamInfo
+    from casewatch.evaluator.result import CaseInfo, GroundTruth, HazardScore, StreamInfo
 
     labels = tmp_path / "drive.labels.jsonl"
     labels.write_text(json.dumps({"hazard": "CSn1", "start": 4.2, "end": 4.3}) + "\n")

@@ -9,9 +9,9 @@ from types import SimpleNamespace
 
 import pytest
 
-from evaluator.odd_analysis import Bins, RunInput, accepted_odd, analyse, parse_bins
-from reports.odd import render_odd_html, render_odd_text
-from safety_case.model import OddRange
+from casewatch.evaluator.odd_analysis import Bins, RunInput, accepted_odd, analyse, parse_bins
+from casewatch.reports.odd import render_odd_html, render_odd_text
+from casewatch.safety_case.model import OddRange
 
 
 def run(name: str, attributes: dict, violated: int, judged: int = 100) -> RunInput:

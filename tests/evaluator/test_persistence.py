@@ -12,12 +12,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from evaluator.core import PERSISTING, Evaluator, rtamt_monitor
-from evaluator.signal_store import Columns
-from evaluator.stl_engines import CheckedMonitor, PrecomputedMonitor, evaluate_whole_log
-from spec.compiler import compile_case
-from spec.parser import parse_rtamt
-from spec.reference_eval import reference_verdicts
+from casewatch.evaluator.core import PERSISTING, Evaluator, rtamt_monitor
+from casewatch.evaluator.signal_store import Columns
+from casewatch.evaluator.stl_engines import CheckedMonitor, PrecomputedMonitor, evaluate_whole_log
+from casewatch.spec.compiler import compile_case
+from casewatch.spec.parser import parse_rtamt
+from casewatch.spec.reference_eval import reference_verdicts
 from tests.spec.cases import make_case, spi_node
 
 PERIOD = 0.1

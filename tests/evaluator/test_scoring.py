@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 from pydantic import ValidationError
 
-from evaluator.result import Episode, FormulaStats
-from evaluator.scoring import score_run
-from safety_case.model import ScoringParams
+from casewatch.evaluator.result import Episode, FormulaStats
+from casewatch.evaluator.scoring import score_run
+from casewatch.safety_case.model import ScoringParams
 
 
 def formula(fid: str, rule: str | None) -> FormulaStats:

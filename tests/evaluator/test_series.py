@@ -3,7 +3,7 @@
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from evaluator.series import DecimatedSeries
+from casewatch.evaluator.series import DecimatedSeries
 
 
 def test_short_series_is_kept_per_tick():

@@ -7,7 +7,7 @@ import json
 import pytest
 
 from casewatch import api
-from evaluator.session import InputError, RunOptions, evaluate_stream
+from casewatch.evaluator.session import InputError, RunOptions, evaluate_stream
 from tests.evaluator.streams import frame, write_case, write_stream
 
 

@@ -1,7 +1,7 @@
 """Status propagation up supportedBy, and doubt from active hazards."""
 
-from evaluator.result import STATUS_SEVERITY, NodeStatus, StatusInterval
-from evaluator.status import StatusPropagator, summarize
+from casewatch.evaluator.result import STATUS_SEVERITY, NodeStatus, StatusInterval
+from casewatch.evaluator.status import StatusPropagator, summarize
 from tests.evaluator.case_factory import small_case
 
 FORMULAS = {"Sn1": "Sn1", "Sn2": "Sn2", "CSn1": "CSn1"}

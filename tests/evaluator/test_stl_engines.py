@@ -12,11 +12,11 @@ from hypothesis import assume, given, settings
 
 from casewatch import api
 from casewatch.cli import main
-from evaluator.session import InputError, RunOptions, evaluate_stream
-from evaluator.stl_engines import CheckedMonitor, EngineMismatch, WholeLog
-from evaluator.vector_eval import Segments, evaluated_ticks, robustness
-from spec.ast import signals_of
-from spec.emit import new_rtamt_spec, period_fraction, to_rtamt
+from casewatch.evaluator.session import InputError, RunOptions, evaluate_stream
+from casewatch.evaluator.stl_engines import CheckedMonitor, EngineMismatch, WholeLog
+from casewatch.evaluator.vector_eval import Segments, evaluated_ticks, robustness
+from casewatch.spec.ast import signals_of
+from casewatch.spec.emit import new_rtamt_spec, period_fraction, to_rtamt
 from tests.evaluator.streams import write_case, write_stream
 from tests.evaluator.test_vector_eval import gappy_traces
 from tests.spec.strategies import PERIOD, SIGNALS, past_formulas
@@ -91,7 +91,7 @@ class _Fixed:
 
 
 def test_a_disagreement_names_the_formula_and_the_tick() -> None:
-    from spec.model import CompiledFormula
+    from casewatch.spec.model import CompiledFormula
 
     formula = CompiledFormula(id="Sn9", node_id="Sn9", node_text="x", kind="spi", source="x",
                               rtamt="(x >= 0)", signals=["x"], merge_gap=1, min_duration=0)

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from casewatch.cli import main
-from evaluator.vector_eval import robustness
-from spec.emit import period_fraction, to_rtamt
-from spec.parser import parse_formula, parse_rtamt
+from casewatch.evaluator.vector_eval import robustness
+from casewatch.spec.emit import period_fraction, to_rtamt
+from casewatch.spec.parser import parse_formula, parse_rtamt
 from tests.evaluator.streams import SMALL_CASE, write_stream
 from tests.evaluator.test_stl_engines import rtamt_per_segment
 from tests.spec.strategies import PERIOD, SIGNALS

@@ -10,10 +10,15 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from evaluator.episodes import EpisodeTracker
-from evaluator.ground_truth import Label
-from evaluator.signal_store import SavedSignals, SignalRecorder, SignalsError, load_signals
-from evaluator.tuning import (
+from casewatch.evaluator.episodes import EpisodeTracker
+from casewatch.evaluator.ground_truth import Label
+from casewatch.evaluator.signal_store import (
+    SavedSignals,
+    SignalRecorder,
+    SignalsError,
+    load_signals,
+)
+from casewatch.evaluator.tuning import (
     Knob,
     episodes_for,
     episodes_from,
@@ -24,7 +29,7 @@ from evaluator.tuning import (
     threshold_candidates,
     tune,
 )
-from spec.parser import parse_formula
+from casewatch.spec.parser import parse_formula
 
 PERIOD = 0.1
 
@@ -36,7 +41,7 @@ def saved(x: list[float], name: str = "x", path: str = "log") -> SavedSignals:
 
 def hazard(when: str, min_duration: float = 0.0, merge_gap: float = 0.0) -> Knob:
     """A hazard knob on `when` (its first comparison swept)."""
-    from spec.ast import Num, Signal
+    from casewatch.spec.ast import Num, Signal
 
     condition = parse_formula(when)
     cmp = condition if hasattr(condition, "op") and isinstance(condition.left, Signal) else None
@@ -133,7 +138,7 @@ def test_signal_store_round_trip_and_errors(tmp_path):
 def test_vectorised_episodes_equal_the_evaluators_on_a_bundled_run(tmp_path):
     """Every formula of the reference case at its own threshold: the same episodes."""
     from casewatch import api
-    from evaluator.session import RunOptions, evaluate_stream
+    from casewatch.evaluator.session import RunOptions, evaluate_stream
 
     case, spec = api.prepare("examples/reference-case.yaml")
     stream = "examples/data/highway-tailgated.jsonl.gz"
@@ -152,7 +157,7 @@ def test_vectorised_episodes_equal_the_evaluators_on_a_bundled_run(tmp_path):
 
 
 def test_an_empty_sweep_names_the_rule():
-    from evaluator.tuning import TuningError
+    from casewatch.evaluator.tuning import TuningError
 
     with pytest.raises(TuningError, match="H: signal 'x' has no value in any log"):
         sweep(hazard("x < 0.9"), [saved([np.nan] * 5)], [[]])
@@ -203,8 +208,8 @@ def test_durations_by_held_out_score_then_room_not_the_shortest_passing():
 def test_violations_follow_run_s_persistence_after_a_restart():
     """A `for:` SPI's violation counts once it has lasted `for:` of data, as `casewatch run`
     judges it: after the start and after a gap the first for/period samples give no verdict."""
-    from evaluator.tuning import violations
-    from spec.ast import Num, Signal
+    from casewatch.evaluator.tuning import violations
+    from casewatch.spec.ast import Num, Signal
 
     condition = parse_formula("x >= 0.5")
     assert isinstance(condition.left, Signal) and isinstance(condition.right, Num)

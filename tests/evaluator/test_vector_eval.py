@@ -10,10 +10,10 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from evaluator.vector_eval import Unsupported, robustness
-from spec.ast import Compare, Num, Signal, Window, signals_of
-from spec.parser import parse_formula
-from spec.reference_eval import ReferenceEvaluator
+from casewatch.evaluator.vector_eval import Unsupported, robustness
+from casewatch.spec.ast import Compare, Num, Signal, Window, signals_of
+from casewatch.spec.parser import parse_formula
+from casewatch.spec.reference_eval import ReferenceEvaluator
 from tests.spec.strategies import PERIOD, SIGNALS, mixed_formulas, past_formulas
 
 
@@ -99,7 +99,7 @@ def test_future_and_since_hand_computed():
 
 
 def test_unbounded_future_is_refused():
-    from spec.ast import Window as W
+    from casewatch.spec.ast import Window as W
 
     with pytest.raises(Unsupported, match="unbounded eventually"):
         robustness(W("eventually", None, parse_formula("x > 0")), {"x": np.zeros(3)},

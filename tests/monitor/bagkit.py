@@ -7,10 +7,10 @@ from pathlib import Path
 import numpy as np
 from rosbags.rosbag2 import StoragePlugin, Writer
 
-from monitor.bags.mapping import LoadedMapping, TopicMapping
-from monitor.bags.types import OBJECTS, ODOMETRY, TRAJECTORY
-from monitor.bags.writer import DEFAULT_T0_NS, MessageBuilder
-from monitor.frames import ChannelState, Ego, Objects, box_footprint
+from casewatch.monitor.bags.mapping import LoadedMapping, TopicMapping
+from casewatch.monitor.bags.types import OBJECTS, ODOMETRY, TRAJECTORY
+from casewatch.monitor.bags.writer import DEFAULT_T0_NS, MessageBuilder
+from casewatch.monitor.frames import ChannelState, Ego, Objects, box_footprint
 
 T0 = DEFAULT_T0_NS
 MS = 1_000_000  # ns

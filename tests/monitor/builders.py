@@ -6,8 +6,8 @@ from typing import Any
 
 import numpy as np
 
-from monitor.frames import Frame
-from monitor.parse import parse_frame
+from casewatch.monitor.frames import Frame
+from casewatch.monitor.parse import parse_frame
 
 
 def ego(

@@ -15,7 +15,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from monitor.bags.decode import (
+from casewatch.monitor.bags.decode import (
     DecodeError,
     ObjectsRecord,
     OdometryRecord,
@@ -24,7 +24,7 @@ from monitor.bags.decode import (
     generic_record,
     header_stamp,
 )
-from monitor.bags.types import OBJECTS, ODOMETRY, TRAJECTORY, base_typestore
+from casewatch.monitor.bags.types import OBJECTS, ODOMETRY, TRAJECTORY, base_typestore
 
 STORE = base_typestore()
 T = STORE.types

@@ -14,12 +14,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from monitor.bags.mapping import LoadedMapping, MappingError, TopicMapping, load_mapping
-from monitor.bags.reader import BagError, is_bag, read_bag
-from monitor.bags.writer import default_mapping, write_bag
-from monitor.engine import MetricEngine
-from monitor.reader import StreamError, read_stream
-from safety_case.loader import require_case
+from casewatch.monitor.bags.mapping import LoadedMapping, MappingError, TopicMapping, load_mapping
+from casewatch.monitor.bags.reader import BagError, is_bag, read_bag
+from casewatch.monitor.bags.writer import default_mapping, write_bag
+from casewatch.monitor.engine import MetricEngine
+from casewatch.monitor.reader import StreamError, read_stream
+from casewatch.safety_case.loader import require_case
 from tests.monitor.bagkit import MS, T0, TOPICS, BagKit, ego_state, mapping, one_object
 
 ROOT = Path(__file__).resolve().parents[2]

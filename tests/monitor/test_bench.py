@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 
-from monitor.bench import (
+from bench.metrics import (
     CHANNELS,
     main,
     reference_load_dicts,

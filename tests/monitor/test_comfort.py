@@ -11,8 +11,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from monitor.comfort import STILL_SPEED, hcs, nv, ppcs
-from monitor.resample import resample_plan
+from casewatch.monitor.comfort import STILL_SPEED, hcs, nv, ppcs
+from casewatch.monitor.resample import resample_plan
 
 W = 0.2
 SPAN = 3.0

@@ -8,10 +8,10 @@ import math
 import numpy as np
 import pytest
 
-from monitor.coverage import common_view, inside
-from monitor.engine import MetricEngine
-from monitor.frames import Coverage, Ego
-from safety_case.model import MetricParams
+from casewatch.monitor.coverage import common_view, inside
+from casewatch.monitor.engine import MetricEngine
+from casewatch.monitor.frames import Coverage, Ego
+from casewatch.safety_case.model import MetricParams
 from tests.monitor.builders import channel, ego, frame, obj
 
 CAMERA = Coverage(fov_deg=120.0, range_m=70.0)
@@ -104,9 +104,9 @@ def test_a_camera_blind_behind_is_not_inconsistent():
 
 
 def test_coverage_from_case_beats_header():
-    from evaluator.session import channel_coverage
-    from monitor.frames import Header
-    from safety_case.model import ChannelCoverage, MonitorConfig
+    from casewatch.evaluator.session import channel_coverage
+    from casewatch.monitor.frames import Header
+    from casewatch.safety_case.model import ChannelCoverage, MonitorConfig
 
     class CaseLike:
         monitor = MonitorConfig(

@@ -9,10 +9,10 @@ from pathlib import Path
 
 import numpy as np
 
-from monitor.encode import frame_to_dict, header_to_dict
-from monitor.frames import Frame
-from monitor.parse import parse_frame, parse_header
-from monitor.reader import read_stream
+from casewatch.monitor.encode import frame_to_dict, header_to_dict
+from casewatch.monitor.frames import Frame
+from casewatch.monitor.parse import parse_frame, parse_header
+from casewatch.monitor.reader import read_stream
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -10,10 +10,15 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from monitor.engine import MetricEngine
-from monitor.parse import parse_frame
-from safety_case.model import MetricParams
-from safety_case.signals import PAIR_METRICS, SITUATION_METRICS, builtin_signals, pair_name
+from casewatch.monitor.engine import MetricEngine
+from casewatch.monitor.parse import parse_frame
+from casewatch.safety_case.model import MetricParams
+from casewatch.safety_case.signals import (
+    PAIR_METRICS,
+    SITUATION_METRICS,
+    builtin_signals,
+    pair_name,
+)
 from tests.monitor.builders import channel, ego, frame, obj, straight_plan
 
 AB = ["a", "b"]

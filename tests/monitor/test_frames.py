@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from monitor.frames import box_footprint, is_convex, place, polygon_area
+from casewatch.monitor.frames import box_footprint, is_convex, place, polygon_area
 
 
 def test_box_footprint_and_placement():

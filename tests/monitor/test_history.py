@@ -10,7 +10,7 @@ import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from monitor.history import (
+from casewatch.monitor.history import (
     GEOM,
     SLOT,
     WEIGHT,

@@ -8,10 +8,10 @@ import math
 import numpy as np
 import pytest
 
-from monitor.engine import MetricEngine
-from monitor.lone import LoneAges, benefit_of_doubt
-from monitor.similarity import plan_lateral
-from safety_case.model import MetricParams
+from casewatch.monitor.engine import MetricEngine
+from casewatch.monitor.lone import LoneAges, benefit_of_doubt
+from casewatch.monitor.similarity import plan_lateral
+from casewatch.safety_case.model import MetricParams
 from tests.monitor.builders import channel, ego, frame, obj
 
 AB = ["a", "b"]
@@ -149,7 +149,7 @@ def test_plan_lat_of_standing_plans_reads_across_the_ego_heading():
 
 
 def test_standing_pairs_leave_ots():
-    from monitor.similarity import object_similarities
+    from casewatch.monitor.similarity import object_similarities
     from tests.monitor.test_similarity import GATE, K, two_channel_frame
 
     f = two_channel_frame()
@@ -164,7 +164,7 @@ def test_standing_pairs_leave_ots():
 
 
 def test_standing_objects_leave_ompv():
-    from monitor.prediction import ompv
+    from casewatch.monitor.prediction import ompv
 
     prev = frame(0.0, {"a": channel(ego(), objects=[
         obj("m", 0.0, 0.0, prediction=[[0.5, 5.0, 0.0]]), obj("s", 20.0, 0.0)])})
@@ -179,7 +179,7 @@ def test_standing_objects_leave_ompv():
 
 
 def test_standing_ompv_when_everything_is_gone():
-    from monitor.prediction import ompv
+    from casewatch.monitor.prediction import ompv
 
     prev = frame(0.0, {"a": channel(ego(), objects=[
         obj("m", 0.0, 0.0, prediction=[[0.5, 5.0, 0.0]]), obj("s", 20.0, 0.0)])})
@@ -195,7 +195,7 @@ def test_standing_ompv_when_everything_is_gone():
 
 
 def test_ols_tolerance_grows_with_range():
-    from monitor.similarity import compare_objects
+    from casewatch.monitor.similarity import compare_objects
 
     a = frame(0.0, {"a": channel(ego(), objects=[obj("1", 50.0, 0.0)])}).channels["a"].objects
     b = frame(0.0, {"b": channel(ego(), objects=[obj("2", 51.0, 0.0)])}).channels["b"].objects
@@ -210,7 +210,7 @@ def test_ols_tolerance_grows_with_range():
 
 
 def test_ots_tolerance_grows_with_look_ahead():
-    from monitor.similarity import compare_objects
+    from casewatch.monitor.similarity import compare_objects
 
     pa = [[1.0, 1.0, 0.0], [2.0, 2.0, 0.0]]
     pb = [[1.0, 1.0, 1.0], [2.0, 2.0, 2.0]]  # 1 m apart at 1 s, 2 m at 2 s
@@ -227,7 +227,7 @@ def test_ots_tolerance_grows_with_look_ahead():
 
 
 def test_ets_relative_takes_the_egos_offset_out():
-    from monitor.similarity import ets
+    from casewatch.monitor.similarity import ets
 
     a = _straight(0.0)
     b = _straight(1.0)  # channel b's ego, and so its plan, 1 m to the left
@@ -236,7 +236,7 @@ def test_ets_relative_takes_the_egos_offset_out():
 
 
 def test_a_standing_plan_drives_into_nothing():
-    from monitor.safety_score import safety_matrix
+    from casewatch.monitor.safety_score import safety_matrix
 
     # a standing plan whose footprint overlaps a standing car 4 m ahead (both 4.5 m long)
     plan = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]]

@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import monitor.parse as parse
-from monitor.parse import FrameDefect, parse_frame
+import casewatch.monitor.parse as parse
+from casewatch.monitor.parse import FrameDefect, parse_frame
 from tests.monitor.builders import channel, ego, frame_dict, obj
 
 

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from monitor.prediction import interpolate_tracks, ompv, positions_at
+from casewatch.monitor.prediction import interpolate_tracks, ompv, positions_at
 from tests.monitor.builders import channel, ego, frame, obj
 
 TOL = 1.0

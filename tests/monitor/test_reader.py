@@ -9,8 +9,8 @@ import sys
 
 import pytest
 
-from monitor.parse import DEFECT_KINDS
-from monitor.reader import StreamError, read_stream
+from casewatch.monitor.parse import DEFECT_KINDS
+from casewatch.monitor.reader import StreamError, read_stream
 from tests.monitor.builders import channel, ego, frame_dict, obj
 
 HEADER = {
@@ -241,7 +241,7 @@ def test_real_stdin_plain_and_gzip():
 
     data = ("\n".join(LINES) + "\n").encode()
     code = (
-        "from monitor.reader import read_stream\n"
+        "from casewatch.monitor.reader import read_stream\n"
         "r = read_stream('-')\n"
         "print([f.t for f in r], [(d.line, d.kind) for d in r.defects], r.dropouts)"
     )

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from monitor.reader import StreamError, read_stream
+from casewatch.monitor.reader import StreamError, read_stream
 from tests.evaluator.streams import frame
 
 CHANNELS = ["lav", "tfuse"]

@@ -11,10 +11,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from monitor.engine import MetricEngine
-from monitor.frames import Objects
-from monitor.resample import resample_objects, resample_plan
-from safety_case.model import MetricParams
+from casewatch.monitor.engine import MetricEngine
+from casewatch.monitor.frames import Objects
+from casewatch.monitor.resample import resample_objects, resample_plan
+from casewatch.safety_case.model import MetricParams
 from tests.monitor.builders import channel, ego, frame, obj
 
 STEP = 0.1
@@ -190,7 +190,7 @@ def random_objects(seed: int, grid_from: int | None) -> Objects:
 def test_predictions_already_on_the_grid_take_the_short_way(grid_from):
     """Predictions on the grid (from dt = 0 or from one step) need no interpolation; the short
     way gives what the interpolating kernel gives, to rounding."""
-    from monitor.resample import _resample_predictions
+    from casewatch.monitor.resample import _resample_predictions
 
     objects = random_objects(grid_from, grid_from)
     fast = resample_objects(objects, STEP)
@@ -218,7 +218,7 @@ def test_uneven_samples_of_a_car_starting_off_never_go_backwards():
 
 
 def test_plan_smoothing_is_exact_for_constant_acceleration_and_damps_noise():
-    from monitor.resample import smooth_plan
+    from casewatch.monitor.resample import smooth_plan
 
     t = np.arange(0.0, 3.01, 0.1)
     plan = np.column_stack([t, 5 + 3 * t + 0.7 * t * t, -1 + 2 * t - 0.3 * t * t])
@@ -235,7 +235,7 @@ def test_plan_smoothing_is_exact_for_constant_acceleration_and_damps_noise():
 
 
 def test_a_plan_within_the_standstill_radius_stands_at_its_first_point():
-    from monitor.resample import hold_standing
+    from casewatch.monitor.resample import hold_standing
 
     # 0.2 m of along-path noise around a standing ego: every point within 1 m of the first
     jitter = np.array([[0.0, 5.0, 1.0], [0.5, 5.2, 1.01], [1.0, 4.9, 0.98], [1.5, 5.3, 1.0]])

@@ -11,8 +11,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from monitor.safety_kernel import score_boxes
-from monitor.safety_score import (
+from casewatch.monitor.safety_kernel import score_boxes
+from casewatch.monitor.safety_score import (
     safety_matrix,
     safety_score,
     score_grid,

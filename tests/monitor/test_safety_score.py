@@ -10,8 +10,8 @@ import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from monitor.frames import box_footprint, place
-from monitor.safety_score import (
+from casewatch.monitor.frames import box_footprint, place
+from casewatch.monitor.safety_score import (
     arbitrate,
     boxes_intersect,
     convex_intersects,
@@ -192,8 +192,8 @@ def test_box_sat_agrees_with_shapely(x, y, ha, la, wa, hb, lb, wb):
 
 def brute_force(plan, ego_state, objects, pet_ref):
     """Every (n, m) footprint pair tested with shapely, poses from the same rules."""
-    from monitor.prediction import interpolate_tracks
-    from monitor.safety_score import _directions
+    from casewatch.monitor.prediction import interpolate_tracks
+    from casewatch.monitor.safety_score import _directions
 
     times = plan[:, 0]
     horizon = times[-1]

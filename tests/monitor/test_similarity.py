@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from monitor.similarity import (
+from casewatch.monitor.similarity import (
     angdiff,
     crpps_distance,
     crpps_inputs,
@@ -348,7 +348,7 @@ def test_plans_without_common_time_have_no_plan_similarity():
 def test_pairing_order_is_numpys_stable_argsort(keys):
     """The kernel's merge sort orders the pairing candidates like a stable argsort (equal keys
     keep their (A, B) order: the tie break by index)."""
-    from monitor.similarity import _stable_order
+    from casewatch.monitor.similarity import _stable_order
 
     k = np.array(keys, dtype=float)
     assert _stable_order(k).tolist() == np.argsort(k, kind="mergesort").tolist()

@@ -9,9 +9,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from monitor.engine import MetricEngine
-from monitor.frames import Coverage
-from monitor.situation import (
+from casewatch.monitor.engine import MetricEngine
+from casewatch.monitor.frames import Coverage
+from casewatch.monitor.situation import (
     GAP_CAP,
     TIME_CAP,
     _nearest,
@@ -20,7 +20,7 @@ from monitor.situation import (
     project,
     time_to_collision,
 )
-from safety_case.model import MetricParams
+from casewatch.safety_case.model import MetricParams
 from tests.monitor.builders import channel, ego, frame, obj, straight_plan
 
 HALF_WIDTH = 1.75
@@ -237,7 +237,7 @@ def test_a_car_in_the_planned_path_is_no_leader_before_the_ego_is_in_its_lane():
     # its own lane's line: the chord between them, 1.98 m off the mean heading, says the ego
     # is not in its lane yet (LEAD_LANE). Once the ego has moved 0.9 m across (the car now
     # 1.41 m to its left, chord 1.08 m off) the car is its leader: gap 14 - 2 - 2 = 10 m.
-    from monitor.situation import neighbours
+    from casewatch.monitor.situation import neighbours
 
     plan = [[0.0, 0.0, 0.0], [0.6, 15.0, 0.7], [1.2, 30.0, 1.9], [1.8, 45.0, 2.3],
             [4.0, 100.0, 2.3]]  # fmt: skip
@@ -257,7 +257,7 @@ def test_a_leader_around_a_bend_shares_the_lane():
     # the arc (0.3 rad further round) heading along it is 4.47 m off the ego's heading line,
     # but the chord between them runs along their mean heading (an arc's chord halves its
     # turn): the leader, gap 30 - 2 - 2 = 26 m along the arc (the plan's polyline)
-    from monitor.situation import neighbours
+    from casewatch.monitor.situation import neighbours
 
     angles = np.linspace(0.0, 0.6, 31)
     plan = [[0.1 * k, float(100 * np.sin(a)), float(100 * (1 - np.cos(a)))]

@@ -7,8 +7,8 @@ import json
 import re
 from pathlib import Path
 
-from monitor.parse import DEFECT_KINDS
-from monitor.reader import read_stream
+from casewatch.monitor.parse import DEFECT_KINDS
+from casewatch.monitor.reader import read_stream
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "streams.md"
 

@@ -13,16 +13,15 @@ ROOT = Path(__file__).resolve().parents[2]
 PROBE = """
 import gzip, io, json, sys
 from numba.core.registry import CPUDispatcher
-import monitor.comfort, monitor.history, monitor.parse, monitor.prediction, monitor.resample
-import monitor.safety_kernel, monitor.safety_score, monitor.similarity
-from monitor.warmup import warm_up
-from monitor.engine import MetricEngine
-from monitor.reader import read_stream
-from monitor.bench import CHANNELS, reference_load_frames
-from safety_case.model import MetricParams
+from casewatch.monitor import comfort, history, parse, prediction, resample
+from casewatch.monitor import safety_kernel, safety_score, similarity
+from casewatch.monitor.warmup import warm_up
+from casewatch.monitor.engine import MetricEngine
+from casewatch.monitor.reader import read_stream
+from bench.metrics import CHANNELS, reference_load_frames
+from casewatch.safety_case.model import MetricParams
 
-MODULES = [monitor.comfort, monitor.history, monitor.parse, monitor.prediction, monitor.resample,
-           monitor.safety_kernel, monitor.safety_score, monitor.similarity]
+MODULES = [comfort, history, parse, prediction, resample, safety_kernel, safety_score, similarity]
 
 def signatures():
     return {f"{m.__name__}.{k}": sorted(map(str, v.signatures))

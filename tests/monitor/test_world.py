@@ -4,17 +4,17 @@ from __future__ import annotations
 
 import pytest
 
-from monitor.engine import MetricEngine
-from monitor.parse import FrameDefect, parse_frame
-from monitor.world import (
+from casewatch.monitor.engine import MetricEngine
+from casewatch.monitor.parse import FrameDefect, parse_frame
+from casewatch.monitor.world import (
     LEADERBOARD_INPUTS,
     NONE_AHEAD,
     WORLD_SIGNALS,
     condition_values,
     parse_world,
 )
-from safety_case.model import MetricParams
-from safety_case.signals import WORLD_METRICS
+from casewatch.safety_case.model import MetricParams
+from casewatch.safety_case.signals import WORLD_METRICS
 
 
 def test_a_full_world_as_signals():

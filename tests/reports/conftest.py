@@ -6,8 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from evaluator.result import RunResult
-from reports.sample import sample_result
+from casewatch.evaluator.result import RunResult
+from tools.sample import sample_result
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -28,7 +28,7 @@ def hostile_result() -> RunResult:
 def real_run_result() -> RunResult:
     """The reference case judged on a bundled SUMO drive, with its labels (about 4 s)."""
     from casewatch import api
-    from evaluator.session import RunOptions, evaluate_stream
+    from casewatch.evaluator.session import RunOptions, evaluate_stream
 
     data = REPO / "examples" / "data"
     case, spec = api.prepare(REPO / "examples" / "reference-case.yaml")

@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from evaluator.result import RunResult
-from reports.render import render_reports
-from reports.screenshot import find_chromium, open_page
+from casewatch.evaluator.result import RunResult
+from casewatch.reports.render import render_reports
+from tools.screenshot import find_chromium, open_page
 
 pytestmark = [
     pytest.mark.browser,

@@ -3,7 +3,7 @@ hand-written calibration report, computed by hand."""
 
 from __future__ import annotations
 
-from reports.calibration import _plot, render_calibration
+from casewatch.reports.calibration import _plot, render_calibration
 
 
 def point(threshold, duration, episodes, per_hour, detected=None, faults=0, fires=True):

@@ -8,8 +8,8 @@ from pathlib import Path
 import pytest
 
 from casewatch.cli import main
-from reports.screenshot import find_chromium, open_page
 from tests.casewatch.test_compare_cli import NET, four_runs  # noqa: F401 (a fixture)
+from tools.screenshot import find_chromium, open_page
 
 pytestmark = [
     pytest.mark.browser,

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from casewatch.cli import main
-from reports.screenshot import find_chromium, open_page
+from tools.screenshot import find_chromium, open_page
 
 REPO = Path(__file__).resolve().parents[2]
 DATA = REPO / "examples" / "data"

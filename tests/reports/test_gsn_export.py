@@ -8,9 +8,9 @@ from pathlib import Path
 import yaml
 
 from casewatch.cli import main
-from reports.gsn_export import CSS_NAME, gsn_document, status_class
-from safety_case.loader import require_case
-from spec.compiler import compile_case
+from casewatch.reports.gsn_export import CSS_NAME, gsn_document, status_class
+from casewatch.safety_case.loader import require_case
+from casewatch.spec.compiler import compile_case
 
 REPO = Path(__file__).resolve().parents[2]
 CASES = [REPO / "examples" / "reference-case.yaml", REPO / "examples" / "study-case.yaml"]

@@ -5,9 +5,9 @@ from __future__ import annotations
 import re
 from html.parser import HTMLParser
 
-from evaluator.result import NodeStatus, RunResult, StatusInterval
-from evaluator.status import summarize
-from reports.html import render_html
+from casewatch.evaluator.result import NodeStatus, RunResult, StatusInterval
+from casewatch.evaluator.status import summarize
+from casewatch.reports.html import render_html
 
 
 class _Collector(HTMLParser):
@@ -158,7 +158,7 @@ def test_the_verdict_card_follows_the_root_s_colour_and_names_the_worst_tick(
 ) -> None:
     """A run whose root goal lacked data only on its first tick: the card reads satisfied, like
     the root in the diagram, and says the verdict in result.json is no data (all warm-up)."""
-    from reports.markdown import render_markdown
+    from casewatch.reports.markdown import render_markdown
 
     root = next(s for s in reference_result.status if s.node_id == "G1")
     total, first = sum(root.ticks.values()), root.timeline[0]

@@ -7,8 +7,8 @@ import xml.etree.ElementTree as ET
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from evaluator.result import RunResult
-from reports.junit import render_junit, xml_text
+from casewatch.evaluator.result import RunResult
+from casewatch.reports.junit import render_junit, xml_text
 
 
 def test_well_formed_with_hostile_text_and_control_characters(hostile_result: RunResult) -> None:

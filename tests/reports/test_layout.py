@@ -8,9 +8,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from shapely.geometry import LineString, box
 
-from evaluator.result import CaseInfo, CaseNode
-from reports.layout import _isotonic_place, layout_case
-from reports.sample import reference_case
+from casewatch.evaluator.result import CaseInfo, CaseNode
+from casewatch.reports.layout import _isotonic_place, layout_case
+from tools.sample import reference_case
 
 
 def _boxes(diagram):
@@ -132,8 +132,8 @@ def test_random_trees_stay_clean(fanout: list[int], texts: str, contexts: int) -
 def test_reference_yaml_lays_out_cleanly_and_matches_the_fixture() -> None:
     from pathlib import Path
 
-    from reports.sample import case_info_from_case
-    from safety_case.loader import load_case
+    from casewatch.safety_case.loader import load_case
+    from tools.sample import case_info_from_case
 
     path = Path(__file__).resolve().parents[2] / "examples" / "reference-case.yaml"
     case, findings = load_case(path)

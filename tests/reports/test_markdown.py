@@ -7,8 +7,8 @@ import re
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from evaluator.result import RunResult
-from reports.markdown import md_escape, render_markdown
+from casewatch.evaluator.result import RunResult
+from casewatch.reports.markdown import md_escape, render_markdown
 
 
 def _unescaped_pipes(line: str) -> int:

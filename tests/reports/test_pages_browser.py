@@ -11,15 +11,16 @@ from pathlib import Path
 import pytest
 
 from casewatch.cli import main
-from reports.screenshot import find_chromium, open_page
 from tests.evaluator.streams import SMALL_CASE, frame
+from tools.screenshot import find_chromium, open_page
 
 pytestmark = [
     pytest.mark.browser,
     pytest.mark.skipif(find_chromium() is None, reason="needs Chromium (Debian package chromium)"),
 ]
 
-CSS = (Path(__file__).resolve().parents[2] / "reports" / "templates" / "report.css").read_text()
+TEMPLATES = Path(__file__).resolve().parents[2] / "casewatch" / "reports" / "templates"
+CSS = (TEMPLATES / "report.css").read_text()
 
 
 def families(value: str) -> list[str]:

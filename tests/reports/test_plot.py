@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from evaluator.result import Series, StatusInterval
-from reports.plot import MAX_BUCKETS, nice_ticks, plot_series, status_strip
+from casewatch.evaluator.result import Series, StatusInterval
+from casewatch.reports.plot import MAX_BUCKETS, nice_ticks, plot_series, status_strip
 
 
 def test_nice_ticks() -> None:

@@ -8,8 +8,8 @@ from pathlib import Path
 import pytest
 
 from casewatch.cli import main as cli_main
-from evaluator.result import RunResult
-from reports.render import ResultError, load_result, parse_formats, render_reports
+from casewatch.evaluator.result import RunResult
+from casewatch.reports.render import ResultError, load_result, parse_formats, render_reports
 
 
 def test_render_reports_writes_the_chosen_files(

@@ -12,8 +12,8 @@ import pytest
 
 from casewatch import api
 from casewatch.cli import main
-from evaluator.session import RunOptions, evaluate_stream
-from monitor.reader import read_stream
+from casewatch.evaluator.session import RunOptions, evaluate_stream
+from casewatch.monitor.reader import read_stream
 
 REPO = Path(__file__).resolve().parents[2]
 STREAM = REPO / "examples" / "data" / "highway-tailgating.jsonl.gz"

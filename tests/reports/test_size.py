@@ -1,10 +1,10 @@
-"""A 1-hour run's report stays under 5 MB (timing is printed by `python -m reports.bench`)."""
+"""A 1-hour run's report stays under 5 MB (timing is printed by `python -m bench.reports`)."""
 
 from __future__ import annotations
 
-from reports.html import render_html
-from reports.plot import MAX_BUCKETS
-from reports.sample import long_run_result, sample_result
+from casewatch.reports.html import render_html
+from casewatch.reports.plot import MAX_BUCKETS
+from tools.sample import long_run_result, sample_result
 
 FIVE_MB = 5 * 1024 * 1024
 
@@ -31,7 +31,7 @@ def test_undecimated_series_are_bounded_by_the_report() -> None:
 
 
 def test_thousands_of_episodes_keep_every_section_but_bound_traces() -> None:
-    from reports.html import TRACE_LIMIT
+    from casewatch.reports.html import TRACE_LIMIT
 
     base = sample_result(duration=60.0)
     episode = base.episodes[0]

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from evaluator.result import Episode, TraceStep
-from reports.view import EpisodeView, incidents
+from casewatch.evaluator.result import Episode, TraceStep
+from casewatch.reports.view import EpisodeView, incidents
 
 GOALS = {"Sn1": "G2", "Sn4": "G3", "Sn5": "G3", "Sn6": "G3"}
 
@@ -27,7 +27,7 @@ def test_episodes_starting_together_under_one_goal_form_one_incident():
 
 
 def test_report_marks_events_draws_labels_and_the_arbitration_strip(real_run_result):
-    from reports.html import render_html
+    from casewatch.reports.html import render_html
 
     html = render_html(real_run_result)
     marks = real_run_result.ground_truth.marks

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from safety_case.checks import check_case, check_file
-from safety_case.loader import load_text
+from casewatch.safety_case.checks import check_case, check_file
+from casewatch.safety_case.loader import load_text
 from tests.safety_case.fixtures import BASE, CHECK_FIXTURES, case
 
 REFERENCE = Path(__file__).resolve().parents[2] / "examples" / "reference-case.yaml"

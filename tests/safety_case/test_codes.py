@@ -5,7 +5,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from safety_case.codes import CODES
+from casewatch.safety_case.codes import CODES
 from tests.safety_case.fixtures import CHECK_FIXTURES, LOADER_FIXTURES
 
 DOCS = Path(__file__).resolve().parents[2] / "docs" / "checks.md"
@@ -28,8 +28,8 @@ def test_docs_table_lists_every_code_with_its_severity() -> None:
 
 
 def test_language_doc_example_passes_check() -> None:
-    from safety_case.checks import check_case
-    from safety_case.loader import load_text
+    from casewatch.safety_case.checks import check_case
+    from casewatch.safety_case.loader import load_text
 
     doc = (DOCS.parent / "safety-case-language.md").read_text()
     example = doc.split("```yaml\n", 1)[1].split("```", 1)[0]

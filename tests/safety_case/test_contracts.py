@@ -7,12 +7,12 @@ import math
 
 import pytest
 
-from monitor.situation import GAP_CAP
-from safety_case.contracts import library
-from safety_case.loader import load_text
-from spec.compiler import compile_case
-from spec.emit import build_rtamt_monitor
-from spec.model import CompiledFormula
+from casewatch.monitor.situation import GAP_CAP
+from casewatch.safety_case.contracts import library
+from casewatch.safety_case.loader import load_text
+from casewatch.spec.compiler import compile_case
+from casewatch.spec.emit import build_rtamt_monitor
+from casewatch.spec.model import CompiledFormula
 
 HEAD = """\
 module: {name: t}

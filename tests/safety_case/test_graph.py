@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from safety_case.graph import build_graph, supported_by_graph
-from safety_case.loader import load_case_text
-from safety_case.model import NodeType
+from casewatch.safety_case.graph import build_graph, supported_by_graph
+from casewatch.safety_case.loader import load_case_text
+from casewatch.safety_case.model import NodeType
 from tests.safety_case.fixtures import BASE
 
 

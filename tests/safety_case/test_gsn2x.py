@@ -7,9 +7,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from safety_case.checks import check_file
-from safety_case.findings import has_errors
-from safety_case.model import NodeType
+from casewatch.safety_case.checks import check_file
+from casewatch.safety_case.findings import has_errors
+from casewatch.safety_case.model import NodeType
 
 SYNTAX = """\
 module:
@@ -148,8 +148,8 @@ def test_contracts_and_odds_survive_an_export_to_gsn2x(tmp_path: Path) -> None:
     """export-gsn keeps `contract:` (library name and parameters, or the written pair) and
     `odd:` (the domain itself, read from its file) for casewatch; reading the export back gives
     the same contracts and domain."""
-    from reports.gsn_export import write_gsn
-    from safety_case.loader import load_case
+    from casewatch.reports.gsn_export import write_gsn
+    from casewatch.safety_case.loader import load_case
 
     source = Path(__file__).resolve().parents[2] / "examples" / "odd" / "contracts-case.yaml"
     case, findings = load_case(source)

@@ -6,10 +6,16 @@ from pathlib import Path
 
 import pytest
 
-from safety_case.codes import CODES
-from safety_case.findings import CaseError
-from safety_case.loader import load_bytes, load_case, load_case_text, load_file, require_case
-from safety_case.model import Mark, NodeType, Threshold
+from casewatch.safety_case.codes import CODES
+from casewatch.safety_case.findings import CaseError
+from casewatch.safety_case.loader import (
+    load_bytes,
+    load_case,
+    load_case_text,
+    load_file,
+    require_case,
+)
+from casewatch.safety_case.model import Mark, NodeType, Threshold
 from tests.safety_case.fixtures import BASE, LOADER_FIXTURES, case
 
 REFERENCE = Path(__file__).resolve().parents[2] / "examples" / "reference-case.yaml"

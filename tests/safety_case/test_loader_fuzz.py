@@ -6,9 +6,9 @@ import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from safety_case.checks import check_case
-from safety_case.codes import CODES
-from safety_case.loader import load_bytes, load_text
+from casewatch.safety_case.checks import check_case
+from casewatch.safety_case.codes import CODES
+from casewatch.safety_case.loader import load_bytes, load_text
 
 FUZZ = settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 

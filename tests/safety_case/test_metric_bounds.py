@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from safety_case.loader import load_case_text
-from safety_case.model import MetricParams
-from safety_case.schema import bounds_text
+from casewatch.safety_case.loader import load_case_text
+from casewatch.safety_case.model import MetricParams
+from casewatch.safety_case.schema import bounds_text
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "safety-case-language.md"
 PARAMS = list(MetricParams.model_fields)

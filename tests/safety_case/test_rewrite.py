@@ -6,7 +6,7 @@ import re
 
 import pytest
 
-from safety_case.rewrite import Change, RewriteError, replace_number, rewrite
+from casewatch.safety_case.rewrite import Change, RewriteError, replace_number, rewrite
 
 CASE = """\
 # my case

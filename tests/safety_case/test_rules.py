@@ -6,10 +6,10 @@ from __future__ import annotations
 
 import pytest
 
-from evaluator.core import Evaluator
-from safety_case.contracts import RULES, library
-from safety_case.loader import load_text
-from spec.compiler import compile_case
+from casewatch.evaluator.core import Evaluator
+from casewatch.safety_case.contracts import RULES, library
+from casewatch.safety_case.loader import load_text
+from casewatch.spec.compiler import compile_case
 
 HEAD = """\
 module: {name: rules}

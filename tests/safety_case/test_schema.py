@@ -5,8 +5,8 @@ from __future__ import annotations
 import pytest
 from pydantic_core import PydanticCustomError
 
-from safety_case.model import Threshold
-from safety_case.schema import parse_duration, parse_threshold
+from casewatch.safety_case.model import Threshold
+from casewatch.safety_case.schema import parse_duration, parse_threshold
 
 
 @pytest.mark.parametrize(

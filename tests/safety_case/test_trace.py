@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-from safety_case.loader import load_case_text
-from safety_case.model import Case
-from safety_case.trace import parents, supporters, traces_to_root
+from casewatch.safety_case.loader import load_case_text
+from casewatch.safety_case.model import Case
+from casewatch.safety_case.trace import parents, supporters, traces_to_root
 from tests.safety_case.fixtures import case
 
 DIAMOND = case(

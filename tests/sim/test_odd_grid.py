@@ -10,6 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from casewatch.monitor import situation
+from casewatch.monitor.reader import read_stream
 from examples.sim.odd_grid import (
     ATTEMPTS,
     CHANNELS,
@@ -33,8 +35,6 @@ from examples.sim.odd_grid import (
     odd_truth,
     run_seed,
 )
-from monitor import situation
-from monitor.reader import read_stream
 
 ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT / "examples" / "data" / "odd-grid"

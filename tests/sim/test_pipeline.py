@@ -11,10 +11,10 @@ import pytest
 pytest.importorskip("libsumo", reason="SUMO not installed: pip install -e .[sim]")
 pytest.importorskip("sumolib", reason="SUMO not installed: pip install -e .[sim]")
 
+from casewatch.monitor.reader import read_stream
 from examples.sim import labels as lab
 from examples.sim.frames import Generated, generate
 from examples.sim.scenarios import HIGHWAY_SHORT
-from monitor.reader import read_stream
 
 pytestmark = pytest.mark.sim
 

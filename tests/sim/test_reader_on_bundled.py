@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from monitor.reader import read_stream
+from casewatch.monitor.reader import read_stream
 
 DATA = Path(__file__).resolve().parents[2] / "examples" / "data"
 

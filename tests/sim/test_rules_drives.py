@@ -11,8 +11,8 @@ from pathlib import Path
 
 import pytest
 
+from casewatch.monitor.world import KEYS, parse_world
 from examples.sim.rules_drives import AGENTS, RULES, SCENARIOS
-from monitor.world import KEYS, parse_world
 
 ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT / "examples" / "data" / "rules"

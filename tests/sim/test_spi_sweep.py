@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from evaluator.faults import read_fault_labels
+from casewatch.evaluator.faults import read_fault_labels
 
 pytestmark = pytest.mark.sim
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import warnings
 from typing import Any
 
-from spec.emit import new_rtamt_spec
+from casewatch.spec.emit import new_rtamt_spec
 
 
 def online(text: str, trace: dict[str, list[float]], period: float = 0.1) -> list[float]:

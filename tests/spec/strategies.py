@@ -6,7 +6,7 @@ from fractions import Fraction
 
 from hypothesis import strategies as st
 
-from spec.ast import (
+from casewatch.spec.ast import (
     Abs,
     Arith,
     BoolOp,

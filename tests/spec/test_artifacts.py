@@ -9,8 +9,8 @@ from pathlib import Path
 import pytest
 
 from casewatch.commands import compile as compile_command
-from spec.artifacts import specs_text, trace_map
-from spec.compiler import compile_case
+from casewatch.spec.artifacts import specs_text, trace_map
+from casewatch.spec.compiler import compile_case
 from tests.spec.cases import hazard_node, make_case, spi_node
 
 CASE_YAML = """\

@@ -5,8 +5,8 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from safety_case.codes import CODES
-from spec.codes import FORMULA_CODES
+from casewatch.safety_case.codes import CODES
+from casewatch.spec.codes import FORMULA_CODES
 
 DOCS = Path(__file__).resolve().parents[2] / "docs" / "checks.md"
 

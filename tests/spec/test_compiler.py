@@ -5,8 +5,8 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from safety_case.model import Mark, Node, NodeType, SpiBinding
-from spec.compiler import check_formulas, compile_case
+from casewatch.safety_case.model import Mark, Node, NodeType, SpiBinding
+from casewatch.spec.compiler import check_formulas, compile_case
 from tests.spec.cases import hazard_node, make_case, spi_node, stl_node
 from tests.spec.rtamt_helpers import online
 
@@ -171,7 +171,7 @@ REFERENCE_EXPECTED = {
 
 
 def test_reference_case_compiles_and_rtamt_matches_hand_values() -> None:
-    from safety_case.loader import load_case
+    from casewatch.safety_case.loader import load_case
 
     case, load_findings = load_case(REFERENCE_CASE)
     assert case is not None, [f.format() for f in load_findings]

@@ -11,10 +11,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from rtamt.exception.exception import RTAMTException
 
-from spec.emit import build_rtamt_monitor, period_fraction, to_rtamt, to_text
-from spec.model import CompiledFormula
-from spec.parser import parse_formula, parse_term
-from spec.timing import delay, future_depth
+from casewatch.spec.emit import build_rtamt_monitor, period_fraction, to_rtamt, to_text
+from casewatch.spec.model import CompiledFormula
+from casewatch.spec.parser import parse_formula, parse_term
+from casewatch.spec.timing import delay, future_depth
 from tests.spec.rtamt_helpers import offline, online
 from tests.spec.strategies import PERIOD, past_formulas, traces
 
@@ -78,7 +78,7 @@ def test_bug_pastify_shifts_a_predicate_twice() -> None:
 
 
 def period_of(seconds: float):  # type: ignore[no-untyped-def]
-    from spec.emit import period_fraction
+    from casewatch.spec.emit import period_fraction
 
     return period_fraction(seconds)
 

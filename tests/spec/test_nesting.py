@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from spec.compiler import check_formulas, compile_case
-from spec.parser import MAX_NESTING, FormulaError, parse_formula
+from casewatch.spec.compiler import check_formulas, compile_case
+from casewatch.spec.parser import MAX_NESTING, FormulaError, parse_formula
 from tests.spec.cases import hazard_node, make_case, stl_node
 
 
@@ -32,7 +32,7 @@ def test_nested_negations_compile_and_run_in_linear_time() -> None:
     and 300 (a fuzz formula that `check` passes) never finished. With the fence: at once."""
     import time
 
-    from spec.emit import build_rtamt_monitor
+    from casewatch.spec.emit import build_rtamt_monitor
 
     assert _found(stl_node("Sn1", "not " * 60 + "els > 0")) == []
     spec, _ = compile_case(make_case(hazard_node("CSn1", "not " * 61 + "els > 0")))
@@ -61,7 +61,7 @@ def test_rtamt_builds_a_long_sum_in_linear_time() -> None:
     import time
     from fractions import Fraction
 
-    from spec.emit import new_rtamt_spec, to_rtamt
+    from casewatch.spec.emit import new_rtamt_spec, to_rtamt
 
     text = to_rtamt(parse_formula("sum[0:6.9](abs(x - y)) < 3"), Fraction(1, 10))  # 70
     started = time.perf_counter()

@@ -7,8 +7,8 @@ from fractions import Fraction
 import pytest
 from hypothesis import given, settings
 
-from safety_case.model import Mark
-from spec.ast import (
+from casewatch.safety_case.model import Mark
+from casewatch.spec.ast import (
     Abs,
     Arith,
     BoolOp,
@@ -23,8 +23,8 @@ from spec.ast import (
     Span,
     Window,
 )
-from spec.emit import to_text
-from spec.parser import FormulaError, parse_formula, parse_term, yaml_position
+from casewatch.spec.emit import to_text
+from casewatch.spec.parser import FormulaError, parse_formula, parse_term, yaml_position
 from tests.spec.strategies import mixed_formulas
 
 x, y, z = Signal("x"), Signal("y"), Signal("z")

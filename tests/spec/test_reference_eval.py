@@ -7,10 +7,10 @@ import math
 import pytest
 from hypothesis import given, settings
 
-from spec.emit import new_rtamt_spec, period_fraction, to_rtamt
-from spec.parser import parse_formula
-from spec.reference_eval import reference_robustness
-from spec.timing import future_reach
+from casewatch.spec.emit import new_rtamt_spec, period_fraction, to_rtamt
+from casewatch.spec.parser import parse_formula
+from casewatch.spec.reference_eval import reference_robustness
+from casewatch.spec.timing import future_reach
 from tests.spec.rtamt_helpers import offline
 from tests.spec.strategies import PERIOD, SIGNALS, mixed_formulas, past_formulas, traces
 

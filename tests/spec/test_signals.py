@@ -3,8 +3,8 @@ and did-you-mean for unknown names."""
 
 from __future__ import annotations
 
-from spec.parser import parse_formula
-from spec.signals import resolve_signals
+from casewatch.spec.parser import parse_formula
+from casewatch.spec.signals import resolve_signals
 
 CHANNELS = ["lav", "tfuse"]
 

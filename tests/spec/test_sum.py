@@ -8,13 +8,13 @@ from fractions import Fraction
 
 import pytest
 
-from spec.ast import Abs, Arith, Compare, Interval, Num, Prev, Signal, Sum, signals_of
-from spec.compiler import compile_case
-from spec.emit import build_rtamt_monitor, period_fraction, to_rtamt, to_text
-from spec.model import CompiledFormula
-from spec.parser import FormulaError, parse_formula, parse_rtamt, parse_term
-from spec.reference_eval import reference_robustness
-from spec.timing import intervals_of, past_horizon, sum_warmup
+from casewatch.spec.ast import Abs, Arith, Compare, Interval, Num, Prev, Signal, Sum, signals_of
+from casewatch.spec.compiler import compile_case
+from casewatch.spec.emit import build_rtamt_monitor, period_fraction, to_rtamt, to_text
+from casewatch.spec.model import CompiledFormula
+from casewatch.spec.parser import FormulaError, parse_formula, parse_rtamt, parse_term
+from casewatch.spec.reference_eval import reference_robustness
+from casewatch.spec.timing import intervals_of, past_horizon, sum_warmup
 from tests.spec.cases import hazard_node, make_case, stl_node
 from tests.spec.rtamt_helpers import online
 

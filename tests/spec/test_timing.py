@@ -11,10 +11,10 @@ from fractions import Fraction
 
 from hypothesis import given, settings
 
-from spec.emit import period_fraction, to_rtamt, to_text
-from spec.parser import parse_formula
-from spec.reference_eval import reference_robustness
-from spec.timing import bound_ticks, delay, future_depth, past_form, past_horizon
+from casewatch.spec.emit import period_fraction, to_rtamt, to_text
+from casewatch.spec.parser import parse_formula
+from casewatch.spec.reference_eval import reference_robustness
+from casewatch.spec.timing import bound_ticks, delay, future_depth, past_form, past_horizon
 from tests.spec.rtamt_helpers import online
 from tests.spec.strategies import PERIOD, mixed_formulas, traces
 

@@ -9,10 +9,10 @@ import pytest
 from hypothesis import given, settings
 
 from casewatch.cli import main
-from spec.compiler import check_formulas
-from spec.parser import parse_formula
-from spec.reference_eval import reference_robustness
-from spec.vacancy import vacant_ticks
+from casewatch.spec.compiler import check_formulas
+from casewatch.spec.parser import parse_formula
+from casewatch.spec.reference_eval import reference_robustness
+from casewatch.spec.vacancy import vacant_ticks
 from tests.spec.cases import hazard_node, make_case, spi_node, stl_node
 from tests.spec.strategies import PERIOD, past_formulas, traces
 

@@ -1,0 +1,372 @@
+"""`make bench`: the benchmark suite. Prints a table and writes `out/bench/results.json`.
+
+1. Online latency per frame at reference load (2 channels, 40 objects with 30-point
+   predictions, 50-point plans) through the reference case's full set of formulas: p50, p99
+   and max in ms, split into metrics, STL update, episodes/status, and total.
+2. rtamt update cost per formula, as the evaluator uses it.
+3. Offline throughput on the bundled data and on an 8-hour equivalent (the bundled scenarios
+   replayed end to end with shifted times), single process and with `--jobs 2`; peak RSS of
+   the single-process 8-hour run.
+4. Report rendering time and size for a 1-hour run.
+5. Kernel start-up: compiling every numba metric kernel in a fresh cache (a machine's first
+   run) and loading them from the cache (every later process).
+3b. The same replay on a Dask LocalCluster (`--engine dask`) of 1 and 2 workers: the speed-up
+   (goal >= 1.8x) and the overhead against `--jobs 2` (goal <= 10 %), when dask is installed.
+7. ROS 2 bags: every bundled drive as an MCAP bag (plain and zstd), frames per second of
+   reading it against the evaluator's own speed on the same drive (`monitor/bags/bench.py`;
+   target: reading >= judging).
+8. STL engines: rtamt tick by tick against numpy over the whole log, per formula of the
+   reference case on 1 hour of signals (target >= 50x, identical values), and `casewatch run`
+   on the bundled drives with each engine (`evaluator/stl_bench.py`).
+6. Threshold tuning (`casewatch tune`) on 1 hour of saved signals, 17 formulas x 50 candidate
+   thresholds (and durations): `python -m bench.tuning`; target <= 60 s.
+
+Targets (issue "Performance"): online p99 <= 2.5 ms total; offline >= 200x real time with
+--jobs 2; peak RSS of the 8-hour run <= 1 GiB. Options: `--quick` for a short smoke run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import gzip
+import json
+import os
+import platform
+import re
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+
+from casewatch import api
+from casewatch.evaluator.core import Evaluator
+from casewatch.evaluator.session import peak_rss_mib
+from bench.metrics import reference_load_frames
+from casewatch.monitor.engine import MetricEngine
+
+REPO = Path(__file__).resolve().parent.parent
+CASE = REPO / "examples" / "reference-case.yaml"
+DATA = REPO / "examples" / "data"
+BENCH = Path("out") / "bench"
+T_FIELD = re.compile(rb'^\{"t":\s*([-0-9.eE+]+)')
+
+
+def _ms(values: list[float]) -> dict[str, float]:
+    a = np.asarray(values) * 1e3
+    return {"p50": round(float(np.percentile(a, 50)), 4),
+            "p99": round(float(np.percentile(a, 99)), 4),
+            "max": round(float(a.max()), 4), "mean": round(float(a.mean()), 4)}
+
+
+def online_latency(frames: int, warmup: int = 30) -> dict[str, object]:
+    """Per-frame cost of metrics + STL + episodes/status on the reference load."""
+    case, spec = api.prepare(CASE)
+    engine = MetricEngine(case.monitor.metrics, list(case.monitor.channels))
+    evaluator = Evaluator(case, spec)
+    parts: dict[str, list[float]] = {"metrics": [], "stl": [], "episodes_status": [], "total": []}
+    for i, frame in enumerate(reference_load_frames(frames + warmup, seed=1)):
+        t0 = time.perf_counter()
+        values = engine.step(frame)
+        t1 = time.perf_counter()
+        stl_before = evaluator.stl_seconds
+        evaluator.step(frame.t, values)
+        t2 = time.perf_counter()
+        if i < warmup:
+            continue
+        stl = evaluator.stl_seconds - stl_before
+        parts["metrics"].append(t1 - t0)
+        parts["stl"].append(stl)
+        parts["episodes_status"].append(t2 - t1 - stl)
+        parts["total"].append(t2 - t0)
+    return {"frames": frames, "formulas": len(spec.formulas),
+            **{k: _ms(v) for k, v in parts.items()}}
+
+
+def rtamt_cost(updates: int = 2000) -> list[dict[str, object]]:
+    """Mean cost of one `update` per compiled formula of the reference case (µs)."""
+    from casewatch.spec.emit import build_rtamt_monitor
+
+    _, spec = api.prepare(CASE)
+    rng = np.random.default_rng(0)
+    rows = []
+    for formula in spec.formulas:
+        monitor = build_rtamt_monitor(formula, spec.period)
+        values = rng.uniform(0, 1, size=(updates, len(formula.signals)))
+        start = time.perf_counter()
+        for i in range(updates):
+            monitor.update(i, list(zip(formula.signals, values[i].tolist(), strict=True)))
+        cost = (time.perf_counter() - start) / updates * 1e6
+        rows.append(
+            {"formula": formula.id, "rtamt": formula.rtamt, "us_per_update": round(cost, 2)}
+        )
+    return rows
+
+
+_WARM_UP = (
+    "import time; t = time.perf_counter(); from casewatch.monitor.warmup import warm_up; warm_up(); "
+    "print(time.perf_counter() - t)"
+)
+
+
+def kernel_start_up() -> dict[str, float]:
+    """Seconds to import the engine and compile its kernels in an empty numba cache, and to
+    do the same with the cache filled (each in a fresh interpreter)."""
+    out: dict[str, float] = {}
+    with tempfile.TemporaryDirectory() as cache:
+        env = {**os.environ, "NUMBA_CACHE_DIR": cache}
+        for label in ("cold_cache_s", "warm_cache_s"):
+            done = subprocess.run([sys.executable, "-c", _WARM_UP], env=env, cwd=REPO,
+                                  capture_output=True, text=True, check=True)
+            out[label] = round(float(done.stdout.strip().splitlines()[-1]), 2)
+    return out
+
+
+def bundled_streams() -> list[Path]:
+    from casewatch.batch import find_streams
+
+    return find_streams(str(DATA))
+
+
+def build_replay(hours: float, files: int, folder: Path) -> tuple[list[Path], int]:
+    """Replay the bundled scenarios end to end, shifting times, into `files` gzip files that
+    together cover `hours` of driving. Returns the files and the frame count."""
+    folder.mkdir(parents=True, exist_ok=True)
+    sources: list[tuple[bytes, list[tuple[float, bytes]]]] = []
+    for path in bundled_streams():
+        with gzip.open(path, "rb") if path.suffix == ".gz" else open(path, "rb") as fh:
+            lines = fh.read().splitlines()
+        header = lines[0] if lines[0].startswith(b'{"header"') else b""
+        body = []
+        for line in lines[1:] if header else lines:
+            m = T_FIELD.match(line)
+            if m:
+                body.append((float(m.group(1)), line[m.end():]))
+        sources.append((header, body))
+    period = 0.1
+    total_frames = round(hours * 3600 / period)
+    per_file = total_frames // files
+    out: list[Path] = []
+    t_next = 0.0
+    written = 0
+    source = 0
+    for index in range(files):
+        path = folder / f"replay-{index:02d}.jsonl.gz"
+        with gzip.open(path, "wb", compresslevel=1) as fh:
+            header = sources[0][0]
+            if header:
+                fh.write(header + b"\n")
+            count = 0
+            while count < per_file:
+                _, body = sources[source % len(sources)]
+                source += 1
+                t0 = body[0][0]
+                chunk = []
+                for t, rest in body[: per_file - count]:
+                    chunk.append(b'{"t": %.3f' % (t_next + t - t0) + rest)
+                count += len(chunk)
+                t_next += (body[len(chunk) - 1][0] - t0) + 1.0  # a 1 s pause between drives
+                fh.write(b"\n".join(chunk) + b"\n")
+        written += count
+        out.append(path)
+    return out, written
+
+
+def run_cli(args: list[str], stdin_files: list[Path] | None = None) -> tuple[float, float, int]:
+    """Run `casewatch ARGS` in a child process: wall seconds, its peak RSS (MiB), exit code.
+
+    With `stdin_files`, their decompressed frames are piped in as one live stream (headers
+    after the first dropped), so the run never sees a file and must stream. The peak RSS is the
+    child's own `VmHWM`, polled while it runs (getrusage would include this parent's memory,
+    counted at fork time).
+    """
+    cmd = [sys.executable, "-m", "casewatch", *args]
+    peak = 0.0
+
+    def poll() -> None:
+        nonlocal peak
+        while proc.poll() is None:
+            peak = max(peak, peak_rss_mib(proc.pid) or 0.0)
+            time.sleep(0.1)
+
+    with tempfile.TemporaryFile() as err:
+        start = time.perf_counter()
+        proc = subprocess.Popen(cmd, stdin=subprocess.PIPE if stdin_files else None,
+                                stdout=subprocess.DEVNULL, stderr=err)
+        watcher = threading.Thread(target=poll, daemon=True)
+        watcher.start()
+        if stdin_files:
+            assert proc.stdin is not None
+            for index, path in enumerate(stdin_files):
+                with gzip.open(path, "rb") as fh:
+                    first = fh.readline()
+                    if index == 0 or not first.startswith(b'{"header"'):
+                        proc.stdin.write(first)
+                    while chunk := fh.read(1 << 20):
+                        proc.stdin.write(chunk)
+            proc.stdin.close()
+        code = proc.wait()
+        wall = time.perf_counter() - start
+        watcher.join()
+        if code not in (0, 1):
+            err.seek(0)
+            raise RuntimeError(f"casewatch {' '.join(args)} failed: {err.read().decode()[-2000:]}")
+    return wall, peak, code
+
+
+def offline(streams: list[Path], frames: int, hours: float, jobs: int, out: Path,
+            engine: str = "processes") -> dict:  # fmt: skip
+    args = ["run", str(CASE), *map(str, streams), "-o", str(out), "--jobs", str(jobs),
+            "--format", "none", "--quiet", "--engine", engine]
+    wall, _, _ = run_cli(args)
+    return {"jobs": jobs, "frames": frames, "hours": round(hours, 4), "wall_s": round(wall, 2),
+            "frames_per_s": round(frames / wall, 1), "x_real_time": round(hours * 3600 / wall, 1)}
+
+
+def count_frames(streams: list[Path]) -> tuple[int, float]:
+    frames, seconds = 0, 0.0
+    for path in streams:
+        with gzip.open(path, "rb") if path.suffix == ".gz" else open(path, "rb") as fh:
+            n = sum(1 for line in fh if line.startswith(b'{"t"'))
+        frames += n
+        seconds += n * 0.1
+    return frames, seconds / 3600
+
+
+def machine() -> dict[str, object]:
+    cpu = "unknown"
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return {"cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version(),
+            "platform": platform.platform()}
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m bench", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--quick", action="store_true", help="short run (smoke test of the suite)")
+    ap.add_argument("--hours", type=float, default=8.0, help="length of the replay run")
+    args = ap.parse_args(argv)
+    hours = 0.05 if args.quick else args.hours
+    BENCH.mkdir(exist_ok=True)
+    results: dict[str, object] = {"machine": machine()}
+
+    print("1. online latency at reference load ...", flush=True)
+    online = online_latency(100 if args.quick else 1000)
+    results["online"] = online
+    print("2. rtamt update cost per formula ...", flush=True)
+    results["rtamt"] = rtamt_cost(200 if args.quick else 2000)
+
+    print("3. offline throughput ...", flush=True)
+    streams = bundled_streams()
+    frames, bundled_hours = count_frames(streams)
+    results["offline_bundled"] = [
+        offline(streams, frames, bundled_hours, jobs, BENCH / f"bundled-j{jobs}")
+        for jobs in (1, 2)
+    ]
+    replay, replay_frames = build_replay(hours, 4, BENCH / "replay")
+    wall, rss, _ = run_cli(["run", str(CASE), "-", "-o", str(BENCH / "replay-single"),
+                            "--format", "none", "--quiet"], stdin_files=replay)
+    single = {"jobs": 1, "frames": replay_frames, "hours": hours, "wall_s": round(wall, 2),
+              "frames_per_s": round(replay_frames / wall, 1),
+              "x_real_time": round(hours * 3600 / wall, 1), "peak_rss_mib": round(rss, 1)}
+    results["offline_replay"] = [single,
+                                 offline(replay, replay_frames, hours, 2, BENCH / "replay-j2")]
+    try:
+        import distributed  # noqa: F401
+
+        print("3b. the replay on a Dask LocalCluster of 1 and 2 workers ...", flush=True)
+        results["dask_replay"] = [
+            offline(replay, replay_frames, hours, n, BENCH / f"replay-dask{n}", "dask")
+            for n in (1, 2)
+        ]
+    except ImportError:
+        results["dask_replay"] = []
+
+    print("4. report rendering ...", flush=True)
+    from bench.reports import run as report_bench
+
+    results["report"] = report_bench(duration=360.0 if args.quick else 3600.0)
+
+    print("5. kernel start-up ...", flush=True)
+    results["kernels"] = kernel_start_up()
+
+    print("7. ROS 2 bags: reading against judging ...", flush=True)
+    from bench.bags import measure as bag_bench
+
+    results["bags"] = bag_bench(BENCH / "bags", 200 if args.quick else None)
+
+    print("8. STL engines: rtamt against numpy ...", flush=True)
+    from bench.stl import measure as stl_bench
+
+    results["stl_engines"] = stl_bench(0.05 if args.quick else 1.0)
+
+    (BENCH / "results.json").write_text(json.dumps(results, indent=1))
+    print_table(results)
+    from bench.bags import print_rows as print_bag_rows
+
+    print_bag_rows(results["bags"])
+    from bench.stl import print_results as print_stl
+
+    print_stl(results["stl_engines"])
+    print(f"\nwritten: {BENCH / 'results.json'}")
+    dask = results.get("dask_replay") or []
+    if len(dask) == 2:
+        speedup = dask[0]["wall_s"] / dask[1]["wall_s"]
+        jobs2 = results["offline_replay"][1]["wall_s"]
+        overhead = dask[1]["wall_s"] / jobs2 - 1
+        print(f"\nDask LocalCluster, {hours:g} h replay: 1 worker {dask[0]['wall_s']:.1f} s, "
+              f"2 workers {dask[1]['wall_s']:.1f} s: speed-up {speedup:.2f}x (goal >= 1.8x: "
+              f"{'met' if speedup >= 1.8 else 'MISSED'}); against --jobs 2 ({jobs2:.1f} s): "
+              f"{overhead:+.1%} (goal <= +10 %: {'met' if overhead <= 0.10 else 'MISSED'})")
+    print("\n6. threshold tuning on 1 hour of saved signals ...", flush=True)
+    from bench.tuning import main as tuning_bench
+
+    return tuning_bench(["--minutes", "1"] if args.quick else [])
+
+
+def print_table(r: dict) -> None:
+    m = r["machine"]
+    print(f"\nmachine: {m['cpu']}, {m['cores']} cores, Python {m['python']}")
+    o = r["online"]
+    print(f"\nonline latency per frame, reference load, {o['formulas']} formulas "
+          f"({o['frames']} frames)")
+    print(f"{'part':<18}{'p50 ms':>9}{'p99 ms':>9}{'max ms':>9}")
+    for part in ("metrics", "stl", "episodes_status", "total"):
+        v = o[part]
+        print(f"{part:<18}{v['p50']:>9.3f}{v['p99']:>9.3f}{v['max']:>9.3f}")
+    print(f"target: total p99 <= 2.5 ms: {'met' if o['total']['p99'] <= 2.5 else 'MISSED'}")
+    print("\nrtamt update cost per formula (µs)")
+    for row in r["rtamt"]:
+        print(f"  {row['formula']:<6}{row['us_per_update']:>8.1f}  {row['rtamt'][:70]}")
+    print(f"\n{'offline':<16}{'jobs':>5}{'frames':>10}{'hours':>8}{'wall s':>9}"
+          f"{'frames/s':>10}{'x real':>9}{'RSS MiB':>9}")
+    for name in ("offline_bundled", "offline_replay"):
+        for row in r[name]:
+            print(f"{name[8:]:<16}{row['jobs']:>5}{row['frames']:>10}{row['hours']:>8.3f}"
+                  f"{row['wall_s']:>9.1f}{row['frames_per_s']:>10.0f}{row['x_real_time']:>9.0f}"
+                  f"{row.get('peak_rss_mib', ''):>9}")
+    replay_j2 = r["offline_replay"][1]["x_real_time"]
+    rss = r["offline_replay"][0]["peak_rss_mib"]
+    print(f"target: >= 200x real time with --jobs 2: {'met' if replay_j2 >= 200 else 'MISSED'}")
+    print(f"target: peak RSS <= 1024 MiB: {'met' if rss <= 1024 else 'MISSED'}")
+    rep = r["report"]
+    print(f"\nreport for a {rep['duration_s'] / 3600:g} h run ({rep['episodes']} episodes): "
+          f"HTML {rep['html_s']:.3f} s, {rep['html_bytes'] / 1e6:.2f} MB; "
+          f"Markdown {rep['md_s']:.3f} s; JUnit {rep['junit_s']:.3f} s")
+    print(f"target: 1-hour HTML report < 5 MB: {'met' if rep['html_bytes'] < 5e6 else 'MISSED'}")
+    k = r["kernels"]
+    print(f"\nmetric kernels (import + warm-up): {k['cold_cache_s']:.1f} s with an empty numba "
+          f"cache (first run on a machine), {k['warm_cache_s']:.2f} s from the cache")
+
+
+if __name__ == "__main__":
+    sys.exit(main())

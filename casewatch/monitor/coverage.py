@@ -1,0 +1,77 @@
+"""Channel coverage: compare objects only where both channels can see.
+
+A forward camera is not "inconsistent" with a 360-degree lidar about the car behind: it cannot
+see it. Each channel may declare a field of view (centred on its ego heading) and a range, in the
+case (`monitor.coverage`) or in the stream header (`coverage`). The cross-channel object metrics
+(`ocs`, `ols`, `oos`, `oas`, `ots`) of a pair read only the objects of either channel whose
+centre lies inside both coverages, each shrunk by `coverage_margin` metres: near an edge, one
+channel may report a car whose centre the other places just outside, and neither is wrong.
+
+spi-reference "Channel coverage" is the normative text.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from casewatch.monitor.frames import Coverage, Ego, Objects
+
+#: Resolution [m] of the edge tests: a point on an edge is inside whatever the rounding of
+#: arctan2 and sin in the numpy build at hand (one build put a point on the edge ray 4e-15 m
+#: outside it).
+EDGE_EPS = 1e-9
+
+
+def inside(coverage: Coverage, ego: Ego, pos: np.ndarray, margin: float) -> np.ndarray:
+    """(K,) True where the points `pos` (K, 2) lie inside `coverage` seen from `ego`, at least
+    `margin` metres from its edges (the range arc and, below 360 degrees, the two edge rays).
+    A negative margin grows the coverage by as much instead."""
+    rel = pos - np.array([ego.x, ego.y])
+    r = np.hypot(rel[:, 0], rel[:, 1])
+    keep = r <= coverage.range_m - margin + EDGE_EPS
+    if coverage.fov_deg < 360.0:
+        bearing = np.arctan2(rel[:, 1], rel[:, 0]) - ego.yaw
+        bearing = np.abs((bearing + math.pi) % (2.0 * math.pi) - math.pi)
+        # signed distance to the nearer edge ray (positive inside): r sin(angle to the ray),
+        # and r itself once the nearest point of the ray is its apex (past a right angle)
+        to_edge = np.clip(math.radians(coverage.fov_deg) / 2.0 - bearing, -math.pi / 2,
+                          math.pi / 2)  # fmt: skip
+        keep &= r * np.sin(to_edge) >= margin - EDGE_EPS
+    return keep
+
+
+def _view(objects: Objects, views: tuple[tuple[Coverage, Ego], ...], margin: float
+          ) -> tuple[Objects, np.ndarray]:
+    """The objects inside every coverage grown by `margin`, and which of them lie inside every
+    coverage shrunk by it (the core)."""
+    outer = np.ones(len(objects), dtype=bool)
+    core = np.ones(len(objects), dtype=bool)
+    for cov, ego in views:
+        if not cov.all_round and len(objects):
+            outer &= inside(cov, ego, objects.pos, -margin)
+            core &= inside(cov, ego, objects.pos, margin)
+    if outer.all():
+        return objects, core
+    return objects.subset(outer), core[outer]
+
+
+def common_view(
+    a: Objects, ego_a: Ego, cov_a: Coverage,
+    b: Objects, ego_b: Ego, cov_b: Coverage,
+    margin: float,
+) -> tuple[Objects, np.ndarray | None, Objects, np.ndarray | None]:
+    """What the pair (A, B) compares: each channel's objects within `margin` of the coverage of
+    both (each coverage seen from its own channel's ego estimate), with a core flag per object:
+    inside both coverages by at least `margin`. The object metrics count a pair when either
+    object is core and an unpaired object only when it is core (spi-reference "Channel
+    coverage"): a car whose centre one channel places just inside an edge and the other just
+    outside is neither a disagreement nor dropped from one side only. Two all-round channels
+    of unlimited range: the objects as they are and None for the flags (all core)."""
+    if cov_a.all_round and cov_b.all_round:
+        return a, None, b, None  # every object is core: nothing to filter
+    views = ((cov_a, ego_a), (cov_b, ego_b))
+    va, core_a = _view(a, views, margin)
+    vb, core_b = _view(b, views, margin)
+    return va, core_a, vb, core_b

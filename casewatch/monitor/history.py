@@ -1,0 +1,425 @@
+"""Metrics over a channel's (or pair's) recent past: els_var and chpps.
+
+The ELS windows live in `monitor.engine`; the stored plans live in a `PlanHistory`, packed so
+that one compiled call cuts the current plan of every channel against each of its stored plans.
+
+Why packed: a frame's chpps is ~40 plan pairs of 30-50 points. Cut with Python bisects and
+numpy slices, then concatenated for GEOS, the pairs cost about twice the arithmetic GEOS does
+on them. `_cut` writes every cut sequence straight into the one coordinate array that
+`shapely.linestrings` takes, and `_combine` turns GEOS's distances into the scores: per frame
+two kernel calls and one `linestrings` + one `frechet_distance` call, whatever the number of
+channels and stored plans. The crpps inputs of the frame ride in the same GEOS call.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+import shapely
+
+from casewatch.monitor.jit import kernel
+
+#: Tolerance [s] when clipping plans to their common time range: frame times and dt values are
+#: decimal numbers, so `dt - age` lands a few ulps off the grid.
+TIME_EPS = 1e-9
+
+
+def els_var(window: Sequence[float], size: int) -> float | None:
+    """Sample variance (divisor n - 1) of the last `size` ELS values; None until full."""
+    if len(window) < size:
+        return None
+    return _sample_variance(np.array(window[-size:], dtype=float))
+
+
+@kernel
+def _sample_variance(x):  # pragma: no cover - compiled
+    """np.var(x, ddof=1)'s arithmetic (mean first, then the squared deviations)."""
+    n = x.shape[0]
+    total = 0.0
+    for v in x:
+        total += v
+    mean = total / n
+    ss = 0.0
+    for v in x:
+        ss += (v - mean) * (v - mean)
+    return ss / (n - 1)
+
+
+class PlanHistory:
+    """The last `size` plans of every channel, plus the current one, packed for `_cut`.
+
+    Channel c's plans sit in a ring of `size + 1` slots: `plans[c, slot, :lens[c, slot]]` is a
+    plan's [dt, x, y] rows (the rest of the row is padding), `times[c, slot]` its frame time,
+    `head[c]` the newest slot and `count[c]` how many slots hold a plan. One slot more than
+    `plan_history` because the current plan is pushed before the cut and is not a stored one.
+    A plan longer than the buffer's width widens the buffer (all channels, once).
+
+    The engine pushes only non-empty plans (spi-reference: the channel keeps its non-empty
+    plans); an empty plan pushed anyway holds its rank and never overlaps.
+    """
+
+    __slots__ = ("_count", "_head", "_last", "count", "head", "lens", "max_gap", "plans", "times")
+
+    def __init__(self, channels: int, size: int, max_gap: float, width: int = 64):
+        if channels < 1 or size < 1 or width < 1:
+            raise ValueError(
+                f"PlanHistory needs channels, size and width >= 1 (got {channels}, {size}, {width})"
+            )
+        slots = size + 1
+        self.plans = np.zeros((channels, slots, width, 3))
+        self.lens = np.zeros((channels, slots), dtype=np.int64)
+        self.times = np.zeros((channels, slots))
+        self.count = np.zeros(channels, dtype=np.int64)
+        self.head = np.zeros(channels, dtype=np.int64)
+        self.max_gap = max_gap
+        # Python mirrors of count / head and the last push time: numpy scalar reads are slow.
+        self._count = [0] * channels
+        self._head = [0] * channels
+        self._last = [0.0] * channels
+
+    def push(self, channel: int, t: float, plan: np.ndarray) -> None:
+        """Store `plan` ((n, 3) [dt, x, y]) of `channel` at frame time `t`; the history restarts
+        first when `t` is more than `max_gap` (+1e-9 s) after the channel's previous plan."""
+        n = len(plan)
+        if n > self.plans.shape[2]:
+            self._widen(max(n, 2 * self.plans.shape[2]))
+        count = self._count[channel]
+        if count and t - self._last[channel] > self.max_gap + 1e-9:
+            count = 0
+        slot = (self._head[channel] + 1) % self.plans.shape[1]
+        self.plans[channel, slot, :n] = plan
+        self.lens[channel, slot] = n
+        self.times[channel, slot] = t
+        count = min(count + 1, self.plans.shape[1])
+        self._count[channel] = count
+        self.count[channel] = count
+        self._head[channel] = slot
+        self.head[channel] = slot
+        self._last[channel] = t
+
+    def _widen(self, width: int) -> None:
+        old = self.plans
+        self.plans = np.zeros((*old.shape[:2], width, 3))
+        self.plans[:, :, : old.shape[2]] = old
+
+
+#: Columns of the pair table `_cut` returns, one row per Fréchet pair of the frame: owner
+#: (channel index for a chpps pair, channels + k for the k-th crpps pair), weight w_j, the
+#: distance when a sequence has one point (computed directly), the pair's slot in the GEOS
+#: batch (-1: computed directly), and the geometry index of its first sequence in the
+#: coordinate array (the second's is one more).
+OWNER, WEIGHT, DIRECT, SLOT, GEOM = range(5)
+
+
+@kernel
+def _bisect(a, n, x, right):  # pragma: no cover - compiled
+    """Python's `bisect_left` (right=False) or `bisect_right` (right=True) on a[:n]."""
+    lo = 0
+    hi = n
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if (x < a[mid]) if right else not (a[mid] < x):
+            hi = mid
+        else:
+            lo = mid + 1
+    return lo
+
+
+@kernel
+def _arc_length(rows, first, n):  # pragma: no cover - compiled
+    """Length [m] of the polyline through rows[first:first + n] ([dt, x, y] rows)."""
+    total = 0.0
+    for q in range(first + 1, first + n):
+        total += math.hypot(rows[q, 1] - rows[q - 1, 1], rows[q, 2] - rows[q - 1, 2])
+    return total
+
+
+@kernel
+def _along(rows, first, n, length, n_out, off_x, off_y, coords, pos):  # pragma: no cover
+    """n_out points evenly spaced by arc length over the first `length` metres of the
+    polyline through rows[first:first + n], moved by (off_x, off_y), into coords[pos:]."""
+    q = first  # the segment rows[q] -> rows[q + 1] holds the next point
+    walked = 0.0  # arc length at rows[q]
+    seg = math.hypot(rows[q + 1, 1] - rows[q, 1], rows[q + 1, 2] - rows[q, 2]) if n > 1 else 0.0
+    for j in range(n_out):
+        target = length * j / (n_out - 1) if n_out > 1 else 0.0
+        while q < first + n - 2 and walked + seg < target:
+            walked += seg
+            q += 1
+            seg = math.hypot(rows[q + 1, 1] - rows[q, 1], rows[q + 1, 2] - rows[q, 2])
+        frac = 0.0 if n == 1 or seg <= 0.0 else min(max((target - walked) / seg, 0.0), 1.0)
+        nxt = q + 1 if n > 1 else q
+        coords[pos + j, 0] = rows[q, 1] + (rows[nxt, 1] - rows[q, 1]) * frac + off_x
+        coords[pos + j, 1] = rows[q, 2] + (rows[nxt, 2] - rows[q, 2]) * frac + off_y
+
+
+@kernel
+def _common_path(p, q):  # pragma: no cover - compiled
+    """`common_path` on (n, 3) rows (x, y in columns 1 and 2)."""
+    n_out = max(p.shape[0], q.shape[0])
+    length = min(_arc_length(p, 0, p.shape[0]), _arc_length(q, 0, q.shape[0]))
+    out = np.empty((2 * n_out, 2))
+    _along(p, 0, p.shape[0], length, n_out, 0.0, 0.0, out, 0)
+    _along(q, 0, q.shape[0], length, n_out, 0.0, 0.0, out, n_out)
+    return out
+
+
+def common_path(p: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two point sequences (n, 2) and (m, 2) as paths (spi-reference chpps, crpps): each
+    resampled to max(n, m) points evenly spaced by arc length over the length both cover, so
+    that their Fréchet distance measures where the paths go, not how fast they are driven."""
+    rows = np.zeros((len(p) + len(q), 3))
+    rows[: len(p), 1:] = p
+    rows[len(p):, 1:] = q
+    out = _common_path(rows[: len(p)], rows[len(p):])
+    n_out = max(len(p), len(q))
+    return out[:n_out], out[n_out:]
+
+
+@kernel
+def _cut(plans, lens, times, count, head, t, decay, pair_xy, pair_lens):  # pragma: no cover
+    """Every Fréchet pair of the frame, written into one coordinate array.
+
+    Pairs, in this order: the given pairs (sequence 2k and 2k+1 of `pair_xy`, lengths in
+    `pair_lens`), then per channel whose newest plan is from time `t`, that plan against each
+    stored plan, most recent first, cut to their common time range (spi-reference, chpps).
+    Sequences of pairs whose sequences both have two points or more come first, pair by pair
+    (geometry 2m, 2m+1 for the m-th such pair: what GEOS gets); pairs with a one-point
+    sequence follow, their distance computed here (largest distance from the point to a point
+    of the other sequence, as `similarity.frechet` does).
+
+    A chpps pair compares **paths** (spi-reference chpps): both cut sequences, the stored one
+    moved onto the current one's first point, are resampled to the same number of points
+    (the larger of their two counts) evenly spaced by arc length over the length both cover.
+    A plan whose speed profile changed along an unchanged path then reads fd = 0.
+
+    Returns (coords (n, 2), geometry index per point, pair table (see OWNER..GEOM), number of
+    points for GEOS, number of pairs for GEOS).
+    """
+    n_ch, slots = lens.shape
+    n_given = pair_lens.shape[0] // 2
+    cap = n_given + n_ch * (slots - 1)
+    # per pair: slot, start, length of its first and second sequence (slot -1: pair_xy)
+    src = np.empty((cap, 6), dtype=np.int64)
+    owner = np.empty(cap, dtype=np.int64)
+    weight = np.empty(cap)
+    raw = np.empty((cap, 2), dtype=np.int64)  # chpps pairs: the cut lengths before resampling
+    common = np.empty(cap)  # chpps pairs: the path length both cover [m]
+    k = 0
+    off = 0
+    for i in range(n_given):
+        lp = pair_lens[2 * i]
+        lq = pair_lens[2 * i + 1]
+        src[k, 0] = -1
+        src[k, 1] = off
+        src[k, 2] = lp
+        src[k, 3] = -1
+        src[k, 4] = off + lp
+        src[k, 5] = lq
+        owner[k] = n_ch + i
+        weight[k] = 1.0
+        off += lp + lq
+        k += 1
+    for c in range(n_ch):
+        if count[c] == 0:
+            continue
+        h = head[c]
+        nc = lens[c, h]
+        if times[c, h] != t or nc == 0:
+            continue  # no plan from this frame: no value
+        cur = plans[c, h, :, 0]
+        c0 = cur[0]
+        c1 = cur[nc - 1]
+        for rank in range(count[c] - 1):
+            s = (h - 1 - rank + slots) % slots
+            ns = lens[c, s]
+            if ns == 0:
+                continue
+            age = t - times[c, s]
+            sdt = plans[c, s, :, 0]
+            lo = max(c0, sdt[0] - age) - TIME_EPS
+            hi = min(c1, sdt[ns - 1] - age) + TIME_EPS
+            if lo > hi:
+                continue  # disjoint ranges (the bisects below would say so too, slower)
+            # Both dt columns increase strictly: the common range is one slice of each.
+            a = _bisect(cur, nc, lo, False)
+            b = _bisect(cur, nc, hi, True)
+            sa = _bisect(sdt, ns, lo + age, False)
+            sb = _bisect(sdt, ns, hi + age, True)
+            if a >= b or sa >= sb:
+                continue  # Decision: a common range with no sample of one plan is no overlap
+            n_out = max(b - a, sb - sa)
+            src[k, 0] = h
+            src[k, 1] = a
+            src[k, 2] = n_out
+            src[k, 3] = s
+            src[k, 4] = sa
+            src[k, 5] = n_out
+            raw[k, 0] = b - a
+            raw[k, 1] = sb - sa
+            common[k] = min(_arc_length(plans[c, h], a, b - a),
+                            _arc_length(plans[c, s], sa, sb - sa))  # fmt: skip
+            owner[k] = c
+            # Decision: j is the rank among stored plans (1 = most recent), skipped included.
+            weight[k] = decay ** float(rank)
+            k += 1
+    n_geos = 0
+    geos_points = 0
+    total = 0
+    for i in range(k):
+        total += src[i, 2] + src[i, 5]
+        if src[i, 2] > 1 and src[i, 5] > 1:
+            n_geos += 1
+            geos_points += src[i, 2] + src[i, 5]
+    coords = np.empty((total, 2))
+    index = np.empty(total, dtype=np.int64)
+    table = np.empty((k, 5))
+    at_geos = 0  # next point / geometry of the GEOS part
+    g_geos = 0
+    at_one = geos_points  # next point / geometry of the one-point part
+    g_one = 2 * n_geos
+    for i in range(k):
+        lp = src[i, 2]
+        lq = src[i, 5]
+        multi = lp > 1 and lq > 1
+        pos = at_geos if multi else at_one
+        g = g_geos if multi else g_one
+        start = pos
+        for side in range(2):
+            slot = src[i, 3 * side]
+            first = src[i, 3 * side + 1]
+            # spi-reference chpps Decision: the stored plan moves onto the current plan's first
+            # common point (a plan that moves with the localisation estimate is not unstable)
+            off_x = 0.0
+            off_y = 0.0
+            if slot >= 0 and side == 1:
+                o = owner[i]
+                off_x = plans[o, src[i, 0], src[i, 1], 1] - plans[o, slot, first, 1]
+                off_y = plans[o, src[i, 0], src[i, 1], 2] - plans[o, slot, first, 2]
+            n_side = src[i, 3 * side + 2]
+            if slot < 0:
+                for j in range(n_side):
+                    coords[pos + j, 0] = pair_xy[first + j, 0]
+                    coords[pos + j, 1] = pair_xy[first + j, 1]
+            else:
+                _along(plans[owner[i], slot], first, raw[i, side], common[i], n_side, off_x,
+                       off_y, coords, pos)  # fmt: skip
+            index[pos : pos + n_side] = g + side
+            pos += n_side
+        table[i, OWNER] = owner[i]
+        table[i, WEIGHT] = weight[i]
+        table[i, GEOM] = g
+        if multi:
+            table[i, DIRECT] = np.nan
+            table[i, SLOT] = g // 2
+            at_geos = pos
+            g_geos += 2
+        else:
+            # The one point and the other sequence (P's point when both have one).
+            one = start if lp == 1 else start + lp
+            other = start + lp if lp == 1 else start
+            n_other = lq if lp == 1 else lp
+            best = -np.inf
+            for j in range(other, other + n_other):
+                d = np.hypot(coords[j, 0] - coords[one, 0], coords[j, 1] - coords[one, 1])
+                if d > best:
+                    best = d
+            table[i, DIRECT] = best
+            table[i, SLOT] = -1
+            at_one = pos
+            g_one += 2
+    return coords, index, table, geos_points, n_geos
+
+
+@kernel
+def _combine(distances, table, n_ch, n_out):  # pragma: no cover - compiled
+    """Row 0: chpps of each channel (sum_j w_j inv(fd_j) / sum_j w_j in rank order), then the
+    Fréchet distance of each given pair; row 1: 1.0 where row 0 holds a value."""
+    out = np.zeros((2, n_out))
+    num = np.zeros(n_out)
+    den = np.zeros(n_out)
+    for i in range(table.shape[0]):
+        o = int(table[i, OWNER])
+        slot = int(table[i, SLOT])
+        d = distances[slot] if slot >= 0 else table[i, DIRECT]
+        w = table[i, WEIGHT]
+        num[o] += w / (1.0 + d)
+        den[o] += w
+        out[0, o] = d
+        out[1, o] = 1.0
+    for o in range(n_ch):
+        if out[1, o] > 0.0:
+            out[0, o] = num[o] / den[o]
+    return out
+
+
+_NO_XY = np.zeros((0, 2))
+_NO_LENS = np.zeros(0, dtype=np.int64)
+_NO_DISTANCES = np.zeros(0)
+
+
+def frame_inputs(
+    history: PlanHistory,
+    t: float,
+    decay: float,
+    pairs: Sequence[tuple[np.ndarray, np.ndarray] | None] = (),
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
+    """`_cut` of the frame at time `t`: `pairs` are extra (P, Q) (n, 2) point-sequence pairs
+    (the crpps inputs; None entries are skipped) that go first. See `_cut` for the result."""
+    given = [x for x in pairs if x is not None]
+    if given:
+        seqs = [s for pair in given for s in pair]
+        xy = np.concatenate(seqs)
+        lens = np.array([len(s) for s in seqs], dtype=np.int64)
+    else:
+        xy, lens = _NO_XY, _NO_LENS
+    return _cut(
+        history.plans, history.lens, history.times, history.count, history.head, t, decay,
+        xy, lens,
+    )  # fmt: skip
+
+
+def chpps_frame(
+    history: PlanHistory,
+    t: float,
+    decay: float,
+    pairs: Sequence[tuple[np.ndarray, np.ndarray] | None] = (),
+) -> tuple[list[float | None], list[float | None]]:
+    """chpps of every channel of `history` at frame time `t` (None: no plan from this frame,
+    or no stored plan overlaps), and the discrete Fréchet distance of each of `pairs` (None
+    for a None entry), with one `shapely.linestrings` and one `shapely.frechet_distance` call
+    for all of them. Push the frame's plans into `history` first."""
+    coords, index, table, n_points, n_geos = frame_inputs(history, t, decay, pairs)
+    if n_geos:
+        lines = shapely.linestrings(coords[:n_points], indices=index[:n_points])
+        distances = shapely.frechet_distance(lines[0::2], lines[1::2])
+    else:
+        distances = _NO_DISTANCES
+    n_ch = len(history.count)
+    values, has = _combine(distances, table, n_ch, n_ch + len(pairs) - pairs.count(None)).tolist()
+    chpps_values = [v if h else None for v, h in zip(values[:n_ch], has[:n_ch], strict=True)]
+    fd = iter(values[n_ch:])
+    return chpps_values, [None if x is None else next(fd) for x in pairs]
+
+
+def chpps(
+    current: np.ndarray, stored: Sequence[tuple[float, np.ndarray]], decay: float
+) -> float | None:
+    """Channel Planned Path Similarity of one plan against stored ones.
+
+    `current` (N, 3) plan; `stored` the earlier plans, most recent first, as (age [s], plan).
+    Stored plan j (rank j = 1 most recent) is shifted into the current time base (dt - age),
+    both plans are clipped to their common time range, f_j = inv(fd). Score = weighted mean
+    with w_j = k^(j-1) over the stored plans that overlap; None when none overlaps. (The
+    engine keeps a `PlanHistory` and calls `chpps_frame`; this builds one for a single call.)
+    """
+    if len(current) == 0:
+        return None
+    width = max([len(current)] + [len(p) for _, p in stored])
+    history = PlanHistory(1, max(len(stored), 1), float("inf"), width)
+    for age, plan in reversed(stored):
+        history.push(0, -age, plan)  # at t = 0, so that t - (-age) == age exactly
+    history.push(0, 0.0, current)
+    return chpps_frame(history, 0.0, decay)[0][0]

@@ -1,0 +1,215 @@
+"""Object Motion Prediction Validation (ompv) and the track interpolation it shares with the
+safety score."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from casewatch.monitor.frames import Objects
+from casewatch.monitor.jit import kernel
+from casewatch.monitor.similarity import pair_objects
+
+
+def interpolate_tracks(
+    pos: np.ndarray, pred: np.ndarray, pred_len: np.ndarray, times: np.ndarray
+) -> np.ndarray:
+    """Object positions (K, T, 2) at `times` (T,) after the frame time.
+
+    Linear interpolation inside each prediction; before the first predicted point the object
+    moves linearly from its current position (which is where it is at dt = 0); after the last
+    point it stays there; without a prediction it stays where it is.
+    """
+    k, t = len(pos), len(times)
+    if k == 0 or pred.shape[1] == 0:
+        return np.broadcast_to(pos[:, None, :], (k, t, 2)).copy()
+    dt = pred[:, :, 0]
+    xy = pred[:, :, 1:3]
+    p = pred.shape[1]
+    if p > 1 and bool((pred_len == p).all()) and bool((dt == dt[0]).all()):
+        # Common case: every object predicted on the same time grid, one searchsorted.
+        g = dt[0]
+        # np.minimum/np.maximum rather than np.clip: same values, a fraction of the overhead
+        i1 = np.minimum(np.maximum(np.searchsorted(g, times, side="right") - 1, 0), p - 2)
+        g0 = g.take(i1)
+        f1 = np.minimum(np.maximum((times - g0) / (g.take(i1 + 1) - g0), 0.0), 1.0)
+        a = xy[:, i1]
+        out = a + (xy[:, i1 + 1] - a) * f1[None, :, None]
+        if g[0] > 0 and times[0] < g[0]:
+            before = times < g[0]
+            lead = (times[before] / g[0])[None, :, None]
+            out[:, before] = pos[:, None, :] + (xy[:, None, 0, :] - pos[:, None, :]) * lead
+        return out
+    out = np.broadcast_to(pos[:, None, :], (k, t, 2)).copy()
+    have = pred_len > 0
+    rows = np.arange(k)[:, None]
+    if p == 1:
+        idx = np.zeros((k, t), dtype=int)
+        frac = np.zeros((k, t))
+    else:
+        valid = np.arange(p)[None, :] < pred_len[:, None]
+        dtm = np.where(valid, dt, np.inf)
+        idx = (dtm[:, None, :] <= times[None, :, None]).sum(-1) - 1
+        idx = np.clip(idx, 0, np.maximum(pred_len - 2, 0)[:, None])
+        t0 = dt[rows, idx]
+        t1 = dt[rows, np.minimum(idx + 1, p - 1)]
+        span = t1 - t0
+        frac = np.clip(
+            np.divide(times[None, :] - t0, span, out=np.zeros_like(t0), where=span > 0), 0.0, 1.0
+        )
+    a = xy[rows, idx]
+    b = xy[rows, np.minimum(idx + 1, p - 1)]
+    inside = a + (b - a) * frac[..., None]
+    # Before the first predicted point: from the current position towards it.
+    first_dt = dt[:, 0]
+    before = times[None, :] < first_dt[:, None]
+    lead = np.divide(
+        times[None, :], first_dt[:, None], out=np.zeros((k, t)), where=first_dt[:, None] > 0
+    )
+    towards = pos[:, None, :] + (xy[:, None, 0, :] - pos[:, None, :]) * lead[..., None]
+    inside = np.where(before[..., None], towards, inside)
+    return np.where(have[:, None, None], inside, out)
+
+
+@kernel
+def _point_at(pos, pred, pred_len, k, t, out):
+    """Position of object k at time t into out[0:2]: `interpolate_tracks`'s arithmetic for one
+    object and one time (kernel helper)."""
+    n = pred_len[k]
+    p = pred.shape[1]
+    if n == 0 or p == 0:
+        out[0] = pos[k, 0]
+        out[1] = pos[k, 1]
+        return
+    idx = 0
+    frac = 0.0
+    if p > 1:
+        # count of real dt <= t, minus one, clipped to [0, max(n - 2, 0)]
+        for j in range(n):
+            if pred[k, j, 0] <= t:
+                idx += 1
+        idx = min(max(idx - 1, 0), max(n - 2, 0))
+        j1 = min(idx + 1, p - 1)
+        t0 = pred[k, idx, 0]
+        span = pred[k, j1, 0] - t0
+        if span > 0:
+            frac = min(max((t - t0) / span, 0.0), 1.0)
+    else:
+        j1 = 0
+    first = pred[k, 0, 0]
+    if t < first:
+        # before the first predicted point: from the current position towards it
+        lead = t / first if first > 0 else 0.0
+        out[0] = pos[k, 0] + (pred[k, 0, 1] - pos[k, 0]) * lead
+        out[1] = pos[k, 1] + (pred[k, 0, 2] - pos[k, 1]) * lead
+        return
+    ax, ay = pred[k, idx, 1], pred[k, idx, 2]
+    out[0] = ax + (pred[k, j1, 1] - ax) * frac
+    out[1] = ay + (pred[k, j1, 2] - ay) * frac
+
+
+def positions_at(pos: np.ndarray, pred: np.ndarray, pred_len: np.ndarray, t: float) -> np.ndarray:
+    """Object positions (K, 2) at one time `t` after the frame time: `interpolate_tracks` at a
+    single time, with the same arithmetic; the positions ompv predicts (`_predict`)."""
+    return _predict(pos, pred, pred_len, float(t))[0]
+
+
+@kernel
+def _predict(pos, pred, pred_len, elapsed):  # pragma: no cover - compiled
+    """Each previous object's predicted position `elapsed` s later, and whether its prediction
+    reaches that far (last dt >= elapsed, 1e-9 s tolerance; no prediction always reaches)."""
+    n_prev = pos.shape[0]
+    p = pred.shape[1]
+    reaches = np.empty(n_prev, dtype=np.bool_)
+    predicted = np.empty((n_prev, 2))
+    for i in range(n_prev):
+        n = pred_len[i]
+        if p == 0:
+            reaches[i] = n == 0
+        else:
+            last = pred[i, max(n - 1, 0), 0]
+            reaches[i] = n == 0 or last >= elapsed - 1e-9
+        _point_at(pos, pred, pred_len, i, elapsed, predicted[i])
+    return predicted, reaches
+
+
+#: Resolution [m] of the ompv tolerance: a world frame turned by any angle moves a distance of
+#: metres by a few 1e-14 m, and an object exactly the tolerance away must not flip from hit to
+#: miss with it; a distance 5e-13 m beyond the tolerance is still a miss
+#: (`test_ompv_untracked_ties_within_1e9_break_by_index`).
+TOLERANCE_EPS = 1e-13
+
+
+@kernel
+def _ompv_counts(predicted, reaches, cur, pi, ci, tolerance):  # pragma: no cover - compiled
+    """(N1, N2) of ompv for the matched pairs (previous pi[r], current ci[r])."""
+    n_cur = cur.shape[0]
+    seen = np.zeros(n_cur, dtype=np.bool_)
+    distinct = 0
+    n1 = 0
+    for r in range(pi.shape[0]):
+        c = ci[r]
+        if not seen[c]:
+            seen[c] = True
+            distinct += 1
+        i = pi[r]
+        err = np.hypot(predicted[i, 0] - cur[c, 0], predicted[i, 1] - cur[c, 1])
+        if reaches[i] and err <= tolerance + TOLERANCE_EPS:
+            n1 += 1
+    return n1, predicted.shape[0] + n_cur - distinct
+
+
+def ompv(
+    prev: Objects, elapsed: float, cur: Objects, tolerance: float, gate: float,
+    standing: float = 0.0,
+) -> float:
+    """Share of objects that followed their prediction: N1 / N2 (1.0 when N2 = 0).
+
+    `prev` are the channel's objects `elapsed` seconds ago. A previous object is moved to its
+    predicted position now; one whose prediction does not reach `elapsed` is a miss (an absent
+    prediction means "stays where it is", so it always reaches). It followed when the current
+    object of the same id (or, when the channel does not track, the nearest within `gate`) is
+    within `tolerance` (to `TOLERANCE_EPS`: a distance of exactly the tolerance stays a hit
+    when the world frame turns). N2 = previous objects + current objects that are new.
+
+    `standing` > 0 (spi-reference "Standing objects"): only previous objects found again now
+    that were predicted to move or moved more than `standing` metres over `elapsed` count
+    (N2 = those, N1 = those that followed). A standing object's prediction holds trivially, and
+    a queue of them at a red light outvoted every moving car whose prediction was wrong; an
+    object new or gone since is a question of existence (lone_age's), not of prediction, and
+    counted as a miss it took ompv to exactly 0 whenever the one moving car in view had
+    entered it in the last `ompv_lookback` seconds (9 % of nominal ticks of the sweep).
+
+    The id lookup stays in Python (ids are strings); prediction and counting are compiled, and
+    the nearest matching is `similarity.pair_objects` (called from Python: numba's disk cache
+    would not notice a change to a kernel of another module compiled into this one).
+    """
+    n_prev, n_cur = len(prev), len(cur)
+    if n_prev == 0 and standing > 0.0:
+        return 1.0  # nothing was predicted: nothing to check
+    if n_prev == 0:
+        return 1.0 if n_cur == 0 else 0.0  # every current object is new: a miss
+    index_cur = {oid: i for i, oid in enumerate(cur.ids)}
+    match = np.array([index_cur.get(oid, -1) for oid in prev.ids], dtype=np.int64)
+    predicted, reaches = _predict(prev.pos, prev.pred, prev.pred_len, float(elapsed))
+    pi = np.flatnonzero(match >= 0)
+    if len(pi) or n_cur == 0:
+        # Decision: a channel tracks when at least one id carries over between the two ticks.
+        ci = match.take(pi)
+    else:
+        # No stable ids: the nearest current object to each predicted position, within the gate.
+        cand = np.flatnonzero(reaches)
+        pa, ci, _ = pair_objects(predicted.take(cand, axis=0), cur.pos, gate)
+        pi = cand.take(pa)
+    if standing <= 0.0:
+        n1, n2 = _ompv_counts(predicted, reaches, cur.pos, pi, ci, float(tolerance))
+        return n1 / n2
+    partner = np.full(n_prev, -1, dtype=np.int64)
+    partner[pi] = ci
+    has = partner >= 0
+    seen_at = cur.pos[np.where(has, partner, 0)] if n_cur else prev.pos.copy()
+    err = np.hypot(*(predicted - seen_at).T)
+    moved = np.where(has, np.hypot(*(seen_at - prev.pos).T), 0.0)
+    counted = has & ((np.hypot(*(predicted - prev.pos).T) > standing) | (moved > standing))
+    followed = counted & reaches & (err <= tolerance + TOLERANCE_EPS)
+    n2 = int(counted.sum())
+    return 1.0 if n2 == 0 else int(followed.sum()) / n2

@@ -1,0 +1,433 @@
+"""Situation signals: what tailgating *is*, measured per channel.
+
+The study's hazard rules combine similarity scores, none of which measures a short time gap to
+the vehicle ahead. These signals do, from each channel's own world model (spi-reference
+"Situation signals" is the normative text, with hand-computed examples):
+
+- the **leader**: the nearest object whose centre lies within `lane_half_width` of the ego's
+  planned path (its heading when it has no plan), ahead of the ego;
+- the **follower**: the nearest such object along the path the ego has driven, behind it;
+- gaps are bumper to bumper along the path; time headway and time to collision follow the
+  criticality-measure conventions of CommonRoad-CriMe (THW = gap / speed of the one behind,
+  TTC = gap / closing speed);
+- with no leader (or follower) in range, headway and TTC read `TIME_CAP` and the gap `GAP_CAP`:
+  nothing to tailgate is not missing data.
+
+Arrays in, arrays out: every object of a channel is projected onto every segment of the path
+in one numpy expression.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from casewatch.monitor.frames import Ego, Objects
+from casewatch.monitor.jit import kernel
+
+#: Headway and TTC [s] when there is no leader / follower, or it is not closing in.
+TIME_CAP = 60.0
+#: Gap [m] when there is no leader / follower within the look-ahead.
+GAP_CAP = 200.0
+#: Below this speed [m/s] a vehicle is standing: its headway is TIME_CAP.
+STANDING = 0.1
+
+
+@dataclass(frozen=True, slots=True)
+class Neighbour:
+    """The leader or the follower of one channel's ego: gap [m], speed along the path [m/s]
+    (0 when there is none), and whether there is one."""
+
+    gap: float
+    speed: float
+    present: bool
+
+
+NONE = Neighbour(GAP_CAP, 0.0, False)
+
+
+#: Resolution [m] of every geometric decision below: points on a boundary (the corridor's
+#: edge, beside the ego, a vertex equidistant from two segments) fall the same way whatever
+#: the world frame's rounding (the pairing's tie rule, spi-reference "Building blocks").
+EPS = 1e-9
+
+#: An object in the corridor is a leader (follower) only if its velocity across the path
+#: keeps it in the corridor for this long [s]: a car changing lanes through the ego's path
+#: (two cars swapping lanes, one cutting across) is passing, not leading; it crosses the
+#: 3.5 m corridor in about a second. The hazard rules' minimum duration is a second too.
+LANE_HOLD = 1.0
+
+#: The leader must also share the ego's lane now (`_shares_lane`), not only lie in the
+#: planned path: during the ego's lane change the plan already runs in the new lane, and a car
+#: there (often pulling away from the merging ego) read as tailgated about a second before the
+#: ego's centre crossed the lane line, which is where lane-based ground truth switches. The
+#: chord test holds on bends (an arc's chord halves its turn) but not across a turn followed by
+#: a straight, so it applies only while the two headings differ by less than this angle (a
+#: lane change turns the ego 3-12 degrees).
+LEAD_LANE = math.radians(15.0)
+LEAD_LANE_COS = math.cos(LEAD_LANE)
+
+#: Largest angle between the ego's and a follower's headings for the follower's own lane
+#: test (`_in_own_lane`): beyond it, the two are not driving the same way.
+FOLLOW_ALIGN = math.radians(30.0)
+
+#: The second point of a path is the first at least this far [m] from the ego: its direction
+#: is the path's initial heading, and nearer plan points add only rounding.
+PATH_SPACING = 2.0
+#: A path point is kept when it strays more than this [m] from the line through the last two
+#: kept points: a straight plan becomes one segment, a 15 m radius turn keeps a point every
+#: metre or so, and the polyline never strays more than a few centimetres from the plan.
+PATH_TOLERANCE = 0.1
+
+
+@kernel
+def _strays(out, m, x, y):  # pragma: no cover - compiled
+    """True when (x, y) lies more than PATH_TOLERANCE from the line through the last two kept
+    points out[m - 2], out[m - 1] (m >= 2)."""
+    px = out[m - 1, 0]
+    py = out[m - 1, 1]
+    lx = px - out[m - 2, 0]
+    ly = py - out[m - 2, 1]
+    return abs(lx * (y - py) - ly * (x - px)) / math.hypot(lx, ly) > PATH_TOLERANCE + EPS
+
+
+@kernel
+def _path(x0, y0, xs, ys, reverse, heading, lookahead):  # pragma: no cover - compiled
+    """(P, 2) polyline from (x0, y0) through the points (xs[i], ys[i]) (in reverse order when
+    `reverse`), simplified (see PATH_SPACING, PATH_TOLERANCE; the last point is kept when it
+    moves on by more than 1 cm) and extended straight by `lookahead` metres along the last
+    segment, or along `heading` when the points do not move."""
+    n = xs.shape[0] + 1
+    x = np.empty(n)
+    y = np.empty(n)
+    x[0] = x0
+    y[0] = y0
+    for i in range(n - 1):
+        j = n - 2 - i if reverse else i
+        x[i + 1] = xs[j]
+        y[i + 1] = ys[j]
+    out = np.empty((n + 1, 2))
+    out[0, 0] = x[0]
+    out[0, 1] = y[0]
+    m = 1
+    last = 0  # index of the last kept input point
+    for i in range(1, n):
+        if m == 1:
+            if math.hypot(x[i] - out[0, 0], y[i] - out[0, 1]) >= PATH_SPACING - EPS:
+                out[1, 0] = x[i]
+                out[1, 1] = y[i]
+                m = 2
+                last = i
+            continue
+        if _strays(out, m, x[i], y[i]) and last < i - 1:
+            # point i leaves the line: the point before it ends the straight stretch
+            out[m, 0] = x[i - 1]
+            out[m, 1] = y[i - 1]
+            m += 1
+            last = i - 1
+        if _strays(out, m, x[i], y[i]):
+            out[m, 0] = x[i]
+            out[m, 1] = y[i]
+            m += 1
+            last = i
+    if last < n - 1 and math.hypot(x[n - 1] - out[m - 1, 0], y[n - 1] - out[m - 1, 1]) > 0.01:
+        out[m, 0] = x[n - 1]
+        out[m, 1] = y[n - 1]
+        m += 1
+    if m >= 2:
+        dx = out[m - 1, 0] - out[m - 2, 0]
+        dy = out[m - 1, 1] - out[m - 2, 1]
+        length = math.hypot(dx, dy)
+        ux = dx / length
+        uy = dy / length
+    else:
+        ux = math.cos(heading)
+        uy = math.sin(heading)
+    out[m, 0] = out[m - 1, 0] + lookahead * ux
+    out[m, 1] = out[m - 1, 1] + lookahead * uy
+    return out[: m + 1]
+
+
+@kernel
+def _shares_lane(x0, y0, heading, px, py, yaw, half_width):  # pragma: no cover - compiled
+    """The ego at (x0, y0) heading `heading` and a vehicle ahead at (px, py) heading `yaw`
+    drive in one lane: the chord between them is within `half_width` of the direction halfway
+    between the two headings. On a bend of any radius that direction is the chord's own (an
+    arc's chord halves its turn), so the offset is the lateral one; in a lane change the ego's
+    path bends one way and back, and the chord leans across the lane (LEAD_LANE). True
+    whenever the headings differ by LEAD_LANE or more."""
+    if math.cos(heading - yaw) < LEAD_LANE_COS:
+        return True  # a turn between them: the chord says nothing about lanes (see LEAD_LANE)
+    mx = math.cos(heading) + math.cos(yaw)
+    my = math.sin(heading) + math.sin(yaw)
+    norm = math.hypot(mx, my)
+    return abs(mx * (py - y0) - my * (px - x0)) / norm <= half_width + EPS
+
+
+@kernel
+def _nearest(path, pos, yaw, hl, hw, vel, half_width, ego_half, hold, lane_x, lane_y,
+             lane_heading, lane):  # pragma: no cover - compiled  # fmt: skip
+    """The object with the smallest gap among those within `half_width` of `path` at positive
+    arc length whose velocity across the path keeps it there for `hold` seconds (its signed
+    offset from the nearest segment's line plus `hold` times its velocity across it stays
+    within `half_width`) and, when `lane`, that drives in one lane with the ego at
+    (lane_x, lane_y) heading `lane_heading` (`_shares_lane`): (index or -1, gap, tangent x,
+    tangent y). See `neighbour`."""
+    best_k = -1
+    best_gap = np.inf
+    best_ux = 0.0
+    best_uy = 0.0
+    for k in range(pos.shape[0]):
+        dist = np.inf
+        s_best = 0.0
+        ux_best = 0.0
+        uy_best = 0.0
+        s0 = 0.0
+        lat_best = 0.0
+        for j in range(path.shape[0] - 1):
+            ax = path[j, 0]
+            ay = path[j, 1]
+            dx = path[j + 1, 0] - ax
+            dy = path[j + 1, 1] - ay
+            length = math.hypot(dx, dy)
+            ux = dx / length
+            uy = dy / length
+            along = (pos[k, 0] - ax) * ux + (pos[k, 1] - ay) * uy
+            along = min(max(along, 0.0), length)
+            d = math.hypot(pos[k, 0] - ax - along * ux, pos[k, 1] - ay - along * uy)
+            if d < dist - EPS:  # an equidistant vertex keeps the earlier segment
+                dist = d
+                s_best = s0 + along
+                ux_best = ux
+                uy_best = uy
+                lat_best = ux * (pos[k, 1] - ay) - uy * (pos[k, 0] - ax)
+            s0 += length
+        if dist > half_width + EPS or s_best <= EPS:
+            continue
+        drift = ux_best * vel[k, 1] - uy_best * vel[k, 0]
+        if abs(lat_best + hold * drift) > half_width + EPS:
+            continue  # crossing the corridor: passing through, not in the lane (LANE_HOLD)
+        if lane and not _shares_lane(lane_x, lane_y, lane_heading, pos[k, 0], pos[k, 1],
+                                     yaw[k], half_width):  # fmt: skip
+            continue  # in the planned path, but not yet in the ego's lane (LEAD_LANE)
+        # |cos| and |sin| of the heading against the tangent, the sine from the cross product:
+        # sqrt(1 - cos^2) turns a rounding error of 1e-16 in cos into 1e-8 (a rigid motion of
+        # the world moved the gap by 7.5e-9 m)
+        hx = math.cos(yaw[k])
+        hy = math.sin(yaw[k])
+        cos = abs(hx * ux_best + hy * uy_best)
+        sin = abs(hx * uy_best - hy * ux_best)
+        extent = hl[k] * cos + hw[k] * sin
+        gap = max(s_best - ego_half - extent, 0.0)
+        if gap < best_gap - EPS:
+            best_gap = gap
+            best_k = k
+            best_ux = ux_best
+            best_uy = uy_best
+    return best_k, best_gap, best_ux, best_uy
+
+
+def path_ahead(ego: Ego, plan: np.ndarray, lookahead: float) -> np.ndarray:
+    """(P, 2) polyline from the ego along its plan, extended straight along the last direction
+    to `lookahead` metres; along the ego's heading when the plan does not move."""
+    return _path(ego.x, ego.y, plan[:, 1], plan[:, 2], False, float(ego.yaw), float(lookahead))
+
+
+def path_behind(ego: Ego, history: np.ndarray, lookahead: float) -> np.ndarray:
+    """(P, 2) polyline from the ego back along its driven positions `history` (oldest first),
+    extended straight backwards to `lookahead` metres; straight back along its heading when
+    it has not moved."""
+    return _path(ego.x, ego.y, history[:, 0], history[:, 1], True, float(ego.yaw) + math.pi,
+                 float(lookahead))  # fmt: skip
+
+
+@kernel
+def _in_own_lane(x0, y0, heading, ego_half, ego_hw, pos, yaw, hl, half_width,
+                 lookahead):  # pragma: no cover - compiled  # fmt: skip
+    """The nearest object behind the ego whose own lane holds the ego: the ego's centre lies
+    ahead of it, within `half_width` of the line along its heading, and the two head less
+    than FOLLOW_ALIGN apart. (index or -1, gap, and the unit vector from the ego towards it,
+    the direction of the path behind.) The gap is the ego's centre ahead of the object along
+    its heading, less its half length and the ego's box projected on that heading."""
+    best_k = -1
+    best_gap = np.inf
+    best_ux = 0.0
+    best_uy = 0.0
+    ex = math.cos(heading)
+    ey = math.sin(heading)
+    align = math.cos(FOLLOW_ALIGN)
+    for k in range(pos.shape[0]):
+        hx = math.cos(yaw[k])
+        hy = math.sin(yaw[k])
+        cos = hx * ex + hy * ey
+        if cos < align:
+            continue
+        dx = x0 - pos[k, 0]
+        dy = y0 - pos[k, 1]
+        ahead = dx * hx + dy * hy
+        if ahead <= EPS or ahead > lookahead or abs(hx * dy - hy * dx) > half_width + EPS:
+            continue
+        sin = abs(hx * ey - hy * ex)
+        gap = max(ahead - hl[k] - (ego_half * cos + ego_hw * sin), 0.0)
+        if gap < best_gap - EPS:
+            best_gap = gap
+            best_k = k
+            best_ux = -hx
+            best_uy = -hy
+    return best_k, best_gap, best_ux, best_uy
+
+
+@kernel
+def _neighbours(x0, y0, heading, plan_x, plan_y, driven_x, driven_y, behind, pos, yaw, hl, hw,
+                vel, half_width, ego_half, ego_hw, lookahead):  # pragma: no cover - compiled
+    """Leader along the plan and (when `behind`) follower in one call: (lead gap, lead speed
+    along the path, 1.0 if there is a leader, and the same three for the follower). The
+    follower is the nearer of the one along the driven path and the one whose own lane holds
+    the ego (`_in_own_lane`). See `neighbour`."""
+    out = np.zeros(6)
+    out[0] = out[3] = GAP_CAP
+    path = _path(x0, y0, plan_x, plan_y, False, heading, lookahead)
+    k, gap, ux, uy = _nearest(path, pos, yaw, hl, hw, vel, half_width, ego_half, LANE_HOLD,
+                              x0, y0, heading, True)  # fmt: skip
+    if k >= 0:
+        out[0] = min(gap, GAP_CAP)
+        out[1] = vel[k, 0] * ux + vel[k, 1] * uy
+        out[2] = 1.0
+    if behind:
+        path = _path(x0, y0, driven_x, driven_y, True, heading + math.pi, lookahead)
+        k, gap, ux, uy = _nearest(path, pos, yaw, hl, hw, vel, half_width, ego_half, LANE_HOLD,
+                                  x0, y0, heading, False)  # fmt: skip
+        k2, gap2, ux2, uy2 = _in_own_lane(x0, y0, heading, ego_half, ego_hw, pos, yaw, hl,
+                                          half_width, lookahead)  # fmt: skip
+        if k2 >= 0 and (k < 0 or gap2 < gap - EPS):
+            k, gap, ux, uy = k2, gap2, ux2, uy2
+        if k >= 0:
+            out[3] = min(gap, GAP_CAP)
+            out[4] = vel[k, 0] * ux + vel[k, 1] * uy
+            out[5] = 1.0
+    return out
+
+
+def _half_extents(objects: Objects) -> tuple[np.ndarray, np.ndarray]:
+    """(K,) half length and half width per object; a polygon footprint counts as the circle
+    around it (its bounding radius both ways)."""
+    half = objects.half
+    if not np.isnan(half[:, 0]).any():
+        return half[:, 0], half[:, 1]
+    box = ~np.isnan(half[:, 0])
+    radii = objects.radii
+    return np.where(box, half[:, 0], radii), np.where(box, half[:, 1], radii)
+
+
+def neighbours(
+    ego: Ego, plan: np.ndarray, driven: np.ndarray | None, objects: Objects, half_width: float,
+    ego_half: float, lookahead: float,
+) -> tuple[Neighbour, Neighbour | None]:
+    """The leader along `plan` and, when `driven` (the ego's earlier positions, oldest first)
+    is given, the follower (along that path, or in whose own lane the ego drives): one
+    compiled call for both."""
+    if len(objects) == 0:
+        return NONE, (None if driven is None else NONE)
+    hl, hw = _half_extents(objects)
+    d = driven if driven is not None else _NO_POINTS
+    ego_hw = float(np.max(np.abs(ego.footprint[:, 1])))
+    v = _neighbours(ego.x, ego.y, float(ego.yaw), plan[:, 1], plan[:, 2], d[:, 0], d[:, 1],
+                    driven is not None, objects.pos, objects.yaw, hl, hw, objects.vel,
+                    float(half_width), float(ego_half), ego_hw, float(lookahead))  # fmt: skip
+    lead = Neighbour(float(v[0]), float(v[1]), bool(v[2]))
+    if driven is None:
+        return lead, None
+    return lead, Neighbour(float(v[3]), float(v[4]), bool(v[5]))
+
+
+_NO_POINTS = np.zeros((0, 2))
+
+
+def project(path: np.ndarray, pos: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Project points (K, 2) onto a polyline (P, 2): arc length s (K,) of the nearest point,
+    its distance d (K,), and the unit tangent (K, 2) of that segment (numpy; the reference
+    the compiled `_nearest` is tested against)."""
+    a = path[:-1]
+    ab = path[1:] - a
+    length = np.hypot(ab[:, 0], ab[:, 1])
+    unit = ab / length[:, None]
+    rel = pos[:, None, :] - a[None, :, :]
+    along = np.clip(np.einsum("ksi,si->ks", rel, unit), 0.0, length[None, :])
+    foot = a[None, :, :] + along[..., None] * unit[None, :, :]
+    dist = np.hypot(*(pos[:, None, :] - foot).transpose(2, 0, 1))
+    best = np.argmin(dist, axis=1)
+    rows = np.arange(len(pos))
+    start_s = np.concatenate([[0.0], np.cumsum(length)[:-1]])
+    return start_s[best] + along[rows, best], dist[rows, best], unit[best]
+
+
+def neighbour(
+    ego: Ego, objects: Objects, path: np.ndarray, half_width: float, ego_half_length: float
+) -> Neighbour:
+    """The nearest object within `half_width` of `path` (from the ego outwards) that stays
+    there for LANE_HOLD: the gap from the ego's bumper to the object's near side along the
+    path (its box projected on the path's tangent), and the object's speed along the path
+    (positive: moving the path's way, away from the ego). One compiled call over every object
+    and path segment. The geometry alone: the engine's leader (`neighbours`) also asks that
+    the car share the ego's lane, and its follower may be found in the car's own lane."""
+    if len(objects) == 0:
+        return NONE
+    hl, hw = _half_extents(objects)
+    k, gap, ux, uy = _nearest(path, objects.pos, objects.yaw, hl, hw, objects.vel,
+                              float(half_width), float(ego_half_length), LANE_HOLD, ego.x, ego.y,
+                              float(ego.yaw), False)  # fmt: skip
+    if k < 0:
+        return NONE
+    speed = float(objects.vel[k, 0] * ux + objects.vel[k, 1] * uy)
+    return Neighbour(min(gap, GAP_CAP), speed, True)
+
+
+@kernel
+def _slope(t, v, span):  # pragma: no cover - compiled
+    """Least-squares slope of v over the samples of the last `span` seconds (t ascending);
+    NaN before half the span is covered by three samples."""
+    n = t.shape[0]
+    first = 0
+    while first < n and t[first] < t[n - 1] - span - 1e-9:
+        first += 1
+    if n - first < 3 or t[n - 1] - t[first] < 0.5 * span - 1e-9:
+        return math.nan
+    tm = 0.0
+    vm = 0.0
+    for i in range(first, n):
+        tm += t[i]
+        vm += v[i]
+    tm /= n - first
+    vm /= n - first
+    num = 0.0
+    den = 0.0
+    for i in range(first, n):
+        num += (t[i] - tm) * (v[i] - vm)
+        den += (t[i] - tm) * (t[i] - tm)
+    return num / den
+
+
+def acceleration(times: np.ndarray, speeds: np.ndarray, span: float = 1.0) -> float | None:
+    """`ego_accel`: the least-squares slope of the reported speeds of the last `span` seconds
+    (times ascending, the last is now); None before half the span is covered by 3 samples."""
+    value = _slope(times, speeds, float(span))
+    return None if math.isnan(value) else float(value)
+
+
+def headway(gap: float, speed: float) -> float:
+    """Time headway [s]: gap over the speed of the vehicle behind; TIME_CAP when it stands."""
+    return TIME_CAP if speed < STANDING else min(gap / speed, TIME_CAP)
+
+
+def time_to_collision(gap: float, closing: float) -> float:
+    """TTC [s]: gap over the closing speed; TIME_CAP when the two are not closing in."""
+    return TIME_CAP if closing <= 1e-3 else min(gap / closing, TIME_CAP)
+
+
+def ego_half_length(ego: Ego) -> float:
+    """Half the ego's length along its heading (box, or the footprint's extent forward)."""
+    if ego.half is not None:
+        return ego.half[0]
+    return float(np.max(np.abs(ego.footprint[:, 0])))

@@ -1,8 +1,0 @@
-"""Rendering results (from result.json alone) as HTML, Markdown and JUnit XML.
-
-Public API: `load_result`, `render_reports`, `ResultError`, `FORMATS` (see `reports.render`).
-"""
-
-from reports.render import FORMATS, ResultError, load_result, render_reports
-
-__all__ = ["FORMATS", "ResultError", "load_result", "render_reports"]
