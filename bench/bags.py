@@ -64,13 +64,18 @@ def measure(folder: Path, limit: int | None = None) -> list[dict[str, object]]:
             n = sum(1 for _ in reader)
             read_s = time.perf_counter() - started
             run = evaluate_stream(case, spec, bag, RunOptions(topics=topics))
-            rows.append({
-                "drive": name, "mcap": "zstd" if compress else "plain", "frames": n,
-                "mib": round(sum(p.stat().st_size for p in bag.glob("*.mcap")) / 2**20, 1),
-                "read_fps": round(n / read_s, 1), "judge_fps": round(judge_fps, 1),
-                "run_fps": run.timings.frames_per_s,
-                "same_episodes": _same(run.episodes, stream_run.episodes),
-            })  # fmt: skip
+            rows.append(
+                {
+                    "drive": name,
+                    "mcap": "zstd" if compress else "plain",
+                    "frames": n,
+                    "mib": round(sum(p.stat().st_size for p in bag.glob("*.mcap")) / 2**20, 1),
+                    "read_fps": round(n / read_s, 1),
+                    "judge_fps": round(judge_fps, 1),
+                    "run_fps": run.timings.frames_per_s,
+                    "same_episodes": _same(run.episodes, stream_run.episodes),
+                }
+            )
     return rows
 
 
@@ -99,19 +104,28 @@ def _limited(drive: Path, folder: Path, limit: int | None) -> Path:
 
 
 def print_rows(rows: list[dict[str, object]]) -> None:
-    print(f"\n{'ROS 2 bag':<26}{'mcap':>6}{'frames':>8}{'MiB':>7}{'read f/s':>10}"
-          f"{'judge f/s':>10}{'run f/s':>9}  same episodes")  # fmt: skip
+    print(
+        f"\n{'ROS 2 bag':<26}{'mcap':>6}{'frames':>8}{'MiB':>7}{'read f/s':>10}"
+        f"{'judge f/s':>10}{'run f/s':>9}  same episodes"
+    )
     for r in rows:
-        print(f"{r['drive']:<26}{r['mcap']:>6}{r['frames']:>8}{r['mib']:>7}{r['read_fps']:>10}"
-              f"{r['judge_fps']:>10}{r['run_fps']:>9}  {'yes' if r['same_episodes'] else 'NO'}")
+        print(
+            f"{r['drive']:<26}{r['mcap']:>6}{r['frames']:>8}{r['mib']:>7}{r['read_fps']:>10}"
+            f"{r['judge_fps']:>10}{r['run_fps']:>9}  {'yes' if r['same_episodes'] else 'NO'}"
+        )
     slowest = min(r["read_fps"] / r["judge_fps"] for r in rows)  # type: ignore[operator]
-    print(f"target: reading a bag >= the evaluator's own speed: slowest read/judge ratio "
-          f"{slowest:.2f}: {'met' if slowest >= 1 else 'MISSED'}")
+    print(
+        f"target: reading a bag >= the evaluator's own speed: slowest read/judge ratio "
+        f"{slowest:.2f}: {'met' if slowest >= 1 else 'MISSED'}"
+    )
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m bench.bags", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        prog="python -m bench.bags",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     ap.add_argument("--quick", action="store_true", help="200 frames per drive")
     ap.add_argument("--out", type=Path, default=Path("bench") / "bags")
     args = ap.parse_args(argv)

@@ -56,8 +56,7 @@ def bundled_columns(spec, case, hours: float) -> Columns:
             for i in range(len(t)):
                 if out.n >= target:
                     break
-                out.add(round(offset + t[i], 6), dict(zip(names, values[i].tolist(),
-                                                          strict=True)))  # fmt: skip
+                out.add(round(offset + t[i], 6), dict(zip(names, values[i].tolist(), strict=True)))
             offset += float(t[-1]) + 10.0  # a 10 s pause between drives: a gap, as in a fleet
     return out
 
@@ -68,8 +67,9 @@ def per_formula(spec, columns: Columns, max_gap: float) -> list[dict[str, object
     for f in spec.formulas:
         ast = parse_rtamt(f.rtamt, spec.period)
         cols = {n: np.ascontiguousarray(columns.column(n)) for n in f.signals}
-        robustness(ast, {n: c[:50] for n, c in cols.items()}, t[:50], spec.period,
-                   max_gap)  # compiled kernels loaded before timing
+        robustness(
+            ast, {n: c[:50] for n, c in cols.items()}, t[:50], spec.period, max_gap
+        )  # compiled kernels loaded before timing
         started = time.perf_counter()
         ours = robustness(ast, cols, t, spec.period, max_gap)
         numpy_s = time.perf_counter() - started
@@ -91,15 +91,24 @@ def per_formula(spec, columns: Columns, max_gap: float) -> list[dict[str, object
         rtamt_s = time.perf_counter() - started
         mine = ours[index]
         finite = np.isfinite(theirs) & np.isfinite(mine)
-        same_inf = bool(np.array_equal(np.isinf(theirs), np.isinf(mine))
-                        and np.array_equal(theirs[~finite], mine[~finite]))  # fmt: skip
+        same_inf = bool(
+            np.array_equal(np.isinf(theirs), np.isinf(mine))
+            and np.array_equal(theirs[~finite], mine[~finite])
+        )
         diff = float(np.max(np.abs(theirs[finite] - mine[finite]), initial=0.0))
         n = max(len(index), 1)
-        rows.append({"formula": f.id, "rtamt": f.rtamt, "samples": len(index),
-                     "rtamt_us": round(rtamt_s / n * 1e6, 3),
-                     "numpy_us": round(numpy_s / n * 1e6, 4),
-                     "speedup": round(rtamt_s / numpy_s, 1) if numpy_s > 0 else math.inf,
-                     "max_diff": diff, "same_infinities": same_inf})  # fmt: skip
+        rows.append(
+            {
+                "formula": f.id,
+                "rtamt": f.rtamt,
+                "samples": len(index),
+                "rtamt_us": round(rtamt_s / n * 1e6, 3),
+                "numpy_us": round(numpy_s / n * 1e6, 4),
+                "speedup": round(rtamt_s / numpy_s, 1) if numpy_s > 0 else math.inf,
+                "max_diff": diff,
+                "same_infinities": same_inf,
+            }
+        )
     return rows
 
 
@@ -117,8 +126,15 @@ def pipeline(case_path: Path) -> list[dict[str, object]]:
             frames += r.stream.frames_read
             total += r.timings.total_s
             stl += r.timings.stl_s
-        rows.append({"engine": engine, "frames": frames, "total_s": round(total, 2),
-                     "stl_s": round(stl, 3), "frames_per_s": round(frames / total, 1)})
+        rows.append(
+            {
+                "engine": engine,
+                "frames": frames,
+                "total_s": round(total, 2),
+                "stl_s": round(stl, 3),
+                "frames_per_s": round(frames / total, 1),
+            }
+        )
     return rows
 
 
@@ -127,35 +143,51 @@ def measure(hours: float = 1.0) -> dict[str, object]:
 
     case, spec = api.prepare(CASE)
     columns = bundled_columns(spec, case, hours)
-    return {"hours": hours, "ticks": columns.n,
-            "per_formula": per_formula(spec, columns, case.monitor.metrics.max_gap),
-            "pipeline": pipeline(CASE)}  # fmt: skip
+    return {
+        "hours": hours,
+        "ticks": columns.n,
+        "per_formula": per_formula(spec, columns, case.monitor.metrics.max_gap),
+        "pipeline": pipeline(CASE),
+    }
 
 
 def print_results(r: dict) -> None:
     rows = r["per_formula"]
     print(f"\nSTL engines on {r['hours']:g} h of the bundled drives' signals ({r['ticks']} ticks)")
-    print(f"{'formula':<8}{'samples':>9}{'rtamt us':>10}{'numpy us':>10}{'speed-up':>10}"
-          f"{'max diff':>10}  formula")  # fmt: skip
+    print(
+        f"{'formula':<8}{'samples':>9}{'rtamt us':>10}{'numpy us':>10}{'speed-up':>10}"
+        f"{'max diff':>10}  formula"
+    )
     for row in rows:
-        print(f"{row['formula']:<8}{row['samples']:>9}{row['rtamt_us']:>10.3f}"
-              f"{row['numpy_us']:>10.4f}{row['speedup']:>9.0f}x{row['max_diff']:>10.1e}  "
-              f"{row['rtamt'][:50]}")  # fmt: skip
+        print(
+            f"{row['formula']:<8}{row['samples']:>9}{row['rtamt_us']:>10.3f}"
+            f"{row['numpy_us']:>10.4f}{row['speedup']:>9.0f}x{row['max_diff']:>10.1e}  "
+            f"{row['rtamt'][:50]}"
+        )
     worst = min(row["speedup"] for row in rows)
     identical = all(row["max_diff"] <= 1e-9 and row["same_infinities"] for row in rows)
-    print(f"target: numpy >= 50x rtamt per formula-sample: slowest {worst:.0f}x: "
-          f"{'met' if worst >= 50 else 'MISSED'}; values identical (<= 1e-9): "
-          f"{'yes' if identical else 'NO'}")  # fmt: skip
-    print(f"\n{'engine':<8}{'frames':>8}{'total s':>9}{'STL s':>8}{'frames/s':>10}  "
-          "(casewatch run on the bundled drives)")
+    print(
+        f"target: numpy >= 50x rtamt per formula-sample: slowest {worst:.0f}x: "
+        f"{'met' if worst >= 50 else 'MISSED'}; values identical (<= 1e-9): "
+        f"{'yes' if identical else 'NO'}"
+    )
+    print(
+        f"\n{'engine':<8}{'frames':>8}{'total s':>9}{'STL s':>8}{'frames/s':>10}  "
+        "(casewatch run on the bundled drives)"
+    )
     for row in r["pipeline"]:
-        print(f"{row['engine']:<8}{row['frames']:>8}{row['total_s']:>9}{row['stl_s']:>8}"
-              f"{row['frames_per_s']:>10}")
+        print(
+            f"{row['engine']:<8}{row['frames']:>8}{row['total_s']:>9}{row['stl_s']:>8}"
+            f"{row['frames_per_s']:>10}"
+        )
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m bench.stl", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        prog="python -m bench.stl",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     ap.add_argument("--hours", type=float, default=1.0)
     ap.add_argument("--quick", action="store_true", help="0.05 h of signals")
     args = ap.parse_args(argv)

@@ -42,10 +42,10 @@ from pathlib import Path
 
 import numpy as np
 
+from bench.metrics import reference_load_frames
 from casewatch import api
 from casewatch.evaluator.core import Evaluator
 from casewatch.evaluator.session import peak_rss_mib
-from bench.metrics import reference_load_frames
 from casewatch.monitor.engine import MetricEngine
 
 REPO = Path(__file__).resolve().parent.parent
@@ -57,9 +57,12 @@ T_FIELD = re.compile(rb'^\{"t":\s*([-0-9.eE+]+)')
 
 def _ms(values: list[float]) -> dict[str, float]:
     a = np.asarray(values) * 1e3
-    return {"p50": round(float(np.percentile(a, 50)), 4),
-            "p99": round(float(np.percentile(a, 99)), 4),
-            "max": round(float(a.max()), 4), "mean": round(float(a.mean()), 4)}
+    return {
+        "p50": round(float(np.percentile(a, 50)), 4),
+        "p99": round(float(np.percentile(a, 99)), 4),
+        "max": round(float(a.max()), 4),
+        "mean": round(float(a.mean()), 4),
+    }
 
 
 def online_latency(frames: int, warmup: int = 30) -> dict[str, object]:
@@ -82,8 +85,11 @@ def online_latency(frames: int, warmup: int = 30) -> dict[str, object]:
         parts["stl"].append(stl)
         parts["episodes_status"].append(t2 - t1 - stl)
         parts["total"].append(t2 - t0)
-    return {"frames": frames, "formulas": len(spec.formulas),
-            **{k: _ms(v) for k, v in parts.items()}}
+    return {
+        "frames": frames,
+        "formulas": len(spec.formulas),
+        **{k: _ms(v) for k, v in parts.items()},
+    }
 
 
 def rtamt_cost(updates: int = 2000) -> list[dict[str, object]]:
@@ -107,8 +113,8 @@ def rtamt_cost(updates: int = 2000) -> list[dict[str, object]]:
 
 
 _WARM_UP = (
-    "import time; t = time.perf_counter(); from casewatch.monitor.warmup import warm_up; warm_up(); "
-    "print(time.perf_counter() - t)"
+    "import time; t = time.perf_counter(); "
+    "from casewatch.monitor.warmup import warm_up; warm_up(); print(time.perf_counter() - t)"
 )
 
 
@@ -119,8 +125,14 @@ def kernel_start_up() -> dict[str, float]:
     with tempfile.TemporaryDirectory() as cache:
         env = {**os.environ, "NUMBA_CACHE_DIR": cache}
         for label in ("cold_cache_s", "warm_cache_s"):
-            done = subprocess.run([sys.executable, "-c", _WARM_UP], env=env, cwd=REPO,
-                                  capture_output=True, text=True, check=True)
+            done = subprocess.run(
+                [sys.executable, "-c", _WARM_UP],
+                env=env,
+                cwd=REPO,
+                capture_output=True,
+                text=True,
+                check=True,
+            )
             out[label] = round(float(done.stdout.strip().splitlines()[-1]), 2)
     return out
 
@@ -144,7 +156,7 @@ def build_replay(hours: float, files: int, folder: Path) -> tuple[list[Path], in
         for line in lines[1:] if header else lines:
             m = T_FIELD.match(line)
             if m:
-                body.append((float(m.group(1)), line[m.end():]))
+                body.append((float(m.group(1)), line[m.end() :]))
         sources.append((header, body))
     period = 0.1
     total_frames = round(hours * 3600 / period)
@@ -194,8 +206,12 @@ def run_cli(args: list[str], stdin_files: list[Path] | None = None) -> tuple[flo
 
     with tempfile.TemporaryFile() as err:
         start = time.perf_counter()
-        proc = subprocess.Popen(cmd, stdin=subprocess.PIPE if stdin_files else None,
-                                stdout=subprocess.DEVNULL, stderr=err)
+        proc = subprocess.Popen(
+            cmd,
+            stdin=subprocess.PIPE if stdin_files else None,
+            stdout=subprocess.DEVNULL,
+            stderr=err,
+        )
         watcher = threading.Thread(target=poll, daemon=True)
         watcher.start()
         if stdin_files:
@@ -217,13 +233,32 @@ def run_cli(args: list[str], stdin_files: list[Path] | None = None) -> tuple[flo
     return wall, peak, code
 
 
-def offline(streams: list[Path], frames: int, hours: float, jobs: int, out: Path,
-            engine: str = "processes") -> dict:  # fmt: skip
-    args = ["run", str(CASE), *map(str, streams), "-o", str(out), "--jobs", str(jobs),
-            "--format", "none", "--quiet", "--engine", engine]
+def offline(
+    streams: list[Path], frames: int, hours: float, jobs: int, out: Path, engine: str = "processes"
+) -> dict:
+    args = [
+        "run",
+        str(CASE),
+        *map(str, streams),
+        "-o",
+        str(out),
+        "--jobs",
+        str(jobs),
+        "--format",
+        "none",
+        "--quiet",
+        "--engine",
+        engine,
+    ]
     wall, _, _ = run_cli(args)
-    return {"jobs": jobs, "frames": frames, "hours": round(hours, 4), "wall_s": round(wall, 2),
-            "frames_per_s": round(frames / wall, 1), "x_real_time": round(hours * 3600 / wall, 1)}
+    return {
+        "jobs": jobs,
+        "frames": frames,
+        "hours": round(hours, 4),
+        "wall_s": round(wall, 2),
+        "frames_per_s": round(frames / wall, 1),
+        "x_real_time": round(hours * 3600 / wall, 1),
+    }
 
 
 def count_frames(streams: list[Path]) -> tuple[int, float]:
@@ -245,13 +280,20 @@ def machine() -> dict[str, object]:
                 break
     except OSError:
         pass
-    return {"cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version(),
-            "platform": platform.platform()}
+    return {
+        "cpu": cpu,
+        "cores": os.cpu_count(),
+        "python": platform.python_version(),
+        "platform": platform.platform(),
+    }
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m bench", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        prog="python -m bench",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     ap.add_argument("--quick", action="store_true", help="short run (smoke test of the suite)")
     ap.add_argument("--hours", type=float, default=8.0, help="length of the replay run")
     args = ap.parse_args(argv)
@@ -269,17 +311,26 @@ def main(argv: list[str] | None = None) -> int:
     streams = bundled_streams()
     frames, bundled_hours = count_frames(streams)
     results["offline_bundled"] = [
-        offline(streams, frames, bundled_hours, jobs, BENCH / f"bundled-j{jobs}")
-        for jobs in (1, 2)
+        offline(streams, frames, bundled_hours, jobs, BENCH / f"bundled-j{jobs}") for jobs in (1, 2)
     ]
     replay, replay_frames = build_replay(hours, 4, BENCH / "replay")
-    wall, rss, _ = run_cli(["run", str(CASE), "-", "-o", str(BENCH / "replay-single"),
-                            "--format", "none", "--quiet"], stdin_files=replay)
-    single = {"jobs": 1, "frames": replay_frames, "hours": hours, "wall_s": round(wall, 2),
-              "frames_per_s": round(replay_frames / wall, 1),
-              "x_real_time": round(hours * 3600 / wall, 1), "peak_rss_mib": round(rss, 1)}
-    results["offline_replay"] = [single,
-                                 offline(replay, replay_frames, hours, 2, BENCH / "replay-j2")]
+    wall, rss, _ = run_cli(
+        ["run", str(CASE), "-", "-o", str(BENCH / "replay-single"), "--format", "none", "--quiet"],
+        stdin_files=replay,
+    )
+    single = {
+        "jobs": 1,
+        "frames": replay_frames,
+        "hours": hours,
+        "wall_s": round(wall, 2),
+        "frames_per_s": round(replay_frames / wall, 1),
+        "x_real_time": round(hours * 3600 / wall, 1),
+        "peak_rss_mib": round(rss, 1),
+    }
+    results["offline_replay"] = [
+        single,
+        offline(replay, replay_frames, hours, 2, BENCH / "replay-j2"),
+    ]
     try:
         import distributed  # noqa: F401
 
@@ -323,10 +374,12 @@ def main(argv: list[str] | None = None) -> int:
         speedup = dask[0]["wall_s"] / dask[1]["wall_s"]
         jobs2 = results["offline_replay"][1]["wall_s"]
         overhead = dask[1]["wall_s"] / jobs2 - 1
-        print(f"\nDask LocalCluster, {hours:g} h replay: 1 worker {dask[0]['wall_s']:.1f} s, "
-              f"2 workers {dask[1]['wall_s']:.1f} s: speed-up {speedup:.2f}x (goal >= 1.8x: "
-              f"{'met' if speedup >= 1.8 else 'MISSED'}); against --jobs 2 ({jobs2:.1f} s): "
-              f"{overhead:+.1%} (goal <= +10 %: {'met' if overhead <= 0.10 else 'MISSED'})")
+        print(
+            f"\nDask LocalCluster, {hours:g} h replay: 1 worker {dask[0]['wall_s']:.1f} s, "
+            f"2 workers {dask[1]['wall_s']:.1f} s: speed-up {speedup:.2f}x (goal >= 1.8x: "
+            f"{'met' if speedup >= 1.8 else 'MISSED'}); against --jobs 2 ({jobs2:.1f} s): "
+            f"{overhead:+.1%} (goal <= +10 %: {'met' if overhead <= 0.10 else 'MISSED'})"
+        )
     print("\n6. threshold tuning on 1 hour of saved signals ...", flush=True)
     from bench.tuning import main as tuning_bench
 
@@ -337,8 +390,10 @@ def print_table(r: dict) -> None:
     m = r["machine"]
     print(f"\nmachine: {m['cpu']}, {m['cores']} cores, Python {m['python']}")
     o = r["online"]
-    print(f"\nonline latency per frame, reference load, {o['formulas']} formulas "
-          f"({o['frames']} frames)")
+    print(
+        f"\nonline latency per frame, reference load, {o['formulas']} formulas "
+        f"({o['frames']} frames)"
+    )
     print(f"{'part':<18}{'p50 ms':>9}{'p99 ms':>9}{'max ms':>9}")
     for part in ("metrics", "stl", "episodes_status", "total"):
         v = o[part]
@@ -347,25 +402,33 @@ def print_table(r: dict) -> None:
     print("\nrtamt update cost per formula (µs)")
     for row in r["rtamt"]:
         print(f"  {row['formula']:<6}{row['us_per_update']:>8.1f}  {row['rtamt'][:70]}")
-    print(f"\n{'offline':<16}{'jobs':>5}{'frames':>10}{'hours':>8}{'wall s':>9}"
-          f"{'frames/s':>10}{'x real':>9}{'RSS MiB':>9}")
+    print(
+        f"\n{'offline':<16}{'jobs':>5}{'frames':>10}{'hours':>8}{'wall s':>9}"
+        f"{'frames/s':>10}{'x real':>9}{'RSS MiB':>9}"
+    )
     for name in ("offline_bundled", "offline_replay"):
         for row in r[name]:
-            print(f"{name[8:]:<16}{row['jobs']:>5}{row['frames']:>10}{row['hours']:>8.3f}"
-                  f"{row['wall_s']:>9.1f}{row['frames_per_s']:>10.0f}{row['x_real_time']:>9.0f}"
-                  f"{row.get('peak_rss_mib', ''):>9}")
+            print(
+                f"{name[8:]:<16}{row['jobs']:>5}{row['frames']:>10}{row['hours']:>8.3f}"
+                f"{row['wall_s']:>9.1f}{row['frames_per_s']:>10.0f}{row['x_real_time']:>9.0f}"
+                f"{row.get('peak_rss_mib', ''):>9}"
+            )
     replay_j2 = r["offline_replay"][1]["x_real_time"]
     rss = r["offline_replay"][0]["peak_rss_mib"]
     print(f"target: >= 200x real time with --jobs 2: {'met' if replay_j2 >= 200 else 'MISSED'}")
     print(f"target: peak RSS <= 1024 MiB: {'met' if rss <= 1024 else 'MISSED'}")
     rep = r["report"]
-    print(f"\nreport for a {rep['duration_s'] / 3600:g} h run ({rep['episodes']} episodes): "
-          f"HTML {rep['html_s']:.3f} s, {rep['html_bytes'] / 1e6:.2f} MB; "
-          f"Markdown {rep['md_s']:.3f} s; JUnit {rep['junit_s']:.3f} s")
+    print(
+        f"\nreport for a {rep['duration_s'] / 3600:g} h run ({rep['episodes']} episodes): "
+        f"HTML {rep['html_s']:.3f} s, {rep['html_bytes'] / 1e6:.2f} MB; "
+        f"Markdown {rep['md_s']:.3f} s; JUnit {rep['junit_s']:.3f} s"
+    )
     print(f"target: 1-hour HTML report < 5 MB: {'met' if rep['html_bytes'] < 5e6 else 'MISSED'}")
     k = r["kernels"]
-    print(f"\nmetric kernels (import + warm-up): {k['cold_cache_s']:.1f} s with an empty numba "
-          f"cache (first run on a machine), {k['warm_cache_s']:.2f} s from the cache")
+    print(
+        f"\nmetric kernels (import + warm-up): {k['cold_cache_s']:.1f} s with an empty numba "
+        f"cache (first run on a machine), {k['warm_cache_s']:.2f} s from the cache"
+    )
 
 
 if __name__ == "__main__":

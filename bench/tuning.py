@@ -42,12 +42,22 @@ def tiled_logs(runs: list[tuple[SavedSignals, list[Label]]], minutes: float, cou
             shift = offset - log.t[0]
             parts_t.append(log.t + shift)
             parts_v.append(log.values)
-            labels += [Label(lab.hazard, lab.start + shift, lab.end + shift, lab.line)
-                       for lab in labs]  # fmt: skip
+            labels += [
+                Label(lab.hazard, lab.start + shift, lab.end + shift, lab.line) for lab in labs
+            ]
             offset = parts_t[-1][-1] + 1.0
         base = runs[0][0]
-        out.append((dataclasses.replace(base, path=f"tiled-{n}", t=np.concatenate(parts_t),
-                                        values=np.concatenate(parts_v)), labels))  # fmt: skip
+        out.append(
+            (
+                dataclasses.replace(
+                    base,
+                    path=f"tiled-{n}",
+                    t=np.concatenate(parts_t),
+                    values=np.concatenate(parts_v),
+                ),
+                labels,
+            )
+        )
     return out
 
 
@@ -60,8 +70,18 @@ def main(argv: list[str] | None = None) -> int:
     case, spec = api.prepare(CASE)
     with tempfile.TemporaryDirectory() as tmp:
         streams = sorted(batch.find_streams(str(DATA)))
-        summary = batch.run_many(str(CASE), case.digest, streams, Path(tmp), 2, "auto", False,
-                                 (), None, save_signals=True)  # fmt: skip
+        summary = batch.run_many(
+            str(CASE),
+            case.digest,
+            streams,
+            Path(tmp),
+            2,
+            "auto",
+            False,
+            (),
+            None,
+            save_signals=True,
+        )
         runs = []
         for log in summary["per_log"]:  # type: ignore[union-attr]
             folder = Path(log["out_dir"])
@@ -78,16 +98,19 @@ def main(argv: list[str] | None = None) -> int:
         candidates += len(sw.candidates())
         results.append(tune(sw))
     seconds = time.perf_counter() - started
-    print(f"tuning {hours:.2f} h of saved signals ({len(logs)} logs), {len(found)} formulas, "
-          f"{candidates} candidates (<= {args.candidates} thresholds x durations): "
-          f"{seconds:.1f} s (target <= 60 s: {'met' if seconds <= 60 else 'MISSED'})")
+    print(
+        f"tuning {hours:.2f} h of saved signals ({len(logs)} logs), {len(found)} formulas, "
+        f"{candidates} candidates (<= {args.candidates} thresholds x durations): "
+        f"{seconds:.1f} s (target <= 60 s: {'met' if seconds <= 60 else 'MISSED'})"
+    )
     for r in results:
         if r["labels"]:
             o, t = r["original"], r["tuned"]
-            print(f"  {r['formula']:<5} {r['parameter']:<13} {o['threshold']:g} -> "
-                  f"{t['threshold']:g}: fitted {pr_text(t)}, held-out {pr_text(r['heldout'])}")
+            print(
+                f"  {r['formula']:<5} {r['parameter']:<13} {o['threshold']:g} -> "
+                f"{t['threshold']:g}: fitted {pr_text(t)}, held-out {pr_text(r['heldout'])}"
+            )
     return 0
-
 
 
 if __name__ == "__main__":

@@ -18,6 +18,7 @@ from pathlib import Path
 from pydantic import ValidationError
 
 from casewatch.crash import write_crash_log
+from casewatch.errors import CasewatchError
 from casewatch.evaluator.ground_truth import LabelsError
 from casewatch.evaluator.inputs import path_digest
 from casewatch.evaluator.result import result_digest
@@ -34,7 +35,7 @@ BAG_SUFFIXES = (".mcap", ".db3")
 LABEL_SUFFIXES = (".labels.jsonl", "-labels.jsonl")
 
 
-class NoStreams(ValueError):
+class NoStreams(CasewatchError, ValueError):
     """The pattern or folder matched no stream file."""
 
 
@@ -132,21 +133,37 @@ def run_job(job: Job) -> LogSummary:
         if job.formats:
             api.render(out, job.formats)
     except (InputError, LabelsError, CaseError, OSError) as exc:
-        return LogSummary(stream=job.stream, out_dir=str(out), ok=False, error=str(exc),
-                          seconds=round(time.perf_counter() - started, 3))
+        return LogSummary(
+            stream=job.stream,
+            out_dir=str(out),
+            ok=False,
+            error=str(exc),
+            seconds=round(time.perf_counter() - started, 3),
+        )
     except EngineMismatch as exc:  # a bug in one of the STL engines, never a verdict: exit 4
-        return LogSummary(stream=job.stream, out_dir=str(out), ok=False, engines_disagree=True,
-                          error=str(exc), seconds=round(time.perf_counter() - started, 3))
+        return LogSummary(
+            stream=job.stream,
+            out_dir=str(out),
+            ok=False,
+            engines_disagree=True,
+            error=str(exc),
+            seconds=round(time.perf_counter() - started, 3),
+        )
     except Exception as exc:  # a bug: keep the other logs going, exit 3 at the end
         log = write_crash_log(exc, ["run", job.case_path, job.stream, "-o", job.out_dir], out)
-        return LogSummary(stream=job.stream, out_dir=str(out), ok=False, crashed=True,
-                          error=f"internal error ({type(exc).__name__}: {exc}); please attach "
-                                f"{log} to a bug report",
-                          seconds=round(time.perf_counter() - started, 3))
+        return LogSummary(
+            stream=job.stream,
+            out_dir=str(out),
+            ok=False,
+            crashed=True,
+            error=f"internal error ({type(exc).__name__}: {exc}); please attach "
+            f"{log} to a bug report",
+            seconds=round(time.perf_counter() - started, 3),
+        )
     return summarise_result(result, str(out), time.perf_counter() - started)
 
 
-class FleetError(ValueError):
+class FleetError(CasewatchError, ValueError):
     """A `summary.json` that is not a casewatch fleet summary (names the file)."""
 
 
@@ -155,8 +172,10 @@ def read_summary(folder: Path) -> dict:
     `out_dir` (what `diff`, `tune`, `calibrate` and `report` read of a fleet)."""
     path = Path(folder) / "summary.json"
     try:
-        summary = json.loads(path.read_text(encoding="utf-8"),
-                             parse_int=lambda d: int(d) if len(d) < 300 else float(d))
+        summary = json.loads(
+            path.read_text(encoding="utf-8"),
+            parse_int=lambda d: int(d) if len(d) < 300 else float(d),
+        )
         if not isinstance(summary, dict) or not isinstance(summary.get("per_log"), list):
             raise ValueError("no per_log list")
         if not all(isinstance(log, dict) and "out_dir" in log for log in summary["per_log"]):
@@ -165,8 +184,9 @@ def read_summary(folder: Path) -> dict:
     except ValidationError as exc:
         first = exc.errors()[0]
         where = ".".join(str(p) for p in first["loc"])
-        raise FleetError(f"{path}: not a casewatch fleet summary ({where}: {first['msg']})"
-                         ) from None  # fmt: skip
+        raise FleetError(
+            f"{path}: not a casewatch fleet summary ({where}: {first['msg']})"
+        ) from None
     except (OSError, UnicodeDecodeError, ValueError, RecursionError) as exc:
         raise FleetError(f"{path}: not a casewatch fleet summary ({exc})") from None
     return summary
@@ -227,10 +247,21 @@ def run_many(
         while name in used:
             name, n = f"{stem}-{n}", n + 1
         used.add(name)
-        work.append(Job(case_path, str(stream), str(out_dir / name),
-                        labels_for(str(stream), labels),
-                        strict, tuple(formats), max_no_data, save_signals, fail_on,
-                        topics, stl_engine))
+        work.append(
+            Job(
+                case_path,
+                str(stream),
+                str(out_dir / name),
+                labels_for(str(stream), labels),
+                strict,
+                tuple(formats),
+                max_no_data,
+                save_signals,
+                fail_on,
+                topics,
+                stl_engine,
+            )
+        )
     done: dict[int, LogSummary] = {}
     if resume:
         for k, job in enumerate(work):

@@ -19,6 +19,7 @@ import sys
 
 from casewatch import __version__
 from casewatch.crash import report_crash
+from casewatch.errors import CasewatchError
 
 #: Every command and its one-line help, in the order `--help` lists them. Each module's
 #: `register` gives the same help to its own parser (a test keeps the two in step).
@@ -87,6 +88,9 @@ def main(argv: list[str] | None = None) -> int:
         return 130
     except BrokenPipeError:
         return 0
+    except CasewatchError as exc:  # a refusal the command did not word itself: one line, its code
+        print(f"casewatch {command}: {exc}", file=sys.stderr)
+        return exc.exit_code
     except Exception as exc:  # a bug, never a verdict: exit 3 with the traceback in a file
         return report_crash(exc, argv, args)
 

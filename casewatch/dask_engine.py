@@ -13,26 +13,30 @@ from __future__ import annotations
 import contextlib
 from collections.abc import Callable, Sequence
 
+from casewatch.errors import CasewatchError
 from casewatch.evaluator.summary import LogSummary
 
 #: Times a task is retried when its worker dies under it.
 RETRIES = 3
 
 
-class EngineError(RuntimeError):
+class EngineError(CasewatchError, RuntimeError):
     """The distributed engine is not available or the scheduler cannot be reached."""
 
 
 def run_on_dask(
-    jobs: Sequence, workers: int, scheduler: str | None,
+    jobs: Sequence,
+    workers: int,
+    scheduler: str | None,
     on_done: Callable[[LogSummary], None] | None = None,
 ) -> list[LogSummary]:
     """Every job (a `casewatch.batch.Job`) as a task; summaries in job order."""
     try:
         from distributed import Client, LocalCluster, as_completed
     except ImportError:
-        raise EngineError("--engine dask needs Dask's distributed scheduler: "
-                          "pip install 'casewatch[fleet]'") from None
+        raise EngineError(
+            "--engine dask needs Dask's distributed scheduler: pip install 'casewatch[fleet]'"
+        ) from None
     from casewatch.batch import run_job
 
     with contextlib.ExitStack() as stack:
@@ -50,21 +54,33 @@ def run_on_dask(
             # its compiled kernels (as --jobs does), instead of spawning fresh interpreters
             # that import and load everything again (about 5 s per run on 2 cores).
             warm_up()
-            stack.enter_context(dask.config.set({
-                "distributed.worker.multiprocessing-method": "fork",
-                # the statistical profiler samples the task thread every 10 ms: about a tenth
-                # of the throughput of these CPU-bound tasks
-                "distributed.worker.profile.enabled": False,
-            }))  # fmt: skip
+            stack.enter_context(
+                dask.config.set(
+                    {
+                        "distributed.worker.multiprocessing-method": "fork",
+                        # the statistical profiler samples the task thread every 10 ms:
+                        # about a tenth of the throughput of these CPU-bound tasks
+                        "distributed.worker.profile.enabled": False,
+                    }
+                )
+            )
             try:
-                cluster = stack.enter_context(LocalCluster(
-                    n_workers=workers, threads_per_worker=1, processes=True,
-                    dashboard_address=None, silence_logs=40, memory_limit=0,
-                ))  # fmt: skip
+                cluster = stack.enter_context(
+                    LocalCluster(
+                        n_workers=workers,
+                        threads_per_worker=1,
+                        processes=True,
+                        dashboard_address=None,
+                        silence_logs=40,
+                        memory_limit=0,
+                    )
+                )
             except RuntimeError as exc:  # distributed: "Nanny failed to start."
-                raise EngineError(f"the local Dask cluster of {workers} worker(s) did not "
-                                  f"start ({exc}): a worker process died while starting; "
-                                  "run again, or use --engine processes") from None
+                raise EngineError(
+                    f"the local Dask cluster of {workers} worker(s) did not "
+                    f"start ({exc}): a worker process died while starting; "
+                    "run again, or use --engine processes"
+                ) from None
             client = stack.enter_context(Client(cluster))
         futures = client.map(run_job, list(jobs), retries=RETRIES, pure=False)
         index = {f.key: k for k, f in enumerate(futures)}

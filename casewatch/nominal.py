@@ -82,15 +82,30 @@ def table(rows: dict[str, list[NominalShare]], limit: float) -> tuple[str, bool]
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m casewatch.nominal", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        prog="python -m casewatch.nominal",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     ap.add_argument("out_dir", type=Path, help="output folder of `casewatch run --labels ...`")
-    ap.add_argument("--margin", type=float, default=DEFAULT_MARGIN,
-                    help="seconds around each label that are not nominal (default %(default)s)")
-    ap.add_argument("--limit", type=float, default=0.01,
-                    help="largest acceptable violated share (default %(default)s)")
-    ap.add_argument("--no-ssm", dest="ssm", action="store_false",
-                    help="count ticks near the simulator's SSM conflicts as nominal")
+    ap.add_argument(
+        "--margin",
+        type=float,
+        default=DEFAULT_MARGIN,
+        help="seconds around each label that are not nominal (default %(default)s)",
+    )
+    ap.add_argument(
+        "--limit",
+        type=float,
+        default=0.01,
+        help="largest acceptable violated share (default %(default)s)",
+    )
+    ap.add_argument(
+        "--no-ssm",
+        dest="ssm",
+        action="store_false",
+        help="count ticks near the simulator's SSM conflicts as nominal",
+    )
     args = ap.parse_args(argv)
     rows: dict[str, list[NominalShare]] = {}
     for folder in run_folders(args.out_dir):
@@ -100,8 +115,11 @@ def main(argv: list[str] | None = None) -> int:
             print(f"casewatch.nominal: {exc}", file=sys.stderr)
             return 2
         if result.ground_truth is None:
-            print(f"casewatch.nominal: {folder}: the run was judged without labels; run it "
-                  "with --labels FILE (or --labels auto)", file=sys.stderr)
+            print(
+                f"casewatch.nominal: {folder}: the run was judged without labels; run it "
+                "with --labels FILE (or --labels auto)",
+                file=sys.stderr,
+            )
             return 2
         try:
             labels = nominal_labels(Path(result.ground_truth.labels_path), args.ssm)
@@ -114,8 +132,10 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     text, ok = table(rows, args.limit)
     which = "label and SSM conflict" if args.ssm else "label"
-    print(f"SPI violated share of nominal ticks (farther than {args.margin:g} s from every "
-          f"{which}); limit {args.limit:.0%}")
+    print(
+        f"SPI violated share of nominal ticks (farther than {args.margin:g} s from every "
+        f"{which}); limit {args.limit:.0%}"
+    )
     print(text)
     return 0 if ok else 1
 

@@ -24,14 +24,20 @@ def on_terminal() -> bool:
 
 class _Bar:
     def __init__(self, enabled: bool, **options: object) -> None:
-        self.bar = tqdm(file=sys.stderr, disable=not (enabled and on_terminal()), leave=False,
-                        dynamic_ncols=True, **options)  # fmt: skip
+        self.bar = tqdm(
+            file=sys.stderr,
+            disable=not (enabled and on_terminal()),
+            leave=False,
+            dynamic_ncols=True,
+            **options,
+        )
 
     def __enter__(self):
         return self
 
-    def __exit__(self, kind: type[BaseException] | None, exc: BaseException | None,
-                 tb: TracebackType | None) -> None:  # fmt: skip
+    def __exit__(
+        self, kind: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
         self.bar.close()  # erases the bar (leave=False): the summary lines follow cleanly
 
 

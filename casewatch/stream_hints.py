@@ -19,8 +19,10 @@ from casewatch.reports.render import ResultError, load_result
 #: Defects quoted per kind; the rest is counted.
 QUOTED = 2
 
-_UNDECLARED = (re.compile(r"header lists channel\(s\) (.+?) not declared"),
-               re.compile(r"channels\.([^:\s]+): channel not declared"))  # fmt: skip
+_UNDECLARED = (
+    re.compile(r"header lists channel\(s\) (.+?) not declared"),
+    re.compile(r"channels\.([^:\s]+): channel not declared"),
+)
 
 
 def _undeclared(result: RunResult) -> list[str]:
@@ -43,19 +45,29 @@ def channel_hint(result: RunResult) -> list[str]:
     declared = list(result.case.channels)
     stream = result.stream
     undeclared = _undeclared(result)
-    absent = [c for c in declared
-              if stream.frames_read and stream.dropouts.get(c, 0) >= stream.frames_read]
+    absent = [
+        c
+        for c in declared
+        if stream.frames_read and stream.dropouts.get(c, 0) >= stream.frames_read
+    ]
     if not undeclared and not absent:
         return []
-    lines = [f"the case declares channels {', '.join(declared)}"
-             + (f"; the stream names {', '.join(undeclared)}, which the case does not declare"
-                if undeclared else "")
-             + (f"; {', '.join(absent)} absent from every frame" if absent else "")]
+    lines = [
+        f"the case declares channels {', '.join(declared)}"
+        + (
+            f"; the stream names {', '.join(undeclared)}, which the case does not declare"
+            if undeclared
+            else ""
+        )
+        + (f"; {', '.join(absent)} absent from every frame" if absent else "")
+    ]
     for name in undeclared:
         close = difflib.get_close_matches(name, declared, n=1, cutoff=0.6)
         if close:
-            lines.append(f"did you mean '{name}' where the case says '{close[0]}'? "
-                         f"(monitor.channels in {result.case.path})")
+            lines.append(
+                f"did you mean '{name}' where the case says '{close[0]}'? "
+                f"(monitor.channels in {result.case.path})"
+            )
     return lines
 
 
@@ -74,8 +86,11 @@ def refusal_lines(result: RunResult) -> list[str]:
     rest = max(stream.defect_count, len(stream.defects)) - quoted
     if rest > 0:
         kinds = ", ".join(f"{len(d)} {kind}" for kind, d in by_kind.items())
-        listed = ("all" if len(stream.defects) >= stream.defect_count
-                  else f"the first {len(stream.defects)}")  # fmt: skip
+        listed = (
+            "all"
+            if len(stream.defects) >= stream.defect_count
+            else f"the first {len(stream.defects)}"
+        )
         lines.append(f"... and {rest} more defects (result.json lists {listed}: {kinds})")
     return lines + channel_hint(result)
 

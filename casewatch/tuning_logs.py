@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from casewatch import batch
+from casewatch.errors import CasewatchError
 from casewatch.evaluator.faults import (
     FaultLabel,
     FaultLabelsError,
@@ -28,7 +29,7 @@ from casewatch.evaluator.ground_truth import Label, LabelsError, read_labels
 from casewatch.evaluator.signal_store import FILE_NAME, SavedSignals, SignalsError, load_signals
 
 
-class LogsError(ValueError):
+class LogsError(CasewatchError, ValueError):
     """Logs tuning cannot use (names the log and what is missing)."""
 
 
@@ -68,12 +69,16 @@ def _run_folders(arguments: list[str], case_path: str, out: Path, jobs: int) -> 
                 raise LogsError(str(exc)) from None
             for log in summary["per_log"]:
                 if not log.get("ok", True):
-                    raise LogsError(f"{path}: log {log.get('stream')} failed in that run "
-                                    f"({log.get('error')}); run it again")  # fmt: skip
+                    raise LogsError(
+                        f"{path}: log {log.get('stream')} failed in that run "
+                        f"({log.get('error')}); run it again"
+                    )
                 folders.append(Path(log["out_dir"]))
         elif path.is_dir() and (path / "result.json").is_file():
-            raise LogsError(f"{path}: this run kept no signals; run the log again with "
-                            "--save-signals (or pass the stream itself)")  # fmt: skip
+            raise LogsError(
+                f"{path}: this run kept no signals; run the log again with "
+                "--save-signals (or pass the stream itself)"
+            )
         else:
             try:
                 streams.extend(batch.find_streams(arg))
@@ -84,8 +89,9 @@ def _run_folders(arguments: list[str], case_path: str, out: Path, jobs: int) -> 
         raise LogsError(f"{missing[0]}: no such stream, run folder or fleet folder")
     if streams:
         runs = out / "runs"
-        summary = batch.run_many(case_path, "", streams, runs, jobs, "auto", False, (),
-                                 None, save_signals=True)  # fmt: skip
+        summary = batch.run_many(
+            case_path, "", streams, runs, jobs, "auto", False, (), None, save_signals=True
+        )
         for log in summary["per_log"]:  # type: ignore[union-attr]
             if not log["ok"]:
                 raise LogsError(f"{log['stream']}: could not be judged: {log['error']}")
@@ -98,8 +104,10 @@ def _labels_of(folder: Path, labels: str | None, single: bool) -> tuple[list[Lab
     if not path:
         return None
     if not Path(path).is_file():
-        raise LogsError(f"{folder}: its labels {path} are not there (a path relative to where "
-                        "the log was judged?); pass --labels FILE for a single log")
+        raise LogsError(
+            f"{folder}: its labels {path} are not there (a path relative to where "
+            "the log was judged?); pass --labels FILE for a single log"
+        )
     try:
         found, _ = read_labels(path)
     except LabelsError as exc:
@@ -112,8 +120,10 @@ def _label_places(folder: Path, labels: str | None, single: bool) -> tuple[str |
     (the labels file, then the stream)."""
     if labels not in (None, "auto"):
         if not single:
-            raise LogsError("with several logs use --labels auto (each log's labels: the file "
-                            "its run was judged with, or NAME.labels.jsonl beside its stream)")
+            raise LogsError(
+                "with several logs use --labels auto (each log's labels: the file "
+                "its run was judged with, or NAME.labels.jsonl beside its stream)"
+            )
         return labels, [Path(labels)]
     result = _read_json(folder / "result.json")
     truth = result.get("ground_truth") or {}
@@ -127,8 +137,9 @@ def _label_places(folder: Path, labels: str | None, single: bool) -> tuple[str |
     return (path if isinstance(path, str) and path else None), places
 
 
-def _faults_of(folder: Path, labels: str | None,
-               single: bool) -> tuple[list[FaultLabel], str] | None:  # fmt: skip
+def _faults_of(
+    folder: Path, labels: str | None, single: bool
+) -> tuple[list[FaultLabel], str] | None:
     """The log's injected faults, from `NAME.fault-labels.jsonl` beside its labels or stream."""
     _, places = _label_places(folder, labels, single)
     for place in places:
@@ -141,8 +152,14 @@ def _faults_of(folder: Path, labels: str | None,
     return None
 
 
-def load_logs(arguments: list[str], case_path: str, out: Path, jobs: int = 1,
-              labels: str | None = None, need_labels: bool = False) -> list[TuningLog]:  # fmt: skip
+def load_logs(
+    arguments: list[str],
+    case_path: str,
+    out: Path,
+    jobs: int = 1,
+    labels: str | None = None,
+    need_labels: bool = False,
+) -> list[TuningLog]:
     """Every log of `arguments` with its saved signals and (with `labels`) its labels."""
     folders = _run_folders(arguments, case_path, out, jobs)
     if not folders:
@@ -156,11 +173,21 @@ def load_logs(arguments: list[str], case_path: str, out: Path, jobs: int = 1,
         single = len(folders) == 1
         got = _labels_of(folder, labels, single) if labels else None
         if need_labels and got is None:
-            raise LogsError(f"{folder}: the log has no labels (NAME.labels.jsonl beside its "
-                            "stream, or a run judged with --labels); tune scores thresholds "
-                            "against labels")  # fmt: skip
+            raise LogsError(
+                f"{folder}: the log has no labels (NAME.labels.jsonl beside its "
+                "stream, or a run judged with --labels); tune scores thresholds "
+                "against labels"
+            )
         faults = _faults_of(folder, labels, single) if labels else None
-        logs.append(TuningLog(folder.name, folder, signals, got[0] if got else None,
-                              got[1] if got else None, faults[0] if faults else None,
-                              faults[1] if faults else None))  # fmt: skip
+        logs.append(
+            TuningLog(
+                folder.name,
+                folder,
+                signals,
+                got[0] if got else None,
+                got[1] if got else None,
+                faults[0] if faults else None,
+                faults[1] if faults else None,
+            )
+        )
     return logs

@@ -73,8 +73,12 @@ def show(text: str, indent: str = "  ") -> None:
     for line in text.splitlines() or [""]:
         line = line.rstrip()
         lead = line[: len(line) - len(line.lstrip())] or indent
-        print("\n".join(textwrap.wrap(line, WIDTH, subsequent_indent=lead + "    ",
-                                      break_on_hyphens=False)) or "")  # fmt: skip
+        print(
+            "\n".join(
+                textwrap.wrap(line, WIDTH, subsequent_indent=lead + "    ", break_on_hyphens=False)
+            )
+            or ""
+        )
 
 
 def command(*words: object) -> None:
@@ -83,8 +87,12 @@ def command(*words: object) -> None:
     words = [str(w) for w in words]
     units: list[str] = []
     for word in words:
-        if units and units[-1].startswith("-") and " " not in units[-1] and \
-                not word.startswith("-"):  # fmt: skip
+        if (
+            units
+            and units[-1].startswith("-")
+            and " " not in units[-1]
+            and not word.startswith("-")
+        ):
             units[-1] += " " + word
         else:
             units.append(word)
@@ -110,8 +118,11 @@ def rel(path: Path | str) -> str:
     """`path` relative to the working directory when under it (shorter, and copy-pasteable)."""
     path = Path(path)
     try:
-        return os.path.relpath(path) if path.is_absolute() and path.resolve().is_relative_to(
-            Path.cwd()) else str(path)  # fmt: skip
+        return (
+            os.path.relpath(path)
+            if path.is_absolute() and path.resolve().is_relative_to(Path.cwd())
+            else str(path)
+        )
     except ValueError:
         return str(path)
 
@@ -130,8 +141,10 @@ def score_text(row: dict) -> str:
     """`TP/FP/FN, precision, recall` of one hazard row of a summary's ground truth."""
     p = "n/a" if row["precision"] is None else f"{row['precision']:.0%}"
     r = "n/a" if row["recall"] is None else f"{row['recall']:.0%}"
-    return (f"{row['true_positives']}/{row['false_positives']}/{row['false_negatives']} "
-            f"TP/FP/FN, P {p}, R {r}")
+    return (
+        f"{row['true_positives']}/{row['false_positives']}/{row['false_negatives']} "
+        f"TP/FP/FN, P {p}, R {r}"
+    )
 
 
 def failed(what: str, code: int, log: str) -> int:
@@ -165,16 +178,29 @@ def reference_part() -> tuple[int, dict | None]:
     spi = sum(f["episodes"] for f in formulas if f["kind"] == "spi")
     hazards = sum(f["episodes"] for f in formulas if f["kind"] == "hazard")
     verdicts = ", ".join(f"{n} {v}" for v, n in sorted(summary["verdicts"].items()))
-    verdict(f"{summary['logs']} drives ({summary['hours']:.2f} h) judged, "
-            f"{summary['logs_failed']} failed: {spi} SPI episodes, {hazards} hazard events; "
-            f"root goal {verdicts}")
+    verdict(
+        f"{summary['logs']} drives ({summary['hours']:.2f} h) judged, "
+        f"{summary['logs_failed']} failed: {spi} SPI episodes, {hazards} hazard events; "
+        f"root goal {verdicts}"
+    )
     return 0, summary
 
 
 def study_part(summary: dict) -> int:
     part(3, "The study's own hazard rules against the same labels")
-    args = ["run", rel(STUDY), rel(DATA), "--labels", "auto", "--jobs", "2", "--format", "none",
-            "-o", str(OUT_STUDY)]  # fmt: skip
+    args = [
+        "run",
+        rel(STUDY),
+        rel(DATA),
+        "--labels",
+        "auto",
+        "--jobs",
+        "2",
+        "--format",
+        "none",
+        "-o",
+        str(OUT_STUDY),
+    ]
     command("casewatch", *args)
     code, _ = quiet("3-run-study", lambda: cli(args))
     if code not in (0, 1):
@@ -183,8 +209,11 @@ def study_part(summary: dict) -> int:
     ours, theirs = summary.get("ground_truth"), study.get("ground_truth")
     if ours and theirs:
         print(f"  {'hazard':>6}  {'reference-case.yaml':<36}{'study-case.yaml'}")
-        for a, b in zip([*ours["per_hazard"], ours["overall"]],
-                        [*theirs["per_hazard"], theirs["overall"]], strict=True):  # fmt: skip
+        for a, b in zip(
+            [*ours["per_hazard"], ours["overall"]],
+            [*theirs["per_hazard"], theirs["overall"]],
+            strict=True,
+        ):
             print(f"  {a['hazard']:>6}  {score_text(a):<36}{score_text(b)}")
     diff = ["diff", str(OUT), str(OUT_STUDY), "-o", str(OUT_DIFF), "--fail-on", "hazard"]
     command("casewatch", *diff)
@@ -193,17 +222,23 @@ def study_part(summary: dict) -> int:
         return failed("the diff", code, "3-diff")
     report = json.loads((OUT_DIFF / "diff.json").read_text())
     kinds = ("lost", "new", "fixed", "new_detection")
-    n = {k: sum(len(r[k]) for d in report["logs"] for r in d["nodes"] if r["kind"] == "hazard")
-         for k in kinds}  # fmt: skip
-    print(f"  hazard events: {n['lost']} lost detections, {n['new']} new false alarms, "
-          f"{n['fixed']} fixed, {n['new_detection']} new detections")
+    n = {
+        k: sum(len(r[k]) for d in report["logs"] for r in d["nodes"] if r["kind"] == "hazard")
+        for k in kinds
+    }
+    print(
+        f"  hazard events: {n['lost']} lost detections, {n['new']} new false alarms, "
+        f"{n['fixed']} fixed, {n['new_detection']} new detections"
+    )
     print(f"  diff page: {rel(OUT_DIFF / 'diff.html')}")
     o, t = ours["overall"] if ours else None, theirs["overall"] if theirs else None
     if o and t:
-        verdict(f"reference rules find {o['true_positives']} of "
-                f"{o['true_positives'] + o['false_negatives']} labelled hazards, the study's "
-                f"{t['true_positives']}; as a new version the study rules would be "
-                f"{report['regressions']} regressions")
+        verdict(
+            f"reference rules find {o['true_positives']} of "
+            f"{o['true_positives'] + o['false_negatives']} labelled hazards, the study's "
+            f"{t['true_positives']}; as a new version the study rules would be "
+            f"{report['regressions']} regressions"
+        )
     else:
         verdict(f"as a new version the study rules would be {report['regressions']} regressions")
     return 0
@@ -235,10 +270,12 @@ def nominal_rows(out_dir: Path) -> list[tuple[str, int, object, list]]:
 def nominal_verdict(rows: list[tuple[str, int, object, list]]) -> str:
     over = [(name, s) for name, _, _, above in rows for s in above]
     if over:
-        return (f"{len(over)} SPI x drive shares above {NOMINAL_LIMIT:.0%}: "
-                + ", ".join(f"{s.node_id} on {d} {s.share:.1%}" for d, s in over[:4]))
-    return (f"every SPI stays within {NOMINAL_LIMIT:.0%} violated on the nominal driving of "
-            "every drive")
+        return f"{len(over)} SPI x drive shares above {NOMINAL_LIMIT:.0%}: " + ", ".join(
+            f"{s.node_id} on {d} {s.share:.1%}" for d, s in over[:4]
+        )
+    return (
+        f"every SPI stays within {NOMINAL_LIMIT:.0%} violated on the nominal driving of every drive"
+    )
 
 
 def nominal_part() -> int:
@@ -265,8 +302,10 @@ def bag_part() -> int:
         return failed("the bag round trip", code, "5-bags")
     found = re.search(r"(\d+)/(\d+), (\d+)/(\d+)\s*$", text)
     if found and found[1] == found[2] and found[3] == found[4]:
-        verdict(f"judged as an MCAP bag of Autoware messages, the drive gives the same {found[2]} "
-                "episodes as the stream, both ways")
+        verdict(
+            f"judged as an MCAP bag of Autoware messages, the drive gives the same {found[2]} "
+            "episodes as the stream, both ways"
+        )
     else:
         verdict("the bag and the stream disagree on some episodes (the last columns above)")
     return 0
@@ -275,8 +314,18 @@ def bag_part() -> int:
 def odd_part() -> int:
     """Contracts over the bundled ODD grid, and the domain they support (docs/odd.md)."""
     part(6, "Contracts over the ODD grid, and the domain they support (docs/odd.md)")
-    run = ["run", rel(ODD_CASE), rel(ODD_GRID), "--jobs", "2", "--format", "none", "--quiet",
-           "-o", str(OUT_ODD_RUNS)]  # fmt: skip
+    run = [
+        "run",
+        rel(ODD_CASE),
+        rel(ODD_GRID),
+        "--jobs",
+        "2",
+        "--format",
+        "none",
+        "--quiet",
+        "-o",
+        str(OUT_ODD_RUNS),
+    ]
     command("casewatch", *run)
     code, _ = quiet("6-run-odd", lambda: cli(run))
     if code not in (0, 1):
@@ -290,31 +339,57 @@ def odd_part() -> int:
     accepted = [c for c in cells if c["accepted"]]
     # the study's table: a row per weather and intensity, a column per time of day
     lights = {c["conditions"]["environment.light"] for c in cells}
-    columns = [li for li in ("day", "sunset", "night") if li in lights] + \
-        sorted(str(li) for li in lights - {"day", "sunset", "night"})
+    columns = [li for li in ("day", "sunset", "night") if li in lights] + sorted(
+        str(li) for li in lights - {"day", "sunset", "night"}
+    )
     rows: dict[str, dict[str, str]] = {}
     for c in cells:
         weather, level, light = (c["conditions"][a] for a in ODD_BY.split(","))
-        rows.setdefault(f"{weather} {level}", {})[light] = \
+        rows.setdefault(f"{weather} {level}", {})[light] = (
             "accepted" if c["accepted"] else "rejected"
+        )
     print(("  " + " " * 14 + "".join(f"{col:<10}" for col in columns)).rstrip())
     for row, verdicts in rows.items():
-        print((f"  {row:<14}" + "".join(f"{verdicts.get(col, '-'):<10}"
-                                         for col in columns)).rstrip())  # fmt: skip
-    agree = next((line.strip() for line in text.splitlines()
-                  if line.startswith("Against the streams' known degradation")), "")  # fmt: skip
+        print(
+            (f"  {row:<14}" + "".join(f"{verdicts.get(col, '-'):<10}" for col in columns)).rstrip()
+        )
+    agree = next(
+        (
+            line.strip()
+            for line in text.splitlines()
+            if line.startswith("Against the streams' known degradation")
+        ),
+        "",
+    )
     print(f"  heatmap: {rel(OUT_ODD / 'odd.html')}")
-    verdict(f"{len(accepted)} of {len(cells)} cells accepted"
-            + (f"; {agree.split(': ', 1)[1]} with the degradation built into the drives"
-               if ": " in agree else ""))
+    verdict(
+        f"{len(accepted)} of {len(cells)} cells accepted"
+        + (
+            f"; {agree.split(': ', 1)[1]} with the degradation built into the drives"
+            if ": " in agree
+            else ""
+        )
+    )
     return code
 
 
 def rules_part() -> int:
     """The traffic rules on the bundled SUMO rule drives, and the drivers compared."""
     part(7, "Traffic rules against SUMO's truth, and the drivers compared")
-    run = ["run", rel(RULES_CASE), rel(RULES_DATA), "--labels", "auto", "--jobs", "2",
-           "--format", "none", "--quiet", "-o", str(OUT_RULES)]  # fmt: skip
+    run = [
+        "run",
+        rel(RULES_CASE),
+        rel(RULES_DATA),
+        "--labels",
+        "auto",
+        "--jobs",
+        "2",
+        "--format",
+        "none",
+        "--quiet",
+        "-o",
+        str(OUT_RULES),
+    ]
     command("casewatch", *run)
     code, _ = quiet("7-run-rules", lambda: cli(run))
     if code not in (0, 1):
@@ -332,9 +407,11 @@ def rules_part() -> int:
     print(f"  comparison and violation map: {rel(OUT_COMPARE / 'compare.html')}")
     o = truth["overall"]
     road = checks.get("network") or {}
-    verdict(f"rule events against SUMO's truth: {score_text(o)}; {checks['markers']} of "
-            f"{checks['hazard_events']} events on the map, {road.get('off_road', 'n/a')} off "
-            "the road")
+    verdict(
+        f"rule events against SUMO's truth: {score_text(o)}; {checks['markers']} of "
+        f"{checks['hazard_events']} events on the map, {road.get('off_road', 'n/a')} off "
+        "the road"
+    )
     return 0
 
 
@@ -344,8 +421,10 @@ def heldout_part() -> int:
     part(8, "The same on fresh generator seeds (held out from every threshold)")
     command("python -m examples.sim.heldout")
     if importlib.util.find_spec("libsumo") is None or importlib.util.find_spec("sumolib") is None:
-        verdict("skipped: held-out seeds need the simulator (pip install -e '.[sim]' or make "
-                "data, then python -m examples.sim.heldout)")
+        verdict(
+            "skipped: held-out seeds need the simulator (pip install -e '.[sim]' or make "
+            "data, then python -m examples.sim.heldout)"
+        )
         return 0
     from examples.sim.heldout import SEEDS  # the optional extra, loaded late
     from examples.sim.heldout import main as run_heldout
@@ -362,9 +441,11 @@ def heldout_part() -> int:
             if line.split()[0] == "all":
                 seeds.append(line.split(None, 1)[1].strip())
     rows = [row for seed in SEEDS for row in nominal_rows(Path("out") / "heldout" / f"run{seed}")]
-    verdict("held-out " + "; ".join(f"seed {seed}: {figures}"
-                                     for seed, figures in zip(SEEDS, seeds, strict=False))
-            + f"; {nominal_verdict(rows)}")
+    verdict(
+        "held-out "
+        + "; ".join(f"seed {seed}: {figures}" for seed, figures in zip(SEEDS, seeds, strict=False))
+        + f"; {nominal_verdict(rows)}"
+    )
     return 0
 
 
@@ -375,8 +456,14 @@ def main() -> int:
     code, summary = reference_part()
     if summary is None:
         return code
-    for step in (lambda: study_part(summary), nominal_part, bag_part, odd_part, rules_part,
-                 heldout_part):  # fmt: skip
+    for step in (
+        lambda: study_part(summary),
+        nominal_part,
+        bag_part,
+        odd_part,
+        rules_part,
+        heldout_part,
+    ):
         code = step()
         if code not in (0, 1):
             return code

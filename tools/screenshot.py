@@ -97,8 +97,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("out", type=Path, help="PNG file to write")
     source = parser.add_mutually_exclusive_group()
     source.add_argument("--result", type=Path, help="a result.json (default: the sample run)")
-    source.add_argument("--page", type=Path,
-                        help="an HTML page as written (fleet, diff, tuning, odd, compare)")
+    source.add_argument(
+        "--page", type=Path, help="an HTML page as written (fleet, diff, tuning, odd, compare)"
+    )
     parser.add_argument("--width", type=int, default=1600)
     parser.add_argument(
         "--height", type=int, default=None, help="clip to this many pixels from the top"
@@ -111,8 +112,13 @@ def main(argv: list[str] | None = None) -> int:
         print(f"reports.screenshot: {args.page}: no such file", file=sys.stderr)
         return 2
     try:
-        result = (None if args.page is not None
-                  else load_result(args.result) if args.result else sample_result())  # fmt: skip
+        result = (
+            None
+            if args.page is not None
+            else load_result(args.result)
+            if args.result
+            else sample_result()
+        )
     except ResultError as exc:
         print(f"reports.screenshot: {exc}", file=sys.stderr)
         return 2

@@ -50,31 +50,59 @@ from casewatch.tuning_logs import LogsError, TuningLog, load_logs
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
-        "calibrate", help="SPI thresholds and for: from nominal logs (false alarms per hour)",
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
-    )  # fmt: skip
+        "calibrate",
+        help="SPI thresholds and for: from nominal logs (false alarms per hour)",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("case", help="the safety case (YAML)")
-    p.add_argument("logs", nargs="+", metavar="NOMINAL_LOG",
-                   help="run folders of `casewatch run --save-signals`, fleet folders, or "
-                        "streams of nominal driving (judged once, into OUT/runs)")  # fmt: skip
-    p.add_argument("--false-alarms-per-hour", type=float, required=True, metavar="X",
-                   help="episodes an hour each SPI may raise on nominal driving")
+    p.add_argument(
+        "logs",
+        nargs="+",
+        metavar="NOMINAL_LOG",
+        help="run folders of `casewatch run --save-signals`, fleet folders, or "
+        "streams of nominal driving (judged once, into OUT/runs)",
+    )
+    p.add_argument(
+        "--false-alarms-per-hour",
+        type=float,
+        required=True,
+        metavar="X",
+        help="episodes an hour each SPI may raise on nominal driving",
+    )
     p.add_argument("-o", "--out", required=True, type=Path, help="output folder")
-    p.add_argument("--labels", default=None,
-                   help="'auto': logs with labels count only their nominal stretches (farther "
-                        "than --margin from every label and injected fault), and fault labels "
-                        "beside them give detection rates; a file: for a single log")
-    p.add_argument("--margin", type=float, default=DEFAULT_MARGIN,
-                   help="seconds around each label and fault that are not nominal "
-                        "(default %(default)s)")  # fmt: skip
-    p.add_argument("--min-hours", type=float, default=DEFAULT_MIN_HOURS, metavar="H",
-                   help="nominal hours with a value an SPI needs to be calibrated "
-                        "(default %(default)s)")  # fmt: skip
-    p.add_argument("--tighten", action="store_true",
-                   help="also tighten SPIs whose original keeps the budget (spend it all); "
-                        "by default calibrate only loosens")  # fmt: skip
-    p.add_argument("--candidates", type=int, default=200,
-                   help="threshold candidates per SPI (quantiles of the observed values)")
+    p.add_argument(
+        "--labels",
+        default=None,
+        help="'auto': logs with labels count only their nominal stretches (farther "
+        "than --margin from every label and injected fault), and fault labels "
+        "beside them give detection rates; a file: for a single log",
+    )
+    p.add_argument(
+        "--margin",
+        type=float,
+        default=DEFAULT_MARGIN,
+        help="seconds around each label and fault that are not nominal (default %(default)s)",
+    )
+    p.add_argument(
+        "--min-hours",
+        type=float,
+        default=DEFAULT_MIN_HOURS,
+        metavar="H",
+        help="nominal hours with a value an SPI needs to be calibrated (default %(default)s)",
+    )
+    p.add_argument(
+        "--tighten",
+        action="store_true",
+        help="also tighten SPIs whose original keeps the budget (spend it all); "
+        "by default calibrate only loosens",
+    )
+    p.add_argument(
+        "--candidates",
+        type=int,
+        default=200,
+        help="threshold candidates per SPI (quantiles of the observed values)",
+    )
     p.add_argument("--jobs", type=int, default=1, help="processes for judging streams")
 
 
@@ -115,8 +143,13 @@ def main(args: argparse.Namespace) -> int:
     spis = [k for k in all_knobs if k.kind == "spi" and not k.raw_stl]
     kinds = {f.id: f.kind for f in spec.formulas}
     skipped = [s for s in skipped if kinds.get(s["formula"]) == "spi"] + [
-        {"formula": k.formula_id, "reason": "a raw stl: formula; calibrate sets signal + "
-         "threshold SPIs"} for k in all_knobs if k.kind == "spi" and k.raw_stl]  # fmt: skip
+        {
+            "formula": k.formula_id,
+            "reason": "a raw stl: formula; calibrate sets signal + threshold SPIs",
+        }
+        for k in all_knobs
+        if k.kind == "spi" and k.raw_stl
+    ]
     if not spis:
         return _fail(f"{args.case} has no SPI bound by signal + threshold")
     rows, changes, notes = [], [], {}
@@ -127,11 +160,25 @@ def main(args: argparse.Namespace) -> int:
             rows.append(row)
             chosen = row["chosen"]
             if (chosen["threshold"], chosen["for"]) != (knob.value, knob.duration):
-                changes.append(Change(knob.node_id, "spi", knob.signal, knob.op,
-                                      knob.signal_left, knob.value, chosen["threshold"], "for",
-                                      knob.duration, chosen["for"]))  # fmt: skip
-            notes[knob.node_id] = (f"{row['status']} on these logs: {row['reason']}"
-                                   if row["status"].startswith("not") else "")  # fmt: skip
+                changes.append(
+                    Change(
+                        knob.node_id,
+                        "spi",
+                        knob.signal,
+                        knob.op,
+                        knob.signal_left,
+                        knob.value,
+                        chosen["threshold"],
+                        "for",
+                        knob.duration,
+                        chosen["for"],
+                    )
+                )
+            notes[knob.node_id] = (
+                f"{row['status']} on these logs: {row['reason']}"
+                if row["status"].startswith("not")
+                else ""
+            )
     except (TuningError, SignalsError) as exc:
         return _fail(str(exc))
     args.out.mkdir(parents=True, exist_ok=True)
@@ -141,24 +188,40 @@ def main(args: argparse.Namespace) -> int:
     except RewriteError as exc:
         return _fail(f"{args.case}: {exc}")
     (args.out / "calibrated-case.yaml").write_text(calibrated, encoding="utf-8")
-    diff = "".join(difflib.unified_diff(original.splitlines(True), calibrated.splitlines(True),
-                                        str(args.case), "calibrated-case.yaml"))  # fmt: skip
+    diff = "".join(
+        difflib.unified_diff(
+            original.splitlines(True),
+            calibrated.splitlines(True),
+            str(args.case),
+            "calibrated-case.yaml",
+        )
+    )
     (args.out / "calibrated-case.diff").write_text(diff, encoding="utf-8")
     hours = sum(c.nominal.hours for c in cal_logs)
     faults = sum(len(c.faults) for c in cal_logs)
     report = {
-        "format": "casewatch-calibration", "version": 2, "case": str(args.case),
-        "logs": len(logs), "hours": round(hours, 6), "per_hour": budget,
-        "min_hours": args.min_hours, "tighten": args.tighten, "margin": args.margin,
-        "confidence": CONFIDENCE, "faults": faults,
+        "format": "casewatch-calibration",
+        "version": 2,
+        "case": str(args.case),
+        "logs": len(logs),
+        "hours": round(hours, 6),
+        "per_hour": budget,
+        "min_hours": args.min_hours,
+        "tighten": args.tighten,
+        "margin": args.margin,
+        "confidence": CONFIDENCE,
+        "faults": faults,
         "fault_files": [log.faults_path for log in logs if log.faults_path],
-        "spis": rows, "skipped": skipped,
-    }  # fmt: skip
+        "spis": rows,
+        "skipped": skipped,
+    }
     (args.out / "calibration.json").write_text(json.dumps(report, indent=1), encoding="utf-8")
     (args.out / "calibration.html").write_text(render_calibration(report), encoding="utf-8")
     _print(report, bool(args.labels))
-    print(f"calibrated case: {args.out / 'calibrated-case.yaml'} "
-          f"(diff: {args.out / 'calibrated-case.diff'})")
+    print(
+        f"calibrated case: {args.out / 'calibrated-case.yaml'} "
+        f"(diff: {args.out / 'calibrated-case.diff'})"
+    )
     print(f"trade-off curves: {args.out / 'calibration.html'}")
     return 1 if any(r["original_over_budget"] for r in rows) else 0
 
@@ -177,14 +240,19 @@ def _rate(point: dict) -> str:
 
 def _print(report: dict, labelled: bool) -> None:
     which = f" ({report['margin']:g} s from labels and faults)" if labelled else ""
-    print(f"{report['logs']} logs, {report['hours']:.3f} h nominal{which}; budget "
-          f"{report['per_hour']:g}/h per SPI, at least {report['min_hours']:g} h each")
+    print(
+        f"{report['logs']} logs, {report['hours']:.3f} h nominal{which}; budget "
+        f"{report['per_hour']:g}/h per SPI, at least {report['min_hours']:g} h each"
+    )
     faults = report["faults"] > 0
     if faults:
         print(f"{report['faults']} injected faults ({', '.join(report['fault_files'])})")
     bound = f"/h ({report['confidence']:.0%})"
-    print(f"  {'SPI':<5} {'hours':>5}  {'original':<15} {bound:<13} {'chosen':<15} {bound:<13}"
-          + (f" {'detected':<8}" if faults else "") + " status")
+    print(
+        f"  {'SPI':<5} {'hours':>5}  {'original':<15} {bound:<13} {'chosen':<15} {bound:<13}"
+        + (f" {'detected':<8}" if faults else "")
+        + " status"
+    )
     for r in report["spis"]:
         o, c = r["original"], r["chosen"]
         same = (o["threshold"], o["for"]) == (c["threshold"], c["for"])
@@ -193,14 +261,29 @@ def _print(report: dict, labelled: bool) -> None:
         if faults:
             text = f"{c['detected']}/{r['faults']}" if r["faults"] else "-"
             detected = f" {text:<8}"
-        print(f"  {r['formula']:<5} {r['hours']:>5.2f}  {_setting(o, r['op']):<15} "
-              f"{_rate(o) + over:<13} {'(same)' if same else _setting(c, r['op']):<15} "
-              f"{_rate(c):<13}{detected} {r['status']}")
+        print(
+            f"  {r['formula']:<5} {r['hours']:>5.2f}  {_setting(o, r['op']):<15} "
+            f"{_rate(o) + over:<13} {'(same)' if same else _setting(c, r['op']):<15} "
+            f"{_rate(c):<13}{detected} {r['status']}"
+        )
         if r["status"].startswith("not"):
-            print(textwrap.fill(r["reason"], 100, initial_indent=" " * 8,
-                                subsequent_indent=" " * 8, break_long_words=False))  # fmt: skip
+            print(
+                textwrap.fill(
+                    r["reason"],
+                    100,
+                    initial_indent=" " * 8,
+                    subsequent_indent=" " * 8,
+                    break_long_words=False,
+                )
+            )
     for s in report["skipped"]:
-        print(textwrap.fill(f"{s['formula']}: not calibrated ({s['reason']})", 100,
-                            initial_indent="  ", subsequent_indent="    "))  # fmt: skip
+        print(
+            textwrap.fill(
+                f"{s['formula']}: not calibrated ({s['reason']})",
+                100,
+                initial_indent="  ",
+                subsequent_indent="    ",
+            )
+        )
     print("  /h: false alarms (episodes) an hour of nominal driving with the SPI's signal, and")
     print(f"  its {report['confidence']:.0%} upper bound; *: the original is over the budget")

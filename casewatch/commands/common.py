@@ -7,6 +7,7 @@ from pathlib import Path
 
 from casewatch import api
 from casewatch.batch import FleetError, read_summary
+from casewatch.errors import CasewatchError
 from casewatch.safety_case.findings import CaseError
 from casewatch.safety_case.model import Case
 from casewatch.spec.model import CompiledSpec
@@ -20,8 +21,10 @@ def prepare_case(command: str, path: str) -> tuple[Case, CompiledSpec] | None:
     except CaseError as exc:
         for finding in exc.findings:
             print(finding.format(), file=sys.stderr)
-        print(f"casewatch {command}: {path} has errors; fix them first "
-              f"(casewatch check {path})", file=sys.stderr)  # fmt: skip
+        print(
+            f"casewatch {command}: {path} has errors; fix them first (casewatch check {path})",
+            file=sys.stderr,
+        )
         return None
 
 
@@ -36,7 +39,7 @@ def sweep_options_ok(command: str, candidates: int, jobs: int) -> bool:
     return True
 
 
-class UsageError(ValueError):
+class UsageError(CasewatchError, ValueError):
     """Input a command cannot use: printed as one line, exit 2."""
 
 
@@ -48,9 +51,11 @@ def run_folders(folder: Path) -> dict[str, Path]:
             logs = read_summary(folder)["per_log"]
         except FleetError as exc:
             raise UsageError(str(exc)) from None
-        return {Path(log["out_dir"]).name: Path(log["out_dir"]) for log in logs
-                if log.get("ok", True)}  # fmt: skip
+        return {
+            Path(log["out_dir"]).name: Path(log["out_dir"]) for log in logs if log.get("ok", True)
+        }
     if (folder / "result.json").is_file():
         return {folder.name: folder}
-    raise UsageError(f"{folder}: neither a run folder (result.json) nor a fleet folder "
-                     "(summary.json)")  # fmt: skip
+    raise UsageError(
+        f"{folder}: neither a run folder (result.json) nor a fleet folder (summary.json)"
+    )

@@ -27,18 +27,31 @@ from casewatch.reports.roadmap import NetworkError, check_markers, read_opendriv
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
-        "compare", help="compare many runs grouped by agent and scenario, with a violation map",
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
-    )  # fmt: skip
+        "compare",
+        help="compare many runs grouped by agent and scenario, with a violation map",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("runs", metavar="RUN", nargs="+", help="run or fleet folders")
     p.add_argument("-o", "--out", required=True, type=Path, help="output folder")
-    p.add_argument("--by", default="agent,scenario",
-                   help="comma-separated stream meta keys to group by (default agent,scenario)")
+    p.add_argument(
+        "--by",
+        default="agent,scenario",
+        help="comma-separated stream meta keys to group by (default agent,scenario)",
+    )
     where = p.add_mutually_exclusive_group()
-    where.add_argument("--net", type=Path, metavar="FILE.net.xml",
-                       help="SUMO network drawn under the map, and the off-road check")
-    where.add_argument("--xodr", type=Path, metavar="FILE.xodr",
-                       help="OpenDRIVE map drawn under the map, and the off-road check")
+    where.add_argument(
+        "--net",
+        type=Path,
+        metavar="FILE.net.xml",
+        help="SUMO network drawn under the map, and the off-road check",
+    )
+    where.add_argument(
+        "--xodr",
+        type=Path,
+        metavar="FILE.xodr",
+        help="OpenDRIVE map drawn under the map, and the off-road check",
+    )
 
 
 def _unique_names(folders: list[Path]) -> list[str]:
@@ -68,12 +81,16 @@ def main(args: argparse.Namespace) -> int:
                 raise UsageError(f"{given}: a fleet folder without any judged log")
             folders += [found[name] for name in sorted(found)]
         folders = list(dict.fromkeys(folders))  # the same run given twice counts once
-        runs = [(name, folder, read_run(folder))
-                for name, folder in zip(_unique_names(folders), folders, strict=True)]
+        runs = [
+            (name, folder, read_run(folder))
+            for name, folder in zip(_unique_names(folders), folders, strict=True)
+        ]
         missing = unknown_keys(runs, by)
         if missing:
-            raise UsageError(f"--by {', '.join(missing)}: no run's stream meta has "
-                             f"{'this key' if len(missing) == 1 else 'these keys'}")  # fmt: skip
+            raise UsageError(
+                f"--by {', '.join(missing)}: no run's stream meta has "
+                f"{'this key' if len(missing) == 1 else 'these keys'}"
+            )
         network = None
         if args.net is not None:
             network = read_sumo_net(args.net)
@@ -89,25 +106,40 @@ def main(args: argparse.Namespace) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "compare.json").write_text(json.dumps(report, indent=1), encoding="utf-8")
     (args.out / "compare.md").write_text(render_compare_md(report), encoding="utf-8")
-    (args.out / "compare.html").write_text(render_compare_html(report, tracks, network),
-                                           encoding="utf-8")  # fmt: skip
+    (args.out / "compare.html").write_text(
+        render_compare_html(report, tracks, network), encoding="utf-8"
+    )
     _print_table(report)
-    print(f"{args.out / 'compare.md'}, {args.out / 'compare.html'}, "
-          f"{args.out / 'compare.json'}")  # fmt: skip
+    print(f"{args.out / 'compare.md'}, {args.out / 'compare.html'}, {args.out / 'compare.json'}")
     return 0
 
 
 def _print_table(report: dict) -> None:
     for key, names in report["without_key"].items():
         if names:
-            print(f"note: {len(names)} run(s) without '{key}' in the stream meta, grouped under "
-                  "(none)")  # fmt: skip
+            print(
+                f"note: {len(names)} run(s) without '{key}' in the stream meta, grouped under "
+                "(none)"
+            )
     rows = [("group", "runs", "hours", "penalty score", "driving score", "events")]
-    rows += [(g["label"], str(g["runs"]), f"{g['hours']:.3f}", stat_text(g["penalty_score"]),
-              stat_text(g["driving_score"]), str(g["hazard_events"])) for g in report["groups"]]
+    rows += [
+        (
+            g["label"],
+            str(g["runs"]),
+            f"{g['hours']:.3f}",
+            stat_text(g["penalty_score"]),
+            stat_text(g["driving_score"]),
+            str(g["hazard_events"]),
+        )
+        for g in report["groups"]
+    ]
     widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
     for r in rows:
-        print("  ".join(c.ljust(w) if i == 0 else c.rjust(w)
-                        for i, (c, w) in enumerate(zip(r, widths, strict=True))))  # fmt: skip
+        print(
+            "  ".join(
+                c.ljust(w) if i == 0 else c.rjust(w)
+                for i, (c, w) in enumerate(zip(r, widths, strict=True))
+            )
+        )
     for line in check_lines(report):
         print(line)

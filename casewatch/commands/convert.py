@@ -37,27 +37,53 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "convert",
         help="convert a ROS 2 bag to a JSON Lines stream, or a stream to a bag",
         description="Convert a ROS 2 bag (MCAP or sqlite3; Autoware messages) into casewatch "
-                    "frames (JSON Lines, .gz compressed when OUT ends in .gz), or a JSON Lines "
-                    "stream into a bag. Topics come from --topics or the --case's "
-                    "monitor.topics (docs/bags.md).",
-    )  # fmt: skip
+        "frames (JSON Lines, .gz compressed when OUT ends in .gz), or a JSON Lines "
+        "stream into a bag. Topics come from --topics or the --case's "
+        "monitor.topics (docs/bags.md).",
+    )
     p.add_argument("source", metavar="SRC", help="a bag (.mcap, .db3, bag folder) or a stream")
-    p.add_argument("-o", "--out", type=Path, help="output: a .jsonl(.gz) file for a bag, a new "
-                                                  "bag folder for a stream")  # fmt: skip
+    p.add_argument(
+        "-o",
+        "--out",
+        type=Path,
+        help="output: a .jsonl(.gz) file for a bag, a new bag folder for a stream",
+    )
     p.add_argument("--topics", type=Path, metavar="FILE", help="the topic mapping (YAML)")
-    p.add_argument("--case", metavar="CASE", help="take channels, period and monitor.topics "
-                                                  "from this safety case")  # fmt: skip
-    p.add_argument("--period", type=float, default=None,
-                   help="seconds between frames (default: the case's monitor.period, else 0.1)")
-    p.add_argument("--storage", choices=("mcap", "sqlite3"), default="mcap",
-                   help="storage of a bag written from a stream (default: mcap)")
-    p.add_argument("--compress", action="store_true",
-                   help="zstd-compress the chunks of an MCAP bag written from a stream")
-    p.add_argument("--ego-size", nargs=2, type=float, metavar=("LENGTH", "WIDTH"),
-                   default=None, help="ego footprint for the default mapping (default: the "
-                                      "stream's first ego box)")  # fmt: skip
-    p.add_argument("--list-topics", action="store_true",
-                   help="only list the bag's topics, types and message counts")
+    p.add_argument(
+        "--case",
+        metavar="CASE",
+        help="take channels, period and monitor.topics from this safety case",
+    )
+    p.add_argument(
+        "--period",
+        type=float,
+        default=None,
+        help="seconds between frames (default: the case's monitor.period, else 0.1)",
+    )
+    p.add_argument(
+        "--storage",
+        choices=("mcap", "sqlite3"),
+        default="mcap",
+        help="storage of a bag written from a stream (default: mcap)",
+    )
+    p.add_argument(
+        "--compress",
+        action="store_true",
+        help="zstd-compress the chunks of an MCAP bag written from a stream",
+    )
+    p.add_argument(
+        "--ego-size",
+        nargs=2,
+        type=float,
+        metavar=("LENGTH", "WIDTH"),
+        default=None,
+        help="ego footprint for the default mapping (default: the stream's first ego box)",
+    )
+    p.add_argument(
+        "--list-topics",
+        action="store_true",
+        help="only list the bag's topics, types and message counts",
+    )
 
 
 def main(args: argparse.Namespace) -> int:
@@ -94,15 +120,18 @@ PERIOD_RANGE = (0.001, 60.0)
 def _check_numbers(args: argparse.Namespace) -> None:
     """--period and --ego-size are finite and within range, before anything is written."""
     low, high = PERIOD_RANGE
-    if args.period is not None and not (math.isfinite(args.period) and
-                                        low <= args.period <= high):  # fmt: skip
-        raise _Usage(f"--period {args.period!r}: expected the seconds between frames, "
-                     f"from {low:g} to {high:g} (e.g. --period 0.1)")  # fmt: skip
+    if args.period is not None and not (math.isfinite(args.period) and low <= args.period <= high):
+        raise _Usage(
+            f"--period {args.period!r}: expected the seconds between frames, "
+            f"from {low:g} to {high:g} (e.g. --period 0.1)"
+        )
     if args.ego_size is not None:
         for name, value in zip(("LENGTH", "WIDTH"), args.ego_size, strict=True):
             if not (math.isfinite(value) and 0 < value <= 100):
-                raise _Usage(f"--ego-size {name} {value!r}: expected metres, more than 0 and "
-                             "at most 100 (e.g. --ego-size 4.5 1.8)")  # fmt: skip
+                raise _Usage(
+                    f"--ego-size {name} {value!r}: expected metres, more than 0 and "
+                    "at most 100 (e.g. --ego-size 4.5 1.8)"
+                )
 
 
 def _list_topics(source: str) -> int:
@@ -117,12 +146,18 @@ def _list_topics(source: str) -> int:
     finally:
         storage.close()
     if not rows:
-        why = ("is cut short or damaged before it records any topic" if storage.recovered
-               else "holds no topic (no channel is recorded in it)")  # fmt: skip
+        why = (
+            "is cut short or damaged before it records any topic"
+            if storage.recovered
+            else "holds no topic (no channel is recorded in it)"
+        )
         raise _Usage(f"{source}: the bag {why}, so there is nothing to map or judge")
     if storage.recovered:
-        print(f"{source}: the file is cut short or damaged; the topics and message counts up "
-              "to the break:", file=sys.stderr)  # fmt: skip
+        print(
+            f"{source}: the file is cut short or damaged; the topics and message counts up "
+            "to the break:",
+            file=sys.stderr,
+        )
     width = max(len(t) for t, _, _ in rows)
     for topic, msgtype, count in rows:
         print(f"{topic:<{width}}  {msgtype}  ({count} messages)")
@@ -136,8 +171,12 @@ def _case_settings(args) -> tuple[list[str] | None, float, str | None, str | dic
     from casewatch import api
 
     case, _spec = api.prepare(args.case)
-    return (list(case.monitor.channels), args.period or case.monitor.period, case.path,
-            case.monitor.topics)  # fmt: skip
+    return (
+        list(case.monitor.channels),
+        args.period or case.monitor.period,
+        case.path,
+        case.monitor.topics,
+    )
 
 
 def _bag_to_stream(args) -> int:
@@ -161,14 +200,20 @@ def _bag_to_stream(args) -> int:
             fh.write(orjson.dumps(header_to_dict(reader.header)) + b"\n")
     tmp.replace(out)
     drop = ", ".join(f"{c} {n}" for c, n in reader.dropouts.items())
-    print(f"{args.source}: {reader.frames_read} frames -> {out} ({len(reader.defects)} defects; "
-          f"dropouts: {drop})", file=sys.stderr)  # fmt: skip
+    print(
+        f"{args.source}: {reader.frames_read} frames -> {out} ({len(reader.defects)} defects; "
+        f"dropouts: {drop})",
+        file=sys.stderr,
+    )
     for d in reader.defects[:10]:
         print(f"  {d.format()}", file=sys.stderr)
     for topic, report in reader.topic_report().items():
         if report["missing_ticks"] or report["late_messages"]:
-            print(f"  {topic}: missing or stale at {report['missing_ticks']} ticks, "
-                  f"{report['late_messages']} late messages", file=sys.stderr)
+            print(
+                f"  {topic}: missing or stale at {report['missing_ticks']} ticks, "
+                f"{report['late_messages']} late messages",
+                file=sys.stderr,
+            )
     return 0
 
 
@@ -188,20 +233,35 @@ def _stream_to_bag(args) -> int:
             raise _Usage(f"{source}: no frames to convert")
         size = args.ego_size or _ego_box(first)
         names = header.channels if header is not None and header.channels else list(first.channels)
-        plain = default_mapping(names, sorted(first.signals), *size,
-                                coverage=header.coverage if header is not None else None,
-                                period=period)
+        plain = default_mapping(
+            names,
+            sorted(first.signals),
+            *size,
+            coverage=header.coverage if header is not None else None,
+            period=period,
+        )
         mapping = TopicMapping.model_validate(plain)
-        written = write_bag(read_stream(source, strict=True, channels=channels, period=period),
-                            args.out, mapping, args.storage, compress=args.compress)  # fmt: skip
+        written = write_bag(
+            read_stream(source, strict=True, channels=channels, period=period),
+            args.out,
+            mapping,
+            args.storage,
+            compress=args.compress,
+        )
         saved = args.out.with_name(args.out.name + ".topics.yaml")
-        saved.write_text("# written by casewatch convert: which topics are which channel\n"
-                         + yaml.safe_dump(plain, sort_keys=False), encoding="utf-8")
+        saved.write_text(
+            "# written by casewatch convert: which topics are which channel\n"
+            + yaml.safe_dump(plain, sort_keys=False),
+            encoding="utf-8",
+        )
         load_mapping(saved)  # what we wrote must read back
     print(f"{source}: {written} frames -> {args.out} ({args.storage})", file=sys.stderr)
     if saved is not None:
-        print(f"  topic mapping: {saved}\n  judge it with: casewatch run CASE {args.out} "
-              f"--topics {saved} -o OUT", file=sys.stderr)  # fmt: skip
+        print(
+            f"  topic mapping: {saved}\n  judge it with: casewatch run CASE {args.out} "
+            f"--topics {saved} -o OUT",
+            file=sys.stderr,
+        )
     return 0
 
 

@@ -35,18 +35,27 @@ from casewatch.reports.render import ResultError, load_result
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
-        "diff", help="compare two runs (or two fleets) of the same logs",
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
-    )  # fmt: skip
+        "diff",
+        help="compare two runs (or two fleets) of the same logs",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("run_a", metavar="RUN_A", help="the baseline run or fleet folder")
     p.add_argument("run_b", metavar="RUN_B", help="the run or fleet folder to compare")
     p.add_argument("-o", "--out", required=True, type=Path, help="output folder")
-    p.add_argument("--fail-on", choices=FAIL_ON, default="any",
-                   help="which new episodes and lost detections are regressions (default any)")
-    p.add_argument("--labels", metavar="FILE|auto",
-                   help="judge the hazards of both runs against these labels (JSON Lines); "
-                        "'auto': NAME.labels.jsonl beside each log's stream. Default: the "
-                        "labels both runs were judged with, if they were")
+    p.add_argument(
+        "--fail-on",
+        choices=FAIL_ON,
+        default="any",
+        help="which new episodes and lost detections are regressions (default any)",
+    )
+    p.add_argument(
+        "--labels",
+        metavar="FILE|auto",
+        help="judge the hazards of both runs against these labels (JSON Lines); "
+        "'auto': NAME.labels.jsonl beside each log's stream. Default: the "
+        "labels both runs were judged with, if they were",
+    )
 
 
 def _labels_from_file(path: str, run: RunResult) -> list[LabelInterval]:
@@ -74,8 +83,10 @@ def labels_of(a: RunResult, b: RunResult, given: str | None) -> tuple[list | Non
         which = "neither run" if ga is gb else ("only A" if gb is None else "only B")
         return None, f"{which} was judged with labels"
     if ga.labels_digest != gb.labels_digest:
-        raise UsageError(f"the two runs were judged against different labels ({ga.labels_path} "
-                         f"and {gb.labels_path}); pass --labels FILE to judge both against one")
+        raise UsageError(
+            f"the two runs were judged against different labels ({ga.labels_path} "
+            f"and {gb.labels_path}); pass --labels FILE to judge both against one"
+        )
     return list(gb.labels), gb.labels_path
 
 
@@ -87,11 +98,14 @@ def main(args: argparse.Namespace) -> int:
             (_, a_one), (b_name, b_one) = next(iter(a_runs.items())), next(iter(b_runs.items()))
             pairs = [(b_name, a_one, b_one)]
         else:
-            pairs = [(name, a_runs[name], b_runs[name]) for name in sorted(a_runs)
-                     if name in b_runs]  # fmt: skip
+            pairs = [
+                (name, a_runs[name], b_runs[name]) for name in sorted(a_runs) if name in b_runs
+            ]
         if args.labels not in (None, "auto") and len(pairs) > 1:
-            raise UsageError("with several logs use --labels auto (each log's labels beside "
-                             "its stream), not one file")
+            raise UsageError(
+                "with several logs use --labels auto (each log's labels beside "
+                "its stream), not one file"
+            )
         diffs = []
         for name, a, b in pairs:
             ra, rb = load_result(a / "result.json"), load_result(b / "result.json")
@@ -105,36 +119,47 @@ def main(args: argparse.Namespace) -> int:
         return 2
     paired = {name for name, _, _ in pairs}
     report = {
-        "format": "casewatch-diff", "version": 1, "a": str(a_dir), "b": str(b_dir),
-        "fail_on": args.fail_on, "regressions": regressions(diffs, args.fail_on),
+        "format": "casewatch-diff",
+        "version": 1,
+        "a": str(a_dir),
+        "b": str(b_dir),
+        "fail_on": args.fail_on,
+        "regressions": regressions(diffs, args.fail_on),
         "only_a": sorted(set(a_runs) - paired) if len(pairs) > 1 or len(a_runs) > 1 else [],
         "only_b": sorted(set(b_runs) - paired) if len(pairs) > 1 or len(b_runs) > 1 else [],
         "logs": diffs,
-    }  # fmt: skip
+    }
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "diff.json").write_text(json.dumps(report, indent=1), encoding="utf-8")
     (args.out / "diff.md").write_text(render_diff_md(report), encoding="utf-8")
     (args.out / "diff.html").write_text(render_diff_html(report), encoding="utf-8")
     for d in diffs:
-        verdict = ("" if d["verdict_a"] == d["verdict_b"]
-                   else f"; verdict {d['verdict_a']} -> {d['verdict_b']}")  # fmt: skip
+        verdict = (
+            ""
+            if d["verdict_a"] == d["verdict_b"]
+            else f"; verdict {d['verdict_a']} -> {d['verdict_b']}"
+        )
         labels = "" if d["labelled"] else " (no labels: vanished episodes are 'gone')"
-        print(f"{d['log']}: {_counts(totals(d), always=('new', 'gone', 'changed'))}"
-              f"{verdict}{labels}")
+        print(
+            f"{d['log']}: {_counts(totals(d), always=('new', 'gone', 'changed'))}{verdict}{labels}"
+        )
         for r in d["nodes"]:
             counts = {kind: len(r[kind]) for kind in CHANGE_LABELS}
             if any(counts.values()):
                 print(f"  {r['formula']:<6} {r['a']:>3} -> {r['b']:<3} {_counts(counts)}")
     for name in report["only_a"] + report["only_b"]:
         print(f"{name}: in only one of the two")
-    print(f"{report['regressions']} regression(s) (new episodes and lost detections) under "
-          f"--fail-on {args.fail_on}; "
-          f"{args.out / 'diff.md'}, {args.out / 'diff.html'}")
+    print(
+        f"{report['regressions']} regression(s) (new episodes and lost detections) under "
+        f"--fail-on {args.fail_on}; "
+        f"{args.out / 'diff.md'}, {args.out / 'diff.html'}"
+    )
     return 1 if report["regressions"] else 0
 
 
 def _counts(counts: dict[str, int], always: tuple[str, ...] = ()) -> str:
     """`2 new, 1 lost detection, 3 changed`: the kinds with episodes, and `always`."""
+
     def name(kind: str) -> str:  # "1 lost detection", "2 lost detections", "2 new"
         plural = counts[kind] != 1 and CHANGE_LABELS[kind].endswith("detection")
         return CHANGE_LABELS[kind] + ("s" if plural else "")

@@ -23,9 +23,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "export-gsn",
         help="write the argument as gsn2x YAML, with a run's node statuses as CSS classes",
         description="Write the case as gsn2x YAML (OUT/<module>.gsn.yaml); with RUN_DIR, "
-                    "each node's worst status over that run as a CSS class and "
-                    "OUT/casewatch-status.css. casewatch reads the file back as the same case.",
-    )  # fmt: skip
+        "each node's worst status over that run as a CSS class and "
+        "OUT/casewatch-status.css. casewatch reads the file back as the same case.",
+    )
     p.add_argument("case", help="the safety case (YAML)")
     p.add_argument("run", nargs="?", type=Path, help="a run folder (with result.json)")
     p.add_argument("-o", "--out", required=True, type=Path, help="output folder")
@@ -44,13 +44,15 @@ def main(args: argparse.Namespace) -> int:
         try:
             result = load_result(args.run / "result.json" if args.run.is_dir() else args.run)
         except (OSError, ValueError, ResultError) as exc:
-            print(f"casewatch export-gsn: {args.run}: cannot read the run: {exc}",
-                  file=sys.stderr)
+            print(f"casewatch export-gsn: {args.run}: cannot read the run: {exc}", file=sys.stderr)
             return 2
         if result.case.digest != case.digest:
-            print(f"casewatch export-gsn: {args.run} was judged with another version of the "
-                  f"case (digest {result.case.digest[:12]}, this file {case.digest[:12]}); its "
-                  "statuses would be pinned on the wrong nodes", file=sys.stderr)
+            print(
+                f"casewatch export-gsn: {args.run} was judged with another version of the "
+                f"case (digest {result.case.digest[:12]}, this file {case.digest[:12]}); its "
+                "statuses would be pinned on the wrong nodes",
+                file=sys.stderr,
+            )
             return 2
         statuses = {s.node_id: s.worst for s in result.status}
     for path in write_gsn(case, args.out, statuses):

@@ -26,9 +26,11 @@ from casewatch.reports.scenario_export import ExportError, export_scenarios
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
-        "export-scenarios", help="hazard events as OpenSCENARIO 1.2 files",
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
-    )  # fmt: skip
+        "export-scenarios",
+        help="hazard events as OpenSCENARIO 1.2 files",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("run_dir", metavar="RUN_DIR", help="output folder of `casewatch run`")
     p.add_argument("stream", metavar="STREAM", help="the stream that run judged")
     p.add_argument("-o", "--out", required=True, type=Path, help="output folder")
@@ -37,27 +39,69 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def add_options(p: argparse.ArgumentParser, prefix: str = "") -> None:
     """The export options (shared with `casewatch run --scenarios`)."""
-    p.add_argument(f"--{prefix}channel", default=None,
-                   help="channel whose view is replayed (default: the arbitrated one)")
-    p.add_argument(f"--{prefix}lead-in", type=float, default=3.0, metavar="S",
-                   help="seconds before the event (default %(default)s)")
-    p.add_argument(f"--{prefix}lead-out", type=float, default=2.0, metavar="S",
-                   help="seconds after the event (default %(default)s)")
-    p.add_argument(f"--{prefix}radius", type=float, default=30.0, metavar="M",
-                   help="objects this close to the ego during the event are involved")
-    p.add_argument(f"--{prefix}opendrive", type=Path, default=None, metavar="FILE",
-                   help="OpenDRIVE road network to reference")
+    p.add_argument(
+        f"--{prefix}channel",
+        default=None,
+        help="channel whose view is replayed (default: the arbitrated one)",
+    )
+    p.add_argument(
+        f"--{prefix}lead-in",
+        type=float,
+        default=3.0,
+        metavar="S",
+        help="seconds before the event (default %(default)s)",
+    )
+    p.add_argument(
+        f"--{prefix}lead-out",
+        type=float,
+        default=2.0,
+        metavar="S",
+        help="seconds after the event (default %(default)s)",
+    )
+    p.add_argument(
+        f"--{prefix}radius",
+        type=float,
+        default=30.0,
+        metavar="M",
+        help="objects this close to the ego during the event are involved",
+    )
+    p.add_argument(
+        f"--{prefix}opendrive",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="OpenDRIVE road network to reference",
+    )
     if not prefix:
-        p.add_argument("--event", type=int, default=None, metavar="N",
-                       help="only the N-th hazard event (1-based)")
-        p.add_argument("--topics", type=Path, default=None, metavar="FILE",
-                       help="for a ROS 2 bag: its topic mapping (default: the case's "
-                            "monitor.topics; docs/bags.md)")
+        p.add_argument(
+            "--event",
+            type=int,
+            default=None,
+            metavar="N",
+            help="only the N-th hazard event (1-based)",
+        )
+        p.add_argument(
+            "--topics",
+            type=Path,
+            default=None,
+            metavar="FILE",
+            help="for a ROS 2 bag: its topic mapping (default: the case's "
+            "monitor.topics; docs/bags.md)",
+        )
 
 
-def run_export(result, stream: Path, out: Path, channel, lead_in: float, lead_out: float,
-               radius: float, opendrive, event=None,
-               topics: Path | None = None) -> int:  # fmt: skip
+def run_export(
+    result,
+    stream: Path,
+    out: Path,
+    channel,
+    lead_in: float,
+    lead_out: float,
+    radius: float,
+    opendrive,
+    event=None,
+    topics: Path | None = None,
+) -> int:
     """Export and write the catalogue; prints one line per file. Exit code."""
     for name, value in (("lead-in", lead_in), ("lead-out", lead_out), ("radius", radius)):
         if not (math.isfinite(value) and value >= 0):
@@ -67,17 +111,21 @@ def run_export(result, stream: Path, out: Path, channel, lead_in: float, lead_ou
         print(f"casewatch export-scenarios: {opendrive}: no such OpenDRIVE file", file=sys.stderr)
         return 2
     try:
-        entries = export_scenarios(result, Path(stream), out, channel, lead_in, lead_out, radius,
-                                   opendrive, event, topics)  # fmt: skip
+        entries = export_scenarios(
+            result, Path(stream), out, channel, lead_in, lead_out, radius, opendrive, event, topics
+        )
     except (ExportError, OSError) as exc:
         print(f"casewatch export-scenarios: {exc}", file=sys.stderr)
         return 2
-    (out / "scenarios.json").write_text(json.dumps({"format": "casewatch-scenarios",
-                                                    "version": 1, "scenarios": entries},
-                                                   indent=1), encoding="utf-8")  # fmt: skip
+    (out / "scenarios.json").write_text(
+        json.dumps({"format": "casewatch-scenarios", "version": 1, "scenarios": entries}, indent=1),
+        encoding="utf-8",
+    )
     for e in entries:
-        print(f"  {out / e['file']}: {e['node']} {e['start']:g}-{e['end']:g} s, channel "
-              f"{e['channel']}, {len(e['entities']) - 1} objects")
+        print(
+            f"  {out / e['file']}: {e['node']} {e['start']:g}-{e['end']:g} s, channel "
+            f"{e['channel']}, {len(e['entities']) - 1} objects"
+        )
     print(f"{len(entries)} scenario(s); catalogue {out / 'scenarios.json'}")
     return 0
 
@@ -89,9 +137,17 @@ def main(args: argparse.Namespace) -> int:
         print(f"casewatch export-scenarios: {exc}", file=sys.stderr)
         return 2
     if not (Path(args.stream).is_file() or is_bag(args.stream)):
-        print(f"casewatch export-scenarios: {args.stream}: no such stream or bag",
-              file=sys.stderr)
+        print(f"casewatch export-scenarios: {args.stream}: no such stream or bag", file=sys.stderr)
         return 2
-    return run_export(result, Path(args.stream), args.out, args.channel, args.lead_in,
-                      args.lead_out, args.radius, args.opendrive, args.event,
-                      args.topics)  # fmt: skip
+    return run_export(
+        result,
+        Path(args.stream),
+        args.out,
+        args.channel,
+        args.lead_in,
+        args.lead_out,
+        args.radius,
+        args.opendrive,
+        args.event,
+        args.topics,
+    )

@@ -30,9 +30,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         default=",".join(FORMATS),
         help=f"comma-separated formats to write (default and valid: {','.join(FORMATS)})",
     )
-    parser.add_argument("--fail-on", choices=FAIL_ON, default=None,
-                        help="which episodes JUnit counts as failures (default: the run's own "
-                             "--fail-on, recorded in result.json)")  # fmt: skip
+    parser.add_argument(
+        "--fail-on",
+        choices=FAIL_ON,
+        default=None,
+        help="which episodes JUnit counts as failures (default: the run's own "
+        "--fail-on, recorded in result.json)",
+    )
 
 
 def main(args: argparse.Namespace) -> int:
@@ -79,8 +83,10 @@ def _fleet(folder: Path) -> int:
         try:
             html = render_fleet(summary, folder)
         except (KeyError, TypeError, ValueError) as exc:  # a log entry missing its fields
-            raise FleetError(f"{folder}/summary.json: not a casewatch fleet summary "
-                             f"({type(exc).__name__}: {exc})") from None
+            raise FleetError(
+                f"{folder}/summary.json: not a casewatch fleet summary "
+                f"({type(exc).__name__}: {exc})"
+            ) from None
     except FleetError as exc:
         print(f"casewatch report: {exc}", file=sys.stderr)
         return 2

@@ -44,50 +44,101 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description="Judge streams against a safety case; write results and reports.",
     )
     p.add_argument("case", help="the safety case (YAML)")
-    p.add_argument("streams", nargs="+", metavar="STREAM",
-                   help="a JSON Lines stream (.jsonl or .jsonl.gz), a ROS 2 bag (.mcap, .db3 "
-                        "or a bag folder), '-' for standard input, a folder of streams and "
-                        "bags, or a glob such as 'logs/*.jsonl.gz'")
-    p.add_argument("--stl-engine", choices=ENGINES, default="rtamt",
-                   help="robustness by rtamt tick by tick (default; live streams), numpy over "
-                        "the whole log (logs only, same values), or both, every value compared "
-                        "(a disagreement exits 3 naming the formula and tick)")
-    p.add_argument("--topics", type=Path, metavar="FILE",
-                   help="for ROS 2 bags: the topic mapping (YAML; default: the case's "
-                        "monitor.topics; docs/bags.md)")
+    p.add_argument(
+        "streams",
+        nargs="+",
+        metavar="STREAM",
+        help="a JSON Lines stream (.jsonl or .jsonl.gz), a ROS 2 bag (.mcap, .db3 "
+        "or a bag folder), '-' for standard input, a folder of streams and "
+        "bags, or a glob such as 'logs/*.jsonl.gz'",
+    )
+    p.add_argument(
+        "--stl-engine",
+        choices=ENGINES,
+        default="rtamt",
+        help="robustness by rtamt tick by tick (default; live streams), numpy over "
+        "the whole log (logs only, same values), or both, every value compared "
+        "(a disagreement exits 3 naming the formula and tick)",
+    )
+    p.add_argument(
+        "--topics",
+        type=Path,
+        metavar="FILE",
+        help="for ROS 2 bags: the topic mapping (YAML; default: the case's "
+        "monitor.topics; docs/bags.md)",
+    )
     p.add_argument("-o", "--out", required=True, type=Path, help="output folder")
-    p.add_argument("--labels", help="ground-truth labels (JSON Lines); 'auto' uses "
-                                    "NAME.labels.jsonl next to each stream when present")
-    p.add_argument("--strict", action="store_true",
-                   help="stop at the first stream defect instead of skipping the frame")
-    p.add_argument("--jobs", type=int, default=1,
-                   help="parallel processes (or local Dask workers) for several logs")
-    p.add_argument("--engine", choices=("processes", "dask"), default="processes",
-                   help="several logs as local processes (default) or as Dask tasks "
-                        "(docs/fleet.md; needs pip install 'casewatch[fleet]')")  # fmt: skip
-    p.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
-                   help="with --engine dask: an existing Dask scheduler instead of a local "
-                        "cluster of --jobs workers")  # fmt: skip
-    p.add_argument("--resume", action="store_true",
-                   help="skip logs whose complete result.json was judged with this case from "
-                        "the same stream (sha256)")  # fmt: skip
-    p.add_argument("--format", default=",".join(FORMATS),
-                   help="reports to write: any of html,md,junit, or 'none' (default: all)")
+    p.add_argument(
+        "--labels",
+        help="ground-truth labels (JSON Lines); 'auto' uses "
+        "NAME.labels.jsonl next to each stream when present",
+    )
+    p.add_argument(
+        "--strict",
+        action="store_true",
+        help="stop at the first stream defect instead of skipping the frame",
+    )
+    p.add_argument(
+        "--jobs",
+        type=int,
+        default=1,
+        help="parallel processes (or local Dask workers) for several logs",
+    )
+    p.add_argument(
+        "--engine",
+        choices=("processes", "dask"),
+        default="processes",
+        help="several logs as local processes (default) or as Dask tasks "
+        "(docs/fleet.md; needs pip install 'casewatch[fleet]')",
+    )
+    p.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="tcp://HOST:PORT",
+        help="with --engine dask: an existing Dask scheduler instead of a local "
+        "cluster of --jobs workers",
+    )
+    p.add_argument(
+        "--resume",
+        action="store_true",
+        help="skip logs whose complete result.json was judged with this case from "
+        "the same stream (sha256)",
+    )
+    p.add_argument(
+        "--format",
+        default=",".join(FORMATS),
+        help="reports to write: any of html,md,junit, or 'none' (default: all)",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress or event lines")
-    p.add_argument("--fail-on", choices=FAIL_ON, default="any",
-                   help="which episodes make the run exit 1 and fail in JUnit: any (default), "
-                        "hazard (hazard events only), spi, never")  # fmt: skip
-    p.add_argument("--scenarios", action="store_true",
-                   help="also export every hazard event as OpenSCENARIO into OUT/scenarios "
-                        "(one stream; options as for export-scenarios, prefixed scenario-)")
+    p.add_argument(
+        "--fail-on",
+        choices=FAIL_ON,
+        default="any",
+        help="which episodes make the run exit 1 and fail in JUnit: any (default), "
+        "hazard (hazard events only), spi, never",
+    )
+    p.add_argument(
+        "--scenarios",
+        action="store_true",
+        help="also export every hazard event as OpenSCENARIO into OUT/scenarios "
+        "(one stream; options as for export-scenarios, prefixed scenario-)",
+    )
     add_scenario_options(p, prefix="scenario-")
-    p.add_argument("--save-signals", action="store_true",
-                   help="keep every per-tick signal value in OUT/signals.npz (for casewatch "
-                        "tune and calibrate)")
-    p.add_argument("--max-no-data", type=_share, default=DEFAULT_MAX_NO_DATA, metavar="SHARE",
-                   help="largest share (0-1) of ticks the root goal may read no-data; above it "
-                        "the stream is unusable input, exit code 2, not a pass "
-                        f"(default: {DEFAULT_MAX_NO_DATA:g})")
+    p.add_argument(
+        "--save-signals",
+        action="store_true",
+        help="keep every per-tick signal value in OUT/signals.npz (for casewatch "
+        "tune and calibrate)",
+    )
+    p.add_argument(
+        "--max-no-data",
+        type=_share,
+        default=DEFAULT_MAX_NO_DATA,
+        metavar="SHARE",
+        help="largest share (0-1) of ticks the root goal may read no-data; above it "
+        "the stream is unusable input, exit code 2, not a pass "
+        f"(default: {DEFAULT_MAX_NO_DATA:g})",
+    )
 
 
 def _share(text: str) -> float:
@@ -111,24 +162,35 @@ def event_line(event: Event) -> str:
     if isinstance(event, EpisodeOpen):
         label = "HAZARD  " if event.kind == "hazard" else "VIOLATED"
         trace = " | ".join(" -> ".join(step.id for step in path) for path in event.trace)
-        return (f"{label} {event.node_id}  from {event.start:.1f} s (open at {event.t:.1f} s)"
-                f"  trace {trace}")
+        return (
+            f"{label} {event.node_id}  from {event.start:.1f} s (open at {event.t:.1f} s)"
+            f"  trace {trace}"
+        )
     if isinstance(event, NearMiss):
-        return (f"NEAR     {event.node_id}  {event.start:.1f}-{event.end:.1f} s  robustness down "
-                f"to {event.least_robustness:.3f} at {event.t_least:.1f} s (margin "
-                f"{event.warn:g}; not a violation)")
+        return (
+            f"NEAR     {event.node_id}  {event.start:.1f}-{event.end:.1f} s  robustness down "
+            f"to {event.least_robustness:.3f} at {event.t_least:.1f} s (margin "
+            f"{event.warn:g}; not a violation)"
+        )
     if isinstance(event, OddChange):
-        what = {"outside": "OUTSIDE the ODD", "unknown": "conditions NOT REPORTED",
-                "inside": "inside the ODD again"}[event.state]  # fmt: skip
+        what = {
+            "outside": "OUTSIDE the ODD",
+            "unknown": "conditions NOT REPORTED",
+            "inside": "inside the ODD again",
+        }[event.state]
         because = f" ({event.because})" if event.because else ""
         return f"ODD      {event.node_id}  {what} from {event.t:.1f} s{because}"
     if isinstance(event, DataGap):
-        return (f"NO DATA  {event.node_id}  {event.start:.1f}-{event.end:.1f} s  "
-                f"({event.ticks} ticks; missing {', '.join(event.missing)})")
+        return (
+            f"NO DATA  {event.node_id}  {event.start:.1f}-{event.end:.1f} s  "
+            f"({event.ticks} ticks; missing {', '.join(event.missing)})"
+        )
     label = "ENDED   "
     trace = " | ".join(" -> ".join(step.id for step in path) for path in event.trace)
-    return (f"{label} {event.node_id}  {event.start:.1f}-{event.end:.1f} s  "
-            f"worst {event.worst_robustness:+.3f} at {event.t_worst:.1f} s  trace {trace}")
+    return (
+        f"{label} {event.node_id}  {event.start:.1f}-{event.end:.1f} s  "
+        f"worst {event.worst_robustness:+.3f} at {event.t_worst:.1f} s  trace {trace}"
+    )
 
 
 def main(args: argparse.Namespace) -> int:
@@ -146,7 +208,8 @@ def main(args: argparse.Namespace) -> int:
     case, spec = prepared
     first = args.streams[0]
     single = len(args.streams) == 1 and (
-        first == "-" or is_bag(first)
+        first == "-"
+        or is_bag(first)
         or not (Path(first).is_dir() or any(c in first for c in "*?["))
     )
     if single:
@@ -160,8 +223,11 @@ def _run_single(args, case, spec, formats: tuple[str, ...]) -> int:
     labels = batch.labels_for(stream, args.labels)
 
     def on_event(event: Event) -> None:
-        if live and not args.quiet and isinstance(event,
-                                                  Episode | EpisodeOpen | NearMiss | OddChange):
+        if (
+            live
+            and not args.quiet
+            and isinstance(event, Episode | EpisodeOpen | NearMiss | OddChange)
+        ):
             print(event_line(event), flush=True)
 
     bar = StreamProgress(enabled=not (live or args.quiet))  # silent unless on a terminal
@@ -193,30 +259,47 @@ def _run_single(args, case, spec, formats: tuple[str, ...]) -> int:
     if not args.quiet:
         _print_summary(result, path, written)
     if args.scenarios and not live and any(e.kind == "hazard" for e in result.episodes):
-        code = run_export(result, Path(stream), args.out / "scenarios", args.scenario_channel,
-                          args.scenario_lead_in, args.scenario_lead_out, args.scenario_radius,
-                          args.scenario_opendrive, topics=args.topics)  # fmt: skip
+        code = run_export(
+            result,
+            Path(stream),
+            args.out / "scenarios",
+            args.scenario_channel,
+            args.scenario_lead_in,
+            args.scenario_lead_out,
+            args.scenario_radius,
+            args.scenario_opendrive,
+            topics=args.topics,
+        )
         if code:
             return code
     if result.stream.frames_read == 0:
-        print(f"casewatch run: {stream}: no frames could be read "
-              f"({result.stream.defect_count} defects); nothing was judged", file=sys.stderr)
+        print(
+            f"casewatch run: {stream}: no frames could be read "
+            f"({result.stream.defect_count} defects); nothing was judged",
+            file=sys.stderr,
+        )
         for line in refusal_lines(result):  # the cause, not only result.json's count
             print(f"  {line}", file=sys.stderr)
         return 2
     no_data = result.root_no_data
     if no_data is not None and no_data.exceeded:
-        print(f"casewatch run: {stream}: the root goal {result.case.root_id} had no data on "
-              f"{no_data.share:.1%} of {no_data.ticks} ticks (limit {no_data.limit:.0%}, "
-              "--max-no-data); the stream cannot vouch for the case: unusable input, not a "
-              "pass", file=sys.stderr)
+        print(
+            f"casewatch run: {stream}: the root goal {result.case.root_id} had no data on "
+            f"{no_data.share:.1%} of {no_data.ticks} ticks (limit {no_data.limit:.0%}, "
+            "--max-no-data); the stream cannot vouch for the case: unusable input, not a "
+            "pass",
+            file=sys.stderr,
+        )
         for line in channel_hint(result):
             print(f"  {line}", file=sys.stderr)
         return 2
     if damaged(result.stream.defect_count):  # a finding under every --fail-on policy
-        print(f"casewatch run: {stream}: the log is damaged ({result.stream.defect_count} stream "
-              "defect(s), listed in result.json); the frames they lost were not judged: a "
-              "finding, not a pass", file=sys.stderr)  # fmt: skip
+        print(
+            f"casewatch run: {stream}: the log is damaged ({result.stream.defect_count} stream "
+            "defect(s), listed in result.json); the frames they lost were not judged: a "
+            "finding, not a pass",
+            file=sys.stderr,
+        )
         return 1
     return 1 if any(gated(e.kind, args.fail_on) for e in result.episodes) else 0
 
@@ -226,19 +309,25 @@ def _print_summary(result: RunResult, path: Path, written: dict[str, Path]) -> N
     spi = sum(1 for e in result.episodes if e.kind == "spi")
     hazards = len(result.episodes) - spi
     gaps = sum(f.ticks_no_data for f in result.formulas)
-    print(f"{result.case.module}: {s.frames_read} frames, {s.duration:.1f} s, "
-          f"{s.defect_count} defects; root goal {result.case.root_id}: {result.verdict.upper()}")
+    print(
+        f"{result.case.module}: {s.frames_read} frames, {s.duration:.1f} s, "
+        f"{s.defect_count} defects; root goal {result.case.root_id}: {result.verdict.upper()}"
+    )
     print(f"  {spi} SPI episodes, {hazards} hazard events, {gaps} formula-ticks without data")
     if result.root_no_data is not None and result.root_no_data.ticks:
         n = result.root_no_data
-        print(f"  root goal without data on {n.no_data_ticks} of {n.ticks} ticks ({n.share:.1%}; "
-              f"limit {n.limit:.0%})")
+        print(
+            f"  root goal without data on {n.no_data_ticks} of {n.ticks} ticks ({n.share:.1%}; "
+            f"limit {n.limit:.0%})"
+        )
     if result.ground_truth is not None:
         o = result.ground_truth.overall
         p = "n/a" if o.precision is None else f"{o.precision:.1%}"
         r = "n/a" if o.recall is None else f"{o.recall:.1%}"
-        print(f"  ground truth: {o.true_positives} TP, {o.false_positives} FP, "
-              f"{o.false_negatives} FN; precision {p}, recall {r}")
+        print(
+            f"  ground truth: {o.true_positives} TP, {o.false_positives} FP, "
+            f"{o.false_negatives} FN; precision {p}, recall {r}"
+        )
     print(f"  result: {path}")
     for fmt, report in written.items():
         print(f"  {fmt}: {report}")
@@ -255,8 +344,11 @@ def _run_many(args, case, formats: tuple[str, ...]) -> int:
         print(f"casewatch run: {exc}", file=sys.stderr)
         return 2
     if args.labels not in (None, "auto"):
-        print("casewatch run: with several streams use --labels auto "
-              "(NAME.labels.jsonl next to each stream)", file=sys.stderr)
+        print(
+            "casewatch run: with several streams use --labels auto "
+            "(NAME.labels.jsonl next to each stream)",
+            file=sys.stderr,
+        )
         return 2
 
     bar = FleetProgress(len(streams), enabled=not args.quiet)  # a bar only on a terminal
@@ -267,8 +359,9 @@ def _run_many(args, case, formats: tuple[str, ...]) -> int:
             return
         if log.ok:
             short = " (too little data: --max-no-data)" if log.too_little_data else ""
-            bar.log(f"  {log.stream}: {log.frames} frames, {log.verdict}{short} "
-                    f"({log.seconds:.1f} s)")
+            bar.log(
+                f"  {log.stream}: {log.frames} frames, {log.verdict}{short} ({log.seconds:.1f} s)"
+            )
             if log.frames == 0:  # why, from its result.json; a cause shared by logs once
                 for line in hints.new(Path(log.out_dir)):
                     bar.log(f"    {line}")
@@ -281,19 +374,34 @@ def _run_many(args, case, formats: tuple[str, ...]) -> int:
         return 2
     try:
         with bar:
-            summary = batch.run_many(args.case, case.digest, streams, args.out, args.jobs,
-                                     args.labels, args.strict, formats, on_done,
-                                     args.max_no_data, args.save_signals, args.fail_on,
-                                     topics=str(args.topics) if args.topics else None,
-                                     stl_engine=args.stl_engine, engine=args.engine,
-                                     scheduler=args.scheduler, resume=args.resume)  # fmt: skip
+            summary = batch.run_many(
+                args.case,
+                case.digest,
+                streams,
+                args.out,
+                args.jobs,
+                args.labels,
+                args.strict,
+                formats,
+                on_done,
+                args.max_no_data,
+                args.save_signals,
+                args.fail_on,
+                topics=str(args.topics) if args.topics else None,
+                stl_engine=args.stl_engine,
+                engine=args.engine,
+                scheduler=args.scheduler,
+                resume=args.resume,
+            )
     except EngineError as exc:
         print(f"casewatch run: {exc}", file=sys.stderr)
         return 2
     if not args.quiet:
-        print(f"{summary['logs']} logs, {summary['hours']:.3f} h judged, "
-              f"{summary['logs_failed']} failed, {summary['logs_without_data']} with too little "
-              f"data; summary: {args.out / 'summary.json'}")
+        print(
+            f"{summary['logs']} logs, {summary['hours']:.3f} h judged, "
+            f"{summary['logs_failed']} failed, {summary['logs_without_data']} with too little "
+            f"data; summary: {args.out / 'summary.json'}"
+        )
     for log in summary["per_log"]:  # even with --quiet: exit 3 and 4 never pass unexplained
         if args.quiet and (log.get("crashed") or log.get("engines_disagree")):
             print(f"casewatch run: {log['stream']}: {log['error']}", file=sys.stderr)
@@ -303,6 +411,7 @@ def _run_many(args, case, formats: tuple[str, ...]) -> int:
         return ENGINES_DISAGREE
     if summary["logs_failed"] or summary["logs_without_data"]:
         return 2
-    episodes = sum(int(f["episodes"]) for f in summary["formulas"]
-                   if gated(f["kind"], args.fail_on))  # fmt: skip
+    episodes = sum(
+        int(f["episodes"]) for f in summary["formulas"] if gated(f["kind"], args.fail_on)
+    )
     return 1 if episodes or summary.get("logs_damaged") else 0

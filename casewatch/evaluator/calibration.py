@@ -105,8 +105,9 @@ def _levels(knob: Knob, log: SavedSignals, duration: float) -> np.ndarray:
     assert knob.kind == "spi" and not knob.raw_stl and knob.signal_left
     formula = formula_for(knob, 0.0, duration)
     try:
-        rho = robustness(formula, {knob.signal: log.column(knob.signal)}, log.t, log.period,
-                         log.max_gap)  # fmt: skip
+        rho = robustness(
+            formula, {knob.signal: log.column(knob.signal)}, log.t, log.period, log.max_gap
+        )
     except Unsupported as exc:
         raise TuningError(f"{knob.formula_id}: {exc}") from None
     # `for:` as `casewatch run` judges it: never violated while its window fills
@@ -143,7 +144,9 @@ class CalibrationSweep:
 
 
 def calibration_sweep(
-    knob: Knob, logs: Sequence[CalibrationLog], count: int = 200,
+    knob: Knob,
+    logs: Sequence[CalibrationLog],
+    count: int = 200,
     windows: Sequence[float] = CALIBRATION_WINDOWS,
 ) -> CalibrationSweep:
     """Episodes and detections of every candidate of `knob` (an SPI bound by signal +
@@ -169,8 +172,12 @@ def calibration_sweep(
         at_extreme = int(np.count_nonzero(values == extreme))
     else:
         fires, extreme, at_extreme = np.zeros(len(th), dtype=bool), None, 0
-    faults = [(k, f) for k, log in enumerate(logs) for f in log.faults
-              if knob.signal in FAMILY_SIGNALS.get(f.fault, ())]  # fmt: skip
+    faults = [
+        (k, f)
+        for k, log in enumerate(logs)
+        for f in log.faults
+        if knob.signal in FAMILY_SIGNALS.get(f.fault, ())
+    ]
     episodes = np.zeros((len(durations), len(th)), dtype=np.int64)
     detected = np.zeros((len(durations), len(th), len(faults)), dtype=bool)
     for a, d in enumerate(durations):
@@ -178,22 +185,51 @@ def calibration_sweep(
         for k, log in enumerate(logs):
             level = _levels(knob, log.nominal, d)
             for b, threshold in enumerate(thresholds):
-                found = episodes_from(log.nominal.t, violated_at(knob, level, threshold),
-                                      period, knob.merge_gap, min_duration)  # fmt: skip
+                found = episodes_from(
+                    log.nominal.t,
+                    violated_at(knob, level, threshold),
+                    period,
+                    knob.merge_gap,
+                    min_duration,
+                )
                 episodes[a, b] += len(found)
             mine = [(j, f) for j, (i, f) in enumerate(faults) if i == k]
             if not mine:
                 continue
             level = _levels(knob, log.whole, d)
             for b, threshold in enumerate(thresholds):
-                found = episodes_from(log.whole.t, violated_at(knob, level, threshold), period,
-                                      knob.merge_gap, min_duration)  # fmt: skip
+                found = episodes_from(
+                    log.whole.t,
+                    violated_at(knob, level, threshold),
+                    period,
+                    knob.merge_gap,
+                    min_duration,
+                )
                 for j, f in mine:
                     detected[a, b, j] = overlaps(found, f)
-    plain = [{"log": logs[k].name, "fault": f.fault, "channel": f.channel, "start": f.start,
-              "end": f.end} for k, f in faults]  # fmt: skip
-    return CalibrationSweep(knob, thresholds, durations, episodes, detected, plain, fires,
-                            len(values), period, extreme, at_extreme)  # fmt: skip
+    plain = [
+        {
+            "log": logs[k].name,
+            "fault": f.fault,
+            "channel": f.channel,
+            "start": f.start,
+            "end": f.end,
+        }
+        for k, f in faults
+    ]
+    return CalibrationSweep(
+        knob,
+        thresholds,
+        durations,
+        episodes,
+        detected,
+        plain,
+        fires,
+        len(values),
+        period,
+        extreme,
+        at_extreme,
+    )
 
 
 def _stricter(knob: Knob, a: float, b: float) -> bool:
@@ -208,16 +244,23 @@ def _point(sw: CalibrationSweep, a: int, b: int, confidence: float) -> dict:
     hours = sw.hours
     detected = int(sw.detected[a, b].sum())
     return {
-        "threshold": sw.thresholds[b], "for": sw.durations[a], "episodes": n,
+        "threshold": sw.thresholds[b],
+        "for": sw.durations[a],
+        "episodes": n,
         "per_hour": n / hours if hours > 0 else None,
         "per_hour_upper": poisson_upper(n, confidence) / hours if hours > 0 else None,
         "detected": detected if sw.faults else None,
         "detection": detected / len(sw.faults) if sw.faults else None,
-    }  # fmt: skip
+    }
 
 
-def choose(sw: CalibrationSweep, per_hour: float, min_hours: float = DEFAULT_MIN_HOURS,
-           tighten: bool = False, confidence: float = CONFIDENCE) -> dict:  # fmt: skip
+def choose(
+    sw: CalibrationSweep,
+    per_hour: float,
+    min_hours: float = DEFAULT_MIN_HOURS,
+    tighten: bool = False,
+    confidence: float = CONFIDENCE,
+) -> dict:
     """The operating point of one SPI, and why.
 
     - Fewer than `min_hours` of nominal driving with a value of the signal: not calibrated
@@ -239,19 +282,34 @@ def choose(sw: CalibrationSweep, per_hour: float, min_hours: float = DEFAULT_MIN
     hours = sw.hours
     original = _point(sw, d0, th0, confidence)
     row = {
-        "formula": k.formula_id, "node": k.node_id, "signal": k.signal, "op": k.op,
-        "parameter": k.parameter, "hours": round(hours, 6), "nominal_ticks": sw.ticks,
-        "faults": len(sw.faults), "original": original, "chosen": original,
-        "status": "kept", "reason": "", "margin": 0.0,
-        "curve": [_point(sw, a, b, confidence) | {"fires": bool(sw.fires[b])}
-                  for a in range(len(sw.durations)) for b in range(len(sw.thresholds))],
-    }  # fmt: skip
+        "formula": k.formula_id,
+        "node": k.node_id,
+        "signal": k.signal,
+        "op": k.op,
+        "parameter": k.parameter,
+        "hours": round(hours, 6),
+        "nominal_ticks": sw.ticks,
+        "faults": len(sw.faults),
+        "original": original,
+        "chosen": original,
+        "status": "kept",
+        "reason": "",
+        "margin": 0.0,
+        "curve": [
+            _point(sw, a, b, confidence) | {"fires": bool(sw.fires[b])}
+            for a in range(len(sw.durations))
+            for b in range(len(sw.thresholds))
+        ],
+    }
     row["original_over_budget"] = bool(hours > 0 and original["per_hour"] > per_hour + 1e-12)
     if hours <= 0 or hours < min_hours - 1e-12:
         row["status"] = "not calibrated"
-        row["reason"] = (f"{hours:.2f} h of nominal driving with a value of {k.signal}, fewer "
-                         f"than the {min_hours:g} h asked (--min-hours)" if hours > 0 else
-                         f"no nominal tick with a value of {k.signal}")  # fmt: skip
+        row["reason"] = (
+            f"{hours:.2f} h of nominal driving with a value of {k.signal}, fewer "
+            f"than the {min_hours:g} h asked (--min-hours)"
+            if hours > 0
+            else f"no nominal tick with a value of {k.signal}"
+        )
         return row
     if not tighten and not row["original_over_budget"]:
         row["reason"] = "the original keeps the budget"
@@ -285,15 +343,23 @@ def _why_not(sw: CalibrationSweep, per_hour: float, rate: np.ndarray, tighten: b
     text = f"no threshold that can fire keeps {per_hour:g}/h"
     if sw.extreme is not None and sw.at_extreme >= 2:
         share = sw.at_extreme / max(sw.ticks, 1)
-        text += (f": {k.signal} is exactly {sw.extreme:g} on {sw.at_extreme} nominal ticks "
-                 f"({share:.1%}), and every threshold {side} {sw.extreme:g} fires there")
-    usable = [(a, b) for a, d in enumerate(sw.durations) for b in range(len(sw.thresholds))
-              if sw.fires[b] and (tighten or (d >= k.duration
-                                              and not _stricter(k, sw.thresholds[b], k.value)))]
+        text += (
+            f": {k.signal} is exactly {sw.extreme:g} on {sw.at_extreme} nominal ticks "
+            f"({share:.1%}), and every threshold {side} {sw.extreme:g} fires there"
+        )
+    usable = [
+        (a, b)
+        for a, d in enumerate(sw.durations)
+        for b in range(len(sw.thresholds))
+        if sw.fires[b]
+        and (tighten or (d >= k.duration and not _stricter(k, sw.thresholds[b], k.value)))
+    ]
     if usable:
         a, b = min(usable, key=lambda ab: (rate[ab], -sw.durations[ab[0]]))
-        text += (f"; quietest that can fire: {k.op} {sw.thresholds[b]:g} for "
-                 f"{sw.durations[a]:g} s at {rate[a, b]:.1f}/h")
+        text += (
+            f"; quietest that can fire: {k.op} {sw.thresholds[b]:g} for "
+            f"{sw.durations[a]:g} s at {rate[a, b]:.1f}/h"
+        )
     else:
         text += "; no threshold looser than the original fires on these values"
     return text

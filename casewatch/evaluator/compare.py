@@ -46,8 +46,12 @@ def _stats(values: Sequence[float | None]) -> dict | None:
     have = [v for v in values if v is not None]
     if not have:
         return None
-    return {"mean": round(sum(have) / len(have), 6), "min": round(min(have), 6),
-            "max": round(max(have), 6), "runs": len(have)}  # fmt: skip
+    return {
+        "mean": round(sum(have) / len(have), 6),
+        "min": round(min(have), 6),
+        "max": round(max(have), 6),
+        "runs": len(have),
+    }
 
 
 def _per_rule(data: dict, rule_of: dict[str, str]) -> dict[str, dict]:
@@ -55,9 +59,14 @@ def _per_rule(data: dict, rule_of: dict[str, str]) -> dict[str, dict]:
     episodes counted per rule (penalty None: no score without the scorer)."""
     scored = ((data.get("scores") or {}).get("penalty") or {}).get("per_rule")
     if isinstance(scored, dict) and scored:
-        return {str(rule): {"events": int(row.get("events") or 0),
-                            "penalty": _number(row.get("penalty"))}
-                for rule, row in scored.items() if isinstance(row, dict)}  # fmt: skip
+        return {
+            str(rule): {
+                "events": int(row.get("events") or 0),
+                "penalty": _number(row.get("penalty")),
+            }
+            for rule, row in scored.items()
+            if isinstance(row, dict)
+        }
     counts: dict[str, dict] = {}
     for e in data["episodes"]:
         rule = rule_of.get(e.get("formula_id"))
@@ -73,9 +82,11 @@ def _summarise_run(name: str, folder: Path, data: dict, by: Sequence[str]) -> di
     carla = (scores or {}).get("carla") or {}
     infractions = carla.get("per_infraction") if isinstance(carla, dict) else None
     return {
-        "name": name, "folder": str(folder),
+        "name": name,
+        "folder": str(folder),
         "group": {k: str(meta[k]) if meta.get(k) not in (None, "") else NONE for k in by},
-        "agent": str(meta.get("agent") or NONE), "scenario": str(meta.get("scenario") or NONE),
+        "agent": str(meta.get("agent") or NONE),
+        "scenario": str(meta.get("scenario") or NONE),
         "verdict": data.get("verdict"),
         "hours": round((_number(data["stream"].get("duration")) or 0.0) / 3600.0, 6),
         "scored": isinstance(scores, dict),
@@ -84,10 +95,13 @@ def _summarise_run(name: str, folder: Path, data: dict, by: Sequence[str]) -> di
         "route_completion": _score(scores, "carla", "route_completion"),
         "hazard_events": sum(1 for e in data["episodes"] if e.get("kind") == "hazard"),
         "per_rule": _per_rule(data, rule_of),
-        "per_infraction": {str(k): int(v.get("events") or 0) for k, v in infractions.items()
-                           if isinstance(v, dict)} if isinstance(infractions, dict) else {},
+        "per_infraction": {
+            str(k): int(v.get("events") or 0) for k, v in infractions.items() if isinstance(v, dict)
+        }
+        if isinstance(infractions, dict)
+        else {},
         "track_points": len(data.get("track") or []),
-    }  # fmt: skip
+    }
 
 
 def _markers(name: str, run: dict, data: dict) -> list[dict]:
@@ -98,14 +112,24 @@ def _markers(name: str, run: dict, data: dict) -> list[dict]:
         x, y = _number(e.get("x")), _number(e.get("y"))
         if e.get("kind") != "hazard" or x is None or y is None:
             continue
-        rows.append({
-            "run": name, "agent": run["agent"], "scenario": run["scenario"],
-            "rule": rule_of.get(e.get("formula_id")) or e.get("node_id") or "?",
-            "formula_id": e.get("formula_id"), "node_id": e.get("node_id"),
-            "start": e.get("start"), "end": e.get("end"), "x": x, "y": y,
-            "track_distance": None, "off_track": None,
-            "network_distance": None, "off_road": None,
-        })  # fmt: skip
+        rows.append(
+            {
+                "run": name,
+                "agent": run["agent"],
+                "scenario": run["scenario"],
+                "rule": rule_of.get(e.get("formula_id")) or e.get("node_id") or "?",
+                "formula_id": e.get("formula_id"),
+                "node_id": e.get("node_id"),
+                "start": e.get("start"),
+                "end": e.get("end"),
+                "x": x,
+                "y": y,
+                "track_distance": None,
+                "off_track": None,
+                "network_distance": None,
+                "off_road": None,
+            }
+        )
     track = np.asarray([p[1:] for p in data.get("track") or []], dtype=float).reshape(-1, 2)
     if rows and len(track):
         line = shapely.points(track[0]) if len(track) == 1 else shapely.linestrings(track)
@@ -126,19 +150,24 @@ def _matrix(runs: list[dict], by: Sequence[str]) -> dict:
     for row in rows:
         line = []
         for col in cols:
-            inside = [r for r in runs if r["group"][row_key] == row
-                      and (col_key is None or r["group"][col_key] == col)]  # fmt: skip
+            inside = [
+                r
+                for r in runs
+                if r["group"][row_key] == row and (col_key is None or r["group"][col_key] == col)
+            ]
             line.append(_stats([r["penalty_score"] for r in inside]) if inside else None)
         cells.append(line)
-    return {"rows_key": row_key, "cols_key": col_key, "rows": rows, "cols": cols,
-            "cells": cells}  # fmt: skip
+    return {"rows_key": row_key, "cols_key": col_key, "rows": rows, "cols": cols, "cells": cells}
 
 
 def compare_runs(runs: Sequence[tuple[str, Path, dict]], by: Sequence[str]) -> dict:
     """The comparison of `runs` ((name, folder, result.json dict) each) grouped by `by`."""
     summaries = [_summarise_run(name, folder, data, by) for name, folder, data in runs]
-    markers = [m for (name, _, data), s in zip(runs, summaries, strict=True)
-               for m in _markers(name, s, data)]  # fmt: skip
+    markers = [
+        m
+        for (name, _, data), s in zip(runs, summaries, strict=True)
+        for m in _markers(name, s, data)
+    ]
     groups: dict[tuple, list[dict]] = {}
     for s in summaries:
         groups.setdefault(tuple(s["group"][k] for k in by), []).append(s)
@@ -150,45 +179,61 @@ def compare_runs(runs: Sequence[tuple[str, Path, dict]], by: Sequence[str]) -> d
         for rule in rules:
             tallies = [s["per_rule"][rule] for s in members if rule in s["per_rule"]]
             penalties = [t["penalty"] for t in tallies if t["penalty"] is not None]
-            per_rule[rule] = {"events": sum(t["events"] for t in tallies),
-                              "penalty": round(sum(penalties), 6) if penalties else None}
+            per_rule[rule] = {
+                "events": sum(t["events"] for t in tallies),
+                "penalty": round(sum(penalties), 6) if penalties else None,
+            }
         infractions: dict[str, int] = {}
         for s in members:
             for name, n in s["per_infraction"].items():
                 infractions[name] = infractions.get(name, 0) + n
-        rows.append({
-            "key": dict(zip(by, key, strict=True)), "label": " / ".join(key),
-            "runs": len(members), "run_names": [s["name"] for s in members],
-            "hours": round(sum(s["hours"] for s in members), 6),
-            "scored_runs": sum(1 for s in members if s["scored"]),
-            "penalty_score": _stats([s["penalty_score"] for s in members]),
-            "driving_score": _stats([s["driving_score"] for s in members]),
-            "route_completion": _stats([s["route_completion"] for s in members]),
-            "hazard_events": sum(s["hazard_events"] for s in members),
-            "per_rule": per_rule, "per_infraction": dict(sorted(infractions.items())),
-        })  # fmt: skip
+        rows.append(
+            {
+                "key": dict(zip(by, key, strict=True)),
+                "label": " / ".join(key),
+                "runs": len(members),
+                "run_names": [s["name"] for s in members],
+                "hours": round(sum(s["hours"] for s in members), 6),
+                "scored_runs": sum(1 for s in members if s["scored"]),
+                "penalty_score": _stats([s["penalty_score"] for s in members]),
+                "driving_score": _stats([s["driving_score"] for s in members]),
+                "route_completion": _stats([s["route_completion"] for s in members]),
+                "hazard_events": sum(s["hazard_events"] for s in members),
+                "per_rule": per_rule,
+                "per_infraction": dict(sorted(infractions.items())),
+            }
+        )
     with_distance = [m for m in markers if m["track_distance"] is not None]
     off_track = [i for i, m in enumerate(markers) if m["off_track"]]
     return {
-        "format": COMPARE_FORMAT, "version": COMPARE_VERSION, "by": list(by),
+        "format": COMPARE_FORMAT,
+        "version": COMPARE_VERSION,
+        "by": list(by),
         "without_key": {k: [s["name"] for s in summaries if s["group"][k] == NONE] for k in by},
-        "runs": summaries, "groups": rows, "rules": rules, "table": _matrix(summaries, by),
+        "runs": summaries,
+        "groups": rows,
+        "rules": rules,
+        "table": _matrix(summaries, by),
         "markers": markers,
         "checks": {
             "hazard_events": sum(s["hazard_events"] for s in summaries),
             "markers": len(markers),
             "without_position": sum(s["hazard_events"] for s in summaries) - len(markers),
-            "track": {"tolerance_m": TRACK_TOLERANCE_M, "checked": len(with_distance),
-                      "unchecked": len(markers) - len(with_distance),
-                      "max_distance": max((m["track_distance"] for m in with_distance),
-                                          default=None),
-                      "off": len(off_track), "off_markers": off_track},
+            "track": {
+                "tolerance_m": TRACK_TOLERANCE_M,
+                "checked": len(with_distance),
+                "unchecked": len(markers) - len(with_distance),
+                "max_distance": max((m["track_distance"] for m in with_distance), default=None),
+                "off": len(off_track),
+                "off_markers": off_track,
+            },
             "network": None,
         },
-    }  # fmt: skip
+    }
 
 
 def unknown_keys(runs: Sequence[tuple[str, Path, dict]], by: Sequence[str]) -> list[str]:
     """The `--by` keys no run's stream meta has (a typo, not a run without the key)."""
-    return [k for k in by
-            if not any(k in (data["stream"].get("meta") or {}) for _, _, data in runs)]
+    return [
+        k for k in by if not any(k in (data["stream"].get("meta") or {}) for _, _, data in runs)
+    ]

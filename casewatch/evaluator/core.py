@@ -126,14 +126,18 @@ class Evaluator:
                 episodes=EpisodeTracker(f.merge_gap, f.min_duration, spec.period),
                 series=DecimatedSeries(spec.period, series_points),
                 near=EpisodeTracker(f.merge_gap, f.min_duration, spec.period) if f.warn else None,
-                assume=(Feed(f.assumption, monitor_factory(f.assumption, spec.period))
-                        if f.assumption is not None else None),
+                assume=(
+                    Feed(f.assumption, monitor_factory(f.assumption, spec.period))
+                    if f.assumption is not None
+                    else None
+                ),
             )
             for f in spec.formulas
         ]
         self.near_misses: list[NearMiss] = []
-        self.propagator = StatusPropagator(case, {f.node_id: f.id for f in spec.formulas},
-                                           [c.node_id for c in self.odd_checks])  # fmt: skip
+        self.propagator = StatusPropagator(
+            case, {f.node_id: f.id for f in spec.formulas}, [c.node_id for c in self.odd_checks]
+        )
         self.timelines = {node_id: RunLength() for node_id in case.nodes}
         self.episodes: list[Episode] = []
         self.data_gaps: list[DataGap] = []
@@ -143,8 +147,12 @@ class Evaluator:
 
     # -- per tick ---------------------------------------------------------------------------
 
-    def step(self, t: float, values: Mapping[str, float | None],
-             conditions: Mapping[str, OddValue] = NO_CONDITIONS) -> dict[str, str]:  # fmt: skip
+    def step(
+        self,
+        t: float,
+        values: Mapping[str, float | None],
+        conditions: Mapping[str, OddValue] = NO_CONDITIONS,
+    ) -> dict[str, str]:
         """Judge one tick under the reported `conditions` (flattened `meta.odd` with the
         frames' updates: the same mapping object until they change); returns every node's
         status at `t`."""
@@ -161,15 +169,22 @@ class Evaluator:
             before = check.last[0]  # "inside" before the first tick
             odd[check.node_id] = check.judge(conditions, values)
             if check.last[0] != before and self.on_event is not None:
-                self.on_event(OddChange(node_id=check.node_id, t=round(t, 6),
-                                        state=check.last[0], because=check.last[1]))  # fmt: skip
+                self.on_event(
+                    OddChange(
+                        node_id=check.node_id,
+                        t=round(t, 6),
+                        state=check.last[0],
+                        because=check.last[1],
+                    )
+                )
         statuses = self.propagator.statuses(verdicts, odd)
         for node_id, status in statuses.items():
             self.timelines[node_id].add(t, status)
         return statuses
 
-    def _feed(self, feed: Feed | FormulaState, values: Mapping[str, float | None]
-              ) -> tuple[float, list[str]]:  # fmt: skip
+    def _feed(
+        self, feed: Feed | FormulaState, values: Mapping[str, float | None]
+    ) -> tuple[float, list[str]]:
         """Update one monitor with this tick's inputs: (robustness, []) or, when an input has
         no value (the monitor is not updated and restarts when data returns), a `sum`
         window is still filling after a restart, or a violation has not yet lasted the SPI's
@@ -240,8 +255,9 @@ class Evaluator:
         state.series.add(t, None)
         return "outside-assumption"
 
-    def _tally(self, t: float, conditions: Mapping[str, OddValue],
-               verdicts: Mapping[str, Verdict]) -> None:  # fmt: skip
+    def _tally(
+        self, t: float, conditions: Mapping[str, OddValue], verdicts: Mapping[str, Verdict]
+    ) -> None:
         """Count each formula's verdict under the current combination of conditions, and
         extend the stretch of time spent under it."""
         cached = self._conditions_key
@@ -318,12 +334,17 @@ class Evaluator:
             return
         formula = state.formula
         near = NearMiss(
-            formula_id=formula.id, node_id=formula.node_id, kind=formula.kind,
-            start=round(closed.start, 6), end=round(closed.end, 6), ticks=closed.ticks,
+            formula_id=formula.id,
+            node_id=formula.node_id,
+            kind=formula.kind,
+            start=round(closed.start, 6),
+            end=round(closed.end, 6),
+            ticks=closed.ticks,
             least_robustness=round(closed.worst_robustness + formula.warn, 12),
-            t_least=round(closed.t_worst, 6), warn=formula.warn,
+            t_least=round(closed.t_worst, 6),
+            warn=formula.warn,
             trace=self._trace(formula.node_id),
-        )  # fmt: skip
+        )
         self.near_misses.append(near)
         if self.on_event is not None:
             self.on_event(near)
@@ -333,10 +354,16 @@ class Evaluator:
         if opened is None or self.on_event is None:
             return
         formula = state.formula
-        self.on_event(EpisodeOpen(
-            formula_id=formula.id, node_id=formula.node_id, kind=formula.kind,
-            start=round(opened.start, 6), t=round(t, 6), trace=self._trace(formula.node_id),
-        ))  # fmt: skip
+        self.on_event(
+            EpisodeOpen(
+                formula_id=formula.id,
+                node_id=formula.node_id,
+                kind=formula.kind,
+                start=round(opened.start, 6),
+                t=round(t, 6),
+                trace=self._trace(formula.node_id),
+            )
+        )
 
     def _emit_gap(self, state: FormulaState, closed: ClosedGap | None) -> None:
         if closed is None:
@@ -404,25 +431,36 @@ class Evaluator:
     def condition_stats(self) -> list[ConditionStats]:
         """Per combination of reported conditions, its ticks and each formula's tally."""
         return [
-            ConditionStats(attributes=dict(key), ticks=self.tally_ticks[key], formulas=tally,
-                           spans=[[round(a, 6), round(b, 6)] for a, b in self.tally_spans[key]])
+            ConditionStats(
+                attributes=dict(key),
+                ticks=self.tally_ticks[key],
+                formulas=tally,
+                spans=[[round(a, 6), round(b, 6)] for a, b in self.tally_spans[key]],
+            )
             for key, tally in self.tallies.items()
-        ]  # fmt: skip
+        ]
 
     def odd_summaries(self) -> list[OddSummary]:
         return [
-            OddSummary(node_id=c.node_id, name=c.spec.name, inside=c.counts["inside"],
-                       outside=c.counts["outside"], unknown=c.counts["unknown"],
-                       outside_by=dict(c.outside_by), unknown_by=dict(c.unknown_by))
+            OddSummary(
+                node_id=c.node_id,
+                name=c.spec.name,
+                inside=c.counts["inside"],
+                outside=c.counts["outside"],
+                unknown=c.counts["unknown"],
+                outside_by=dict(c.outside_by),
+                unknown_by=dict(c.unknown_by),
+            )
             for c in self.odd_checks
-        ]  # fmt: skip
+        ]
 
     def node_statuses(self) -> list[NodeStatus]:
         out = []
         for node_id, timeline in self.timelines.items():
             intervals = [
-                StatusInterval(status=r.value, start=round(r.start, 6), end=round(r.end, 6),
-                               ticks=r.ticks)
+                StatusInterval(
+                    status=r.value, start=round(r.start, 6), end=round(r.end, 6), ticks=r.ticks
+                )
                 for r in timeline.runs
             ]
             totals = {str(k): v for k, v in timeline.totals().items()}

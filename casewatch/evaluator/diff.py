@@ -40,8 +40,15 @@ ROBUSTNESS_TOLERANCE = 1e-9
 #: The lists of unpaired episodes each node row carries, in display order.
 CHANGE_KINDS = ("new", "lost", "new_detection", "fixed", "gone", "moved")
 #: How each is spoken of, and whether it counts as a regression (red) or an improvement.
-CHANGE_LABELS = {"new": "new", "lost": "lost detection", "new_detection": "new detection",
-                 "fixed": "fixed", "gone": "gone", "moved": "moved", "changed": "changed"}
+CHANGE_LABELS = {
+    "new": "new",
+    "lost": "lost detection",
+    "new_detection": "new detection",
+    "fixed": "fixed",
+    "gone": "gone",
+    "moved": "moved",
+    "changed": "changed",
+}
 REGRESSION_KINDS = ("new", "lost")
 IMPROVEMENT_KINDS = ("new_detection", "fixed")
 
@@ -64,8 +71,13 @@ def _hours(result: RunResult) -> float:
     return (result.stream.duration or 0.0) / 3600.0
 
 
-def _unpaired(ea: list[Episode], eb: list[Episode], vanished: list[int], appeared: list[int],
-              truth: list[LabelInterval] | None) -> dict[str, list[dict]]:  # fmt: skip
+def _unpaired(
+    ea: list[Episode],
+    eb: list[Episode],
+    vanished: list[int],
+    appeared: list[int],
+    truth: list[LabelInterval] | None,
+) -> dict[str, list[dict]]:
     """The unpaired episodes sorted into the module docstring's kinds."""
     out: dict[str, list[dict]] = {kind: [] for kind in CHANGE_KINDS}
     if truth is None:
@@ -95,8 +107,9 @@ def _unpaired(ea: list[Episode], eb: list[Episode], vanished: list[int], appeare
     return out
 
 
-def diff_runs(a: RunResult, b: RunResult, name: str = "",
-              labels: Sequence[LabelInterval] | None = None) -> dict:  # fmt: skip
+def diff_runs(
+    a: RunResult, b: RunResult, name: str = "", labels: Sequence[LabelInterval] | None = None
+) -> dict:
     """The differences from run `a` to run `b` (see the module docstring); `labels` are the
     ground truth of the log (hazard node id per interval), None when there is none."""
     period = b.case.period or a.case.period
@@ -126,10 +139,15 @@ def diff_runs(a: RunResult, b: RunResult, name: str = "",
             "labelled": labelled,
             "a": len(ea),
             "b": len(eb),
-            **_unpaired(ea, eb, [i for i in range(len(ea)) if i not in paired_a],
-                        [j for j in range(len(eb)) if j not in paired_b], truth),
+            **_unpaired(
+                ea,
+                eb,
+                [i for i in range(len(ea)) if i not in paired_a],
+                [j for j in range(len(eb)) if j not in paired_b],
+                truth,
+            ),
             "changed": changed,
-        }  # fmt: skip
+        }
         if row["a"] or row["b"]:
             rows.append(row)
     ha, hb = _hours(a), _hours(b)
@@ -151,15 +169,19 @@ def diff_runs(a: RunResult, b: RunResult, name: str = "",
 
 def totals(d: dict) -> dict[str, int]:
     """Per kind (`CHANGE_KINDS` and `changed`), how many episodes of the log `d` have it."""
-    return {kind: sum(len(row[kind]) for row in d["nodes"]) for kind in (*CHANGE_KINDS,
-                                                                          "changed")}
+    return {kind: sum(len(row[kind]) for row in d["nodes"]) for kind in (*CHANGE_KINDS, "changed")}
 
 
 def regressions(diffs: list[dict], fail_on: str) -> int:
     """New episodes (new false alarms, with labels) and lost detections that the policy counts
     (`evaluator.policy`), over every log."""
-    return sum(len(row[kind]) for d in diffs for row in d["nodes"] if gated(row["kind"], fail_on)
-               for kind in REGRESSION_KINDS)  # fmt: skip
+    return sum(
+        len(row[kind])
+        for d in diffs
+        for row in d["nodes"]
+        if gated(row["kind"], fail_on)
+        for kind in REGRESSION_KINDS
+    )
 
 
 def is_empty(d: dict) -> bool:

@@ -22,6 +22,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from casewatch.errors import CasewatchError
 from casewatch.evaluator.ground_truth import label_interval, label_lines
 
 #: Fault family -> the built-in signals whose SPIs must reveal it.
@@ -45,7 +46,7 @@ FAMILY_SIGNALS: dict[str, tuple[str, ...]] = {
 DETECTION_SLACK = 2.0
 
 
-class FaultLabelsError(ValueError):
+class FaultLabelsError(CasewatchError, ValueError):
     """A fault-labels file that cannot be used; the message names the file, line and key."""
 
 
@@ -86,8 +87,9 @@ def read_fault_labels(path: str | Path) -> list[FaultLabel]:
     for number, where, item in label_lines(path, data, FaultLabelsError, example):
         fault = item.get("fault")
         if fault not in FAMILY_SIGNALS:
-            raise FaultLabelsError(f"{where}: 'fault' must be one of "
-                                   f"{', '.join(FAMILY_SIGNALS)}, got {fault!r}")
+            raise FaultLabelsError(
+                f"{where}: 'fault' must be one of {', '.join(FAMILY_SIGNALS)}, got {fault!r}"
+            )
         start, end = label_interval(item, where, FaultLabelsError)
         channel = item.get("channel")
         if not isinstance(channel, str) or not channel:
@@ -96,15 +98,18 @@ def read_fault_labels(path: str | Path) -> list[FaultLabel]:
     return out
 
 
-def overlaps(episodes: list[tuple[float, float]], fault: FaultLabel,
-             slack: float = DETECTION_SLACK) -> bool:
+def overlaps(
+    episodes: list[tuple[float, float]], fault: FaultLabel, slack: float = DETECTION_SLACK
+) -> bool:
     """Whether an episode (closed [start, end]) overlaps [fault.start, fault.end + slack]."""
     return any(s <= fault.end + slack and fault.start <= e for s, e in episodes)
 
 
 def detected(
-    with_fault: list[tuple[float, float]], without_fault: list[tuple[float, float]] | None,
-    fault: FaultLabel, slack: float = DETECTION_SLACK,
+    with_fault: list[tuple[float, float]],
+    without_fault: list[tuple[float, float]] | None,
+    fault: FaultLabel,
+    slack: float = DETECTION_SLACK,
 ) -> bool:
     """The detection rule of docs/spi-reference.md: an episode of the faulty drive overlaps the
     fault (plus `slack`) and, when the same drive without the fault is known, it had no episode

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import networkx as nx
 
+from casewatch.errors import CasewatchError
 from casewatch.evaluator.result import Episode, EventMark, GroundTruth, HazardScore, LabelInterval
 
 
@@ -28,12 +29,15 @@ class Label:
     line: int
 
 
-class LabelsError(ValueError):
+class LabelsError(CasewatchError, ValueError):
     """A labels file that cannot be used; the message names the file, line and field."""
 
 
 def label_lines(
-    path: Path, data: bytes, error: type[ValueError], example: str,
+    path: Path,
+    data: bytes,
+    error: type[ValueError],
+    example: str,
 ) -> Iterator[tuple[int, str, dict]]:
     """(line number, "file:line", object) of every non-blank line of a JSON Lines label file;
     a line that is not a JSON object raises `error` naming the file and line (`example`: what
@@ -171,8 +175,16 @@ def score_events(
         hits = {i for i, _ in match_pairs(detected, truth)}
         tp, fp, fn = len(hits), len(detected) - len(hits), len(truth) - len(hits)
         per_hazard.append(_score(tp, fp, fn, hazard))
-        marks += [EventMark(formula_id=e.formula_id, node_id=e.node_id, start=e.start, end=e.end,
-                            match="TP" if i in hits else "FP") for i, e in enumerate(found)]
+        marks += [
+            EventMark(
+                formula_id=e.formula_id,
+                node_id=e.node_id,
+                start=e.start,
+                end=e.end,
+                match="TP" if i in hits else "FP",
+            )
+            for i, e in enumerate(found)
+        ]
         totals = [totals[0] + tp, totals[1] + fp, totals[2] + fn]
     return GroundTruth(
         labels_path=labels_path,
@@ -180,7 +192,10 @@ def score_events(
         per_hazard=per_hazard,
         overall=_score(*totals, hazard="all"),
         unmatched_label_names=sorted(unmatched_names),
-        labels=[LabelInterval(node_id=h, start=lab.start, end=lab.end)
-                for h, labs in by_hazard.items() for lab in labs],
+        labels=[
+            LabelInterval(node_id=h, start=lab.start, end=lab.end)
+            for h, labs in by_hazard.items()
+            for lab in labs
+        ],
         marks=marks,
     )

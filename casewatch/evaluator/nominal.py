@@ -67,6 +67,7 @@ def nominal_shares(
             evaluated += n
             if interval.status == "violated":
                 violated += n
-        out.append(NominalShare(formula.node_id, formula.signal or formula.source, evaluated,
-                                violated))  # fmt: skip
+        out.append(
+            NominalShare(formula.node_id, formula.signal or formula.source, evaluated, violated)
+        )
     return out

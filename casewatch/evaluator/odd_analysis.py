@@ -33,9 +33,38 @@ from casewatch.evaluator.result import RunResult
 from casewatch.safety_case.model import OddRange, OddSpec
 
 #: Two-sided 95 % quantiles of Student's t for 1-30 degrees of freedom (beyond: 1.96).
-_T95 = (12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179,
-        2.160, 2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064,
-        2.060, 2.056, 2.052, 2.048, 2.045, 2.042)  # fmt: skip
+_T95 = (
+    12.706,
+    4.303,
+    3.182,
+    2.776,
+    2.571,
+    2.447,
+    2.365,
+    2.306,
+    2.262,
+    2.228,
+    2.201,
+    2.179,
+    2.160,
+    2.145,
+    2.131,
+    2.120,
+    2.110,
+    2.101,
+    2.093,
+    2.086,
+    2.080,
+    2.074,
+    2.069,
+    2.064,
+    2.060,
+    2.056,
+    2.052,
+    2.048,
+    2.045,
+    2.042,
+)
 Z95 = 1.959964
 
 
@@ -112,14 +141,17 @@ def parse_bins(text: str) -> Bins:
     except ValueError:
         edges = ()
     if not sep or not name.strip() or len(edges) < 2 or any(not math.isfinite(e) for e in edges):
-        raise ValueError(f"{text!r}: expected ATTR=EDGE,EDGE[,...][:NAME,...], e.g. "
-                         "environment.fog=0,30,70,100:light,medium,heavy")  # fmt: skip
+        raise ValueError(
+            f"{text!r}: expected ATTR=EDGE,EDGE[,...][:NAME,...], e.g. "
+            "environment.fog=0,30,70,100:light,medium,heavy"
+        )
     if any(b <= a for a, b in pairwise(edges)):
         raise ValueError(f"{text!r}: the edges must increase ({edges_text})")
     names = tuple(n.strip() for n in names_text.split(",")) if names_text else ()
     if names and (len(names) != len(edges) - 1 or not all(names)):
-        raise ValueError(f"{text!r}: {len(edges) - 1} bins need {len(edges) - 1} names, got "
-                         f"{len(names)}")  # fmt: skip
+        raise ValueError(
+            f"{text!r}: {len(edges) - 1} bins need {len(edges) - 1} names, got {len(names)}"
+        )
     return Bins(name.strip(), edges, names)
 
 
@@ -164,8 +196,10 @@ def varying_attributes(runs: Iterable[RunInput]) -> list[str]:
 
 
 def _cell_of(attributes: dict, by: list[str], bins: dict[str, Bins]) -> tuple:
-    return tuple(bins[name].label(attributes.get(name)) if name in bins else attributes.get(name)
-                 for name in by)  # fmt: skip
+    return tuple(
+        bins[name].label(attributes.get(name)) if name in bins else attributes.get(name)
+        for name in by
+    )
 
 
 def _mae(spans: list[list[float]], t: np.ndarray, column: np.ndarray) -> tuple[float, int]:
@@ -178,10 +212,17 @@ def _mae(spans: list[list[float]], t: np.ndarray, column: np.ndarray) -> tuple[f
     return float(np.abs(picked).sum()), int(picked.size)
 
 
-def analyse(runs: list[RunInput], by: list[str], formulas: list[str] | None, max_rate: float,
-            criterion: str = "estimate", max_mae: dict[str, float] | None = None,
-            load_signals: SignalLoader | None = None, bins: dict[str, Bins] | None = None,
-            strict: bool = True) -> dict:  # fmt: skip
+def analyse(
+    runs: list[RunInput],
+    by: list[str],
+    formulas: list[str] | None,
+    max_rate: float,
+    criterion: str = "estimate",
+    max_mae: dict[str, float] | None = None,
+    load_signals: SignalLoader | None = None,
+    bins: dict[str, Bins] | None = None,
+    strict: bool = True,
+) -> dict:
     """The per-cell table and the accepted cells, as plain data (see the module docstring).
     `formulas`: the formula ids that gate acceptance (None: every SPI and contract); `bins`:
     continuous conditions by attribute; `strict`: a rate (an MAE) must stay below its bound,
@@ -193,8 +234,11 @@ def analyse(runs: list[RunInput], by: list[str], formulas: list[str] | None, max
         return value is not None and (value < bound if strict else value <= bound)
 
     stats = {f.id: f for run in runs for f in run.result.formulas}
-    gating = formulas if formulas is not None else sorted(
-        fid for fid, f in stats.items() if f.kind == "spi")  # fmt: skip
+    gating = (
+        formulas
+        if formulas is not None
+        else sorted(fid for fid, f in stats.items() if f.kind == "spi")
+    )
     # cell -> formula -> per run (violated, judged, outside, no_data); cell -> runs, ticks
     per_cell: dict[tuple, dict[str, dict[str, list[int]]]] = {}
     cell_runs: dict[tuple, set[str]] = {}
@@ -213,8 +257,9 @@ def analyse(runs: list[RunInput], by: list[str], formulas: list[str] | None, max
                 truth.setdefault(cell, set()).add(bool(degraded))
             rows = per_cell.setdefault(cell, {})
             for fid, tally in cond.formulas.items():
-                row = rows.setdefault(fid, {"violated": [], "judged": [], "outside": [],
-                                            "no_data": [], "runs": []})  # fmt: skip
+                row = rows.setdefault(
+                    fid, {"violated": [], "judged": [], "outside": [], "no_data": [], "runs": []}
+                )
                 if not row["runs"] or row["runs"][-1] != run.folder:  # else: the same run
                     row["runs"].append(run.folder)  # under this cell again (conditions came back)
                     for key in ("violated", "judged", "outside", "no_data"):
@@ -234,9 +279,14 @@ def analyse(runs: list[RunInput], by: list[str], formulas: list[str] | None, max
                     acc = sums.setdefault(name, [0.0, 0])
                     acc[0] += total
                     acc[1] += count
+
     def order(cell: tuple) -> tuple:  # bins in their order, the rest by name
-        return tuple((0, f"{bins[n].labels().index(v):04d}") if n in bins and v in
-                     bins[n].labels() else (1, str(v)) for n, v in zip(by, cell, strict=True))
+        return tuple(
+            (0, f"{bins[n].labels().index(v):04d}")
+            if n in bins and v in bins[n].labels()
+            else (1, str(v))
+            for n, v in zip(by, cell, strict=True)
+        )
 
     cells = []
     for cell in sorted(per_cell, key=order):
@@ -262,18 +312,29 @@ def analyse(runs: list[RunInput], by: list[str], formulas: list[str] | None, max
                 accepted = False
                 reasons.append(fid if rate is not None else f"{fid} (never judged)")
             entry["formulas"][fid] = {
-                "rate": rate, "low": lo, "high": hi, "interval": method,
-                "interval_method": INTERVAL_METHODS[method] + ("" if spread else
-                                                              "; every run had the same rate: "
-                                                              "no spread to estimate, the "
-                                                              "interval says nothing"),
-                "violated_ticks": sum(row["violated"]), "judged_ticks": sum(row["judged"]),
+                "rate": rate,
+                "low": lo,
+                "high": hi,
+                "interval": method,
+                "interval_method": INTERVAL_METHODS[method]
+                + (
+                    ""
+                    if spread
+                    else "; every run had the same rate: "
+                    "no spread to estimate, the "
+                    "interval says nothing"
+                ),
+                "violated_ticks": sum(row["violated"]),
+                "judged_ticks": sum(row["judged"]),
                 "outside_assumption_ticks": sum(row["outside"]),
                 "no_data_ticks": sum(row["no_data"]),
-                "runs_judged": runs_judged, "runs_violated": runs_violated,
-                "runs_violated_low": rlo, "runs_violated_high": rhi,
-                "gating": gate, "within": ok,
-            }  # fmt: skip
+                "runs_judged": runs_judged,
+                "runs_violated": runs_violated,
+                "runs_violated_low": rlo,
+                "runs_violated_high": rhi,
+                "gating": gate,
+                "within": ok,
+            }
         for name, bound in max_mae.items():
             total, count = mae_sums.get(cell, {}).get(name, [0.0, 0])
             mae = total / count if count else None
@@ -292,17 +353,30 @@ def analyse(runs: list[RunInput], by: list[str], formulas: list[str] | None, max
             entry["degraded_truth"] = next(iter(truth[cell]))
         cells.append(entry)
     return {
-        "format": "casewatch-odd", "version": 1, "by": by, "max_violation_rate": max_rate,
+        "format": "casewatch-odd",
+        "version": 1,
+        "by": by,
+        "max_violation_rate": max_rate,
         "acceptance": "strict" if strict else "inclusive",
         "bins": {name: b.to_data() for name, b in bins.items()},
-        "criterion": criterion, "max_mae": max_mae, "mae_note": "", "gating": gating,
+        "criterion": criterion,
+        "max_mae": max_mae,
+        "mae_note": "",
+        "gating": gating,
         "runs": len(runs),
-        "formulas": {fid: {"node_id": f.node_id, "text": f.node_text, "kind": f.kind,
-                           "contract": f.contract_use, "assumption": f.assumption,
-                           "source": f.source}
-                     for fid, f in sorted(stats.items())},
+        "formulas": {
+            fid: {
+                "node_id": f.node_id,
+                "text": f.node_text,
+                "kind": f.kind,
+                "contract": f.contract_use,
+                "assumption": f.assumption,
+                "source": f.source,
+            }
+            for fid, f in sorted(stats.items())
+        },
         "cells": cells,
-    }  # fmt: skip
+    }
 
 
 def accepted_odd(report: dict, name: str = "accepted") -> OddSpec | None:
@@ -345,6 +419,8 @@ def binned_domain_problem(report: dict) -> str | None:
             return f"the accepted {key} bins are not adjacent ({', '.join(sorted(values))})"
     sizes = [len({c["conditions"][k] for c in accepted}) for k in report["by"]]
     if len(accepted) != math.prod(sizes):
-        return "the accepted cells are no product of the binned values (an ODD's interval " \
+        return (
+            "the accepted cells are no product of the binned values (an ODD's interval "
             "cannot say which combinations)"
+        )
     return None

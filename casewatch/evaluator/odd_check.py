@@ -60,8 +60,9 @@ class OddCheck:
             return "outside", "combinations"
         return "inside", None
 
-    def judge(self, conditions: Mapping[str, OddValue],
-              values: Mapping[str, float | None]) -> Verdict:  # fmt: skip
+    def judge(
+        self, conditions: Mapping[str, OddValue], values: Mapping[str, float | None]
+    ) -> Verdict:
         """The verdict at one tick, counted."""
         if id(conditions) != self._memo_key:
             self._memo_key, self._memo = id(conditions), self._layered(conditions)

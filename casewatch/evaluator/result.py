@@ -20,8 +20,15 @@ RESULT_FORMAT = "casewatch-result"
 RESULT_VERSION = 1
 
 Status = Literal[
-    "satisfied", "violated", "undermined", "in-doubt", "no-data", "outside-odd",
-    "outside-assumption", "undeveloped", "external",
+    "satisfied",
+    "violated",
+    "undermined",
+    "in-doubt",
+    "no-data",
+    "outside-odd",
+    "outside-assumption",
+    "undeveloped",
+    "external",
 ]
 
 #: Worst first. `external` (evidence or context outside the monitor) never outranks a verdict.
@@ -385,6 +392,7 @@ class RunResult(_Record):
         if value is not None:
             _check_scores(value)
         return value
+
     odd: list[OddSummary] = []  # per context node with an `odd:` specification
     #: sha256 of this record's own JSON with this field null (`result_digest`): `--resume`
     #: re-judges a log whose result.json no longer matches it (edited, damaged); None in
@@ -406,11 +414,14 @@ def _check_scores(scores: dict) -> None:
     for where in (scores, scores["penalty"] or {}):
         rules = where.get("per_rule", {})
         rows = rules.values() if isinstance(rules, dict) else [None]
-        if not all(isinstance(r, dict) and all(_is_number(r.get(k)) for k in
-                                               ("events", "while_speeding", "penalty"))
-                   for r in rows):  # fmt: skip
-            raise ValueError("scores per_rule: expected rule -> {events, while_speeding, "
-                             "penalty} numbers")  # fmt: skip
+        if not all(
+            isinstance(r, dict)
+            and all(_is_number(r.get(k)) for k in ("events", "while_speeding", "penalty"))
+            for r in rows
+        ):
+            raise ValueError(
+                "scores per_rule: expected rule -> {events, while_speeding, penalty} numbers"
+            )
     texts = [("scores.reason", scores.get("reason"))] + [
         (f"scores.{key}.made_of", (scores[key] or {}).get("made_of"))
         for key in ("penalty", "carla")

@@ -46,29 +46,62 @@ from casewatch.safety_case.model import ScoringParams
 PARTY_NAMES = {v: k for k, v in PARTIES.items()}
 
 #: What the scores read per tick (besides the episodes).
-TICK_SIGNALS = ("vehicle_speed", "ego_speed", "speed_limit", "route_progress", "route_length",
-                "tl_state", "tl_distance", "stop_distance", "collision_party",
-                "collision_at_fault", "collision_victim", "collision_victim_party",
-                "route_outside_lanes", "route_deviated", "blocked", "route_timeout",
-                "scenario_timeout", "yield_failed", "traffic_speed")  # fmt: skip
+TICK_SIGNALS = (
+    "vehicle_speed",
+    "ego_speed",
+    "speed_limit",
+    "route_progress",
+    "route_length",
+    "tl_state",
+    "tl_distance",
+    "stop_distance",
+    "collision_party",
+    "collision_at_fault",
+    "collision_victim",
+    "collision_victim_party",
+    "route_outside_lanes",
+    "route_deviated",
+    "blocked",
+    "route_timeout",
+    "scenario_timeout",
+    "yield_failed",
+    "traffic_speed",
+)
 
 #: Leaderboard 2.0 infraction -> coefficient per event (its statistics manager's table).
-LEADERBOARD = {"collisions_pedestrian": 0.5, "collisions_vehicle": 0.6, "collisions_layout": 0.65,
-               "red_light": 0.7, "stop_infraction": 0.8, "scenario_timeouts": 0.7,
-               "yield_emergency_vehicle_infractions": 0.7}  # fmt: skip
+LEADERBOARD = {
+    "collisions_pedestrian": 0.5,
+    "collisions_vehicle": 0.6,
+    "collisions_layout": 0.65,
+    "red_light": 0.7,
+    "stop_infraction": 0.8,
+    "scenario_timeouts": 0.7,
+    "yield_emergency_vehicle_infractions": 0.7,
+}
 #: per-percentage infractions: (coefficient, how the percentage p reduces the penalty)
 OUTSIDE_LANES, MIN_SPEED = "outside_route_lanes", "min_speed_infractions"
 MIN_SPEED_COEFFICIENT = 0.7
 #: the infractions that end the route, and the input each reads
-ROUTE_ENDS = {"route_dev": "route_deviated", "vehicle_blocked": "blocked",
-              "route_timeout": "route_timeout"}  # fmt: skip
+ROUTE_ENDS = {
+    "route_dev": "route_deviated",
+    "vehicle_blocked": "blocked",
+    "route_timeout": "route_timeout",
+}
 #: the Leaderboard's collision kinds by the other party (casewatch's party -> its name)
 #: the world key (docs/streams.md) each Leaderboard input comes from
-WORLD_KEY = {"route_deviated": "world.route.deviated", "blocked": "world.blocked",
-             "route_timeout": "world.timeouts.route", "scenario_timeout": "world.timeouts.scenario",
-             "yield_failed": "world.emergency_vehicle.failed_to_yield"}  # fmt: skip
-COLLISION_KIND = {"pedestrian": "collisions_pedestrian", "vehicle": "collisions_vehicle",
-                  "two_wheeler": "collisions_vehicle", "object": "collisions_layout"}  # fmt: skip
+WORLD_KEY = {
+    "route_deviated": "world.route.deviated",
+    "blocked": "world.blocked",
+    "route_timeout": "world.timeouts.route",
+    "scenario_timeout": "world.timeouts.scenario",
+    "yield_failed": "world.emergency_vehicle.failed_to_yield",
+}
+COLLISION_KIND = {
+    "pedestrian": "collisions_pedestrian",
+    "vehicle": "collisions_vehicle",
+    "two_wheeler": "collisions_vehicle",
+    "object": "collisions_layout",
+}
 
 
 def rule_penalty(rule: str, party: str | None, params: ScoringParams) -> tuple[float, float]:
@@ -109,9 +142,14 @@ def _g(x: float) -> str:
     return f"{x:.4g}"
 
 
-def score_run(episodes: list[Episode], formulas: list[FormulaStats], t: np.ndarray,
-              ticks: Mapping[str, np.ndarray], period: float,
-              params: ScoringParams) -> dict | None:  # fmt: skip
+def score_run(
+    episodes: list[Episode],
+    formulas: list[FormulaStats],
+    t: np.ndarray,
+    ticks: Mapping[str, np.ndarray],
+    period: float,
+    params: ScoringParams,
+) -> dict | None:
     """Both scores of a run as plain values, or None when the case has no traffic rule."""
     rule_of = {f.id: f.rule for f in formulas if f.rule}
     if not rule_of:
@@ -121,8 +159,9 @@ def score_run(episodes: list[Episode], formulas: list[FormulaStats], t: np.ndarr
     nan = np.full(n, np.nan)
     ticks = {name: np.asarray(ticks.get(name, nan), dtype=float) for name in TICK_SIGNALS}
     # the vehicle's own speed; a channel's estimate where the vehicle reports none
-    speed = np.where(np.isfinite(ticks["vehicle_speed"]), ticks["vehicle_speed"],
-                     ticks["ego_speed"])  # fmt: skip
+    speed = np.where(
+        np.isfinite(ticks["vehicle_speed"]), ticks["vehicle_speed"], ticks["ego_speed"]
+    )
     limit = ticks["speed_limit"]
 
     def tick(time: float) -> int:
@@ -148,14 +187,19 @@ def score_run(episodes: list[Episode], formulas: list[FormulaStats], t: np.ndarr
         if rule in lights:
             lights[rule].append((e.start, e.end))
     # neither light at once: `neither` instead of the two penalties (table A.3)
-    both = sum(1 for a in lights["no_headlights"] for b in lights["no_fog_lights"]
-               if a[0] <= b[1] and b[0] <= a[1])  # fmt: skip
+    both = sum(
+        1
+        for a in lights["no_headlights"]
+        for b in lights["no_fog_lights"]
+        if a[0] <= b[1] and b[0] <= a[1]
+    )
     if both:
         head, fog = (rule_penalty(r, None, params)[0] for r in ("no_headlights", "no_fog_lights"))
         adjust = both * (params.neither - head - fog)
         total += adjust
-        per_rule.setdefault("neither_light", {"events": both, "while_speeding": 0,
-                                              "penalty": adjust})  # fmt: skip
+        per_rule.setdefault(
+            "neither_light", {"events": both, "while_speeding": 0, "penalty": adjust}
+        )
     out: dict = {"penalty": None, "carla": None, "reason": None}
     progress, length = ticks["route_progress"], ticks["route_length"]
     if params.route_length is not None:
@@ -166,21 +210,32 @@ def score_run(episodes: list[Episode], formulas: list[FormulaStats], t: np.ndarr
         out["per_rule"] = per_rule
         out["penalty_sum"] = total
         return out
-    out["penalty"] = _penalty_score(t, ticks, period, params, per_rule, total, progress, length,
-                                    reported)  # fmt: skip
+    out["penalty"] = _penalty_score(
+        t, ticks, period, params, per_rule, total, progress, length, reported
+    )
     if out["penalty"] is None:
-        out["reason"] = ("no reference speed: no speed limit reported along the route and no "
-                         "scoring.v_avg")  # fmt: skip
+        out["reason"] = (
+            "no reference speed: no speed limit reported along the route and no scoring.v_avg"
+        )
         out["per_rule"] = per_rule
         out["penalty_sum"] = total
-    out["carla"] = _leaderboard(events, rule_of, t, ticks, speed, period, params, progress,
-                                length, reported)  # fmt: skip
+    out["carla"] = _leaderboard(
+        events, rule_of, t, ticks, speed, period, params, progress, length, reported
+    )
     return out
 
 
-def _penalty_score(t: np.ndarray, ticks: dict[str, np.ndarray], period: float,
-                   params: ScoringParams, per_rule: dict, total: float, progress: np.ndarray,
-                   length: np.ndarray, reported: np.ndarray) -> dict | None:  # fmt: skip
+def _penalty_score(
+    t: np.ndarray,
+    ticks: dict[str, np.ndarray],
+    period: float,
+    params: ScoringParams,
+    per_rule: dict,
+    total: float,
+    progress: np.ndarray,
+    length: np.ndarray,
+    reported: np.ndarray,
+) -> dict | None:
     """Eqs. 6.1 and 6.3 (see the module docstring); None without a reference speed."""
     n = len(t)
     last = int(np.flatnonzero(reported)[-1])
@@ -213,25 +268,46 @@ def _penalty_score(t: np.ndarray, ticks: dict[str, np.ndarray], period: float,
     if params.timeliness_cap:
         timeliness = min(timeliness, 1.0)
     score = c * timeliness * params.d - params.gamma * total
-    made_of = (f"{_g(score)} = c {_g(c)} x t_o {_g(t_o)} s / t {_g(duration)} s"
-               f"{' (capped at 1)' if params.timeliness_cap else ''} x d {_g(params.d)}"
-               f" - gamma {_g(params.gamma)} x penalties {_g(total)}; t_o = s {_g(s)} m / v_avg "
-               f"{_g(v_avg)} m/s x (1 + alpha {_g(params.alpha)}) + {len(stops)} stops "
-               f"{_g(sum(stops))} s")  # fmt: skip
+    made_of = (
+        f"{_g(score)} = c {_g(c)} x t_o {_g(t_o)} s / t {_g(duration)} s"
+        f"{' (capped at 1)' if params.timeliness_cap else ''} x d {_g(params.d)}"
+        f" - gamma {_g(params.gamma)} x penalties {_g(total)}; t_o = s {_g(s)} m / v_avg "
+        f"{_g(v_avg)} m/s x (1 + alpha {_g(params.alpha)}) + {len(stops)} stops "
+        f"{_g(sum(stops))} s"
+    )
     return {
-        "score": round(score, 6), "c": round(c, 6), "t": round(duration, 6),
-        "t_o": round(t_o, 6), "d": params.d, "s": s, "v_avg": round(v_avg, 6),
-        "v_avg_from": v_from, "alpha": params.alpha, "gamma": params.gamma,
-        "stops": stops, "stops_from": stops_from, "timeliness": round(timeliness, 6),
-        "timeliness_cap": params.timeliness_cap, "penalty_sum": total, "per_rule": per_rule,
+        "score": round(score, 6),
+        "c": round(c, 6),
+        "t": round(duration, 6),
+        "t_o": round(t_o, 6),
+        "d": params.d,
+        "s": s,
+        "v_avg": round(v_avg, 6),
+        "v_avg_from": v_from,
+        "alpha": params.alpha,
+        "gamma": params.gamma,
+        "stops": stops,
+        "stops_from": stops_from,
+        "timeliness": round(timeliness, 6),
+        "timeliness_cap": params.timeliness_cap,
+        "penalty_sum": total,
+        "per_rule": per_rule,
         "made_of": made_of,
-    }  # fmt: skip
+    }
 
 
-def _leaderboard(events: list[Episode], rule_of: dict[str, str], t: np.ndarray,
-                 ticks: dict[str, np.ndarray], speed: np.ndarray, period: float,
-                 params: ScoringParams, progress: np.ndarray, length: np.ndarray,
-                 reported: np.ndarray) -> dict:  # fmt: skip
+def _leaderboard(
+    events: list[Episode],
+    rule_of: dict[str, str],
+    t: np.ndarray,
+    ticks: dict[str, np.ndarray],
+    speed: np.ndarray,
+    period: float,
+    params: ScoringParams,
+    progress: np.ndarray,
+    length: np.ndarray,
+    reported: np.ndarray,
+) -> dict:
     """The Leaderboard 2.0 driving score (see the module docstring)."""
     n = len(t)
     # the route ends at the first tick of route deviation, blocked or route timeout
@@ -245,8 +321,11 @@ def _leaderboard(events: list[Episode], rule_of: dict[str, str], t: np.ndarray,
         hits = np.flatnonzero(column > 0.5)
         if hits.size and int(hits[0]) < end:
             end, ended_by = int(hits[0]), name
-    last = int(np.flatnonzero(reported[: max(end, 1)])[-1]) if reported[: max(end, 1)].any() \
-        else int(np.flatnonzero(reported)[0])  # fmt: skip
+    last = (
+        int(np.flatnonzero(reported[: max(end, 1)])[-1])
+        if reported[: max(end, 1)].any()
+        else int(np.flatnonzero(reported)[0])
+    )
     route = float(length[last])
     completion = float(np.clip(progress[last] / route, 0.0, 1.0))
     cutoff = float(t[end]) - 1e-9 if end < n else np.inf  # events from the route's end on: none
@@ -264,11 +343,13 @@ def _leaderboard(events: list[Episode], rule_of: dict[str, str], t: np.ndarray,
     if _reported(at_fault, end):
         contact = (np.nan_to_num(at_fault) + np.nan_to_num(victim)) > 0
         for k in _runs(contact[:end]):
-            code = ticks["collision_party"][k] if at_fault[k] > 0 else \
-                ticks["collision_victim_party"][k]  # fmt: skip
+            code = (
+                ticks["collision_party"][k]
+                if at_fault[k] > 0
+                else ticks["collision_victim_party"][k]
+            )
             party = PARTY_NAMES.get(float(code), "vehicle")
-            coefficient = params.carla.get(f"collision.{party}",
-                                           LEADERBOARD[COLLISION_KIND[party]])  # fmt: skip
+            coefficient = params.carla.get(f"collision.{party}", LEADERBOARD[COLLISION_KIND[party]])
             count(COLLISION_KIND[party], coefficient)
     else:
         for name in ("collisions_pedestrian", "collisions_vehicle", "collisions_layout"):
@@ -282,8 +363,10 @@ def _leaderboard(events: list[Episode], rule_of: dict[str, str], t: np.ndarray,
             if rule_of[e.formula_id] == rule and e.start < cutoff:
                 count(name, carla_coefficient(rule, None, params))
     # events the stream flags
-    for signal, name in (("scenario_timeout", "scenario_timeouts"),
-                         ("yield_failed", "yield_emergency_vehicle_infractions")):
+    for signal, name in (
+        ("scenario_timeout", "scenario_timeouts"),
+        ("yield_failed", "yield_emergency_vehicle_infractions"),
+    ):
         column = ticks[signal]
         if not _reported(column, end):
             not_scored[name] = f"the stream reports no {WORLD_KEY[signal]}"
@@ -299,16 +382,20 @@ def _leaderboard(events: list[Episode], rule_of: dict[str, str], t: np.ndarray,
         share = float(moved[outside[:end] > 0.5].sum() / route)
         if share > 0:
             p = min(share, 1.0) * 100
-            counted[OUTSIDE_LANES] = {"events": 1, "coefficient": round(1 - p / 100, 6),
-                                      "percentage": round(p, 4)}  # fmt: skip
+            counted[OUTSIDE_LANES] = {
+                "events": 1,
+                "coefficient": round(1 - p / 100, 6),
+                "percentage": round(p, 4),
+            }
             factor *= 1 - p / 100
     # minimum speed: per stretch of the route, the ego's mean speed against the traffic's
     traffic = ticks["traffic_speed"]
     if not _reported(traffic, end):
         not_scored[MIN_SPEED] = "the stream reports no world.traffic_speed"
     else:
-        marks = route * np.arange(1, params.min_speed_checkpoints + 1) / \
-            params.min_speed_checkpoints  # fmt: skip
+        marks = (
+            route * np.arange(1, params.min_speed_checkpoints + 1) / params.min_speed_checkpoints
+        )
         where = np.where(np.isfinite(progress), progress, -np.inf)
         start = 0
         for k, mark in enumerate(marks):
@@ -325,8 +412,9 @@ def _leaderboard(events: list[Episode], rule_of: dict[str, str], t: np.ndarray,
             p = round(float(speed[sel][ok].mean() / traffic[sel][ok].mean() * 100), 2)
             if p < 100:
                 c = 1 - (1 - MIN_SPEED_COEFFICIENT) * (1 - p / 100)
-                row = counted.setdefault(MIN_SPEED, {"events": 0, "coefficient": 1.0,
-                                                     "percentage": []})  # fmt: skip
+                row = counted.setdefault(
+                    MIN_SPEED, {"events": 0, "coefficient": 1.0, "percentage": []}
+                )
                 row["events"] += 1
                 row["coefficient"] = round(row["coefficient"] * c, 6)
                 row["percentage"].append(p)
@@ -335,13 +423,24 @@ def _leaderboard(events: list[Episode], rule_of: dict[str, str], t: np.ndarray,
         if name == ended_by:
             counted[name] = {"events": 1, "coefficient": 1.0, "ends_route": True}
     score = 100.0 * completion * factor
-    parts = " * ".join(f"{name} {_g(r['coefficient'])}" + (f"^{r['events']}" if r["events"] > 1
-                       and "percentage" not in r else "")
-                       for name, r in counted.items() if r["coefficient"] != 1.0)  # fmt: skip
-    made_of = (f"{_g(score)} = 100 x route completion {_g(completion)} x infraction penalty "
-               f"{_g(factor)}{' (' + parts + ')' if parts else ''}"
-               f"{'; route ended by ' + ended_by if ended_by else ''}"
-               f"{'; not scored: ' + ', '.join(not_scored) if not_scored else ''}")  # fmt: skip
-    return {"driving_score": round(score, 6), "route_completion": round(completion, 6),
-            "infraction_penalty": round(factor, 6), "per_infraction": counted,
-            "ended_by": ended_by, "not_scored": not_scored, "made_of": made_of}  # fmt: skip
+    parts = " * ".join(
+        f"{name} {_g(r['coefficient'])}"
+        + (f"^{r['events']}" if r["events"] > 1 and "percentage" not in r else "")
+        for name, r in counted.items()
+        if r["coefficient"] != 1.0
+    )
+    made_of = (
+        f"{_g(score)} = 100 x route completion {_g(completion)} x infraction penalty "
+        f"{_g(factor)}{' (' + parts + ')' if parts else ''}"
+        f"{'; route ended by ' + ended_by if ended_by else ''}"
+        f"{'; not scored: ' + ', '.join(not_scored) if not_scored else ''}"
+    )
+    return {
+        "driving_score": round(score, 6),
+        "route_completion": round(completion, 6),
+        "infraction_penalty": round(factor, 6),
+        "per_infraction": counted,
+        "ended_by": ended_by,
+        "not_scored": not_scored,
+        "made_of": made_of,
+    }

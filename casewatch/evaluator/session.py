@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from casewatch import __version__
+from casewatch.errors import CasewatchError
 from casewatch.evaluator.core import Evaluator, rtamt_monitor
 from casewatch.evaluator.drive_log import DriveLog
 from casewatch.evaluator.eventlog import Event, EventLog
@@ -60,7 +61,7 @@ MAX_LISTED_DEFECTS = 1000
 DEFAULT_MAX_NO_DATA = 0.5
 
 
-class InputError(Exception):
+class InputError(CasewatchError):
     """Input the run cannot use (unreadable stream, period mismatch, strict-mode defect)."""
 
 
@@ -104,15 +105,19 @@ def evaluate_stream(
     """
     options = options or RunOptions()
     if not case.monitor.channels:
-        raise InputError(f"{case.path} has no `monitor` block: it is a pure argument (checked, "
-                         "nothing to judge); add monitor: {channels: [...], period: 0.1s} and "
-                         "bind evidence with spi: to monitor it")  # fmt: skip
+        raise InputError(
+            f"{case.path} has no `monitor` block: it is a pure argument (checked, "
+            "nothing to judge); add monitor: {channels: [...], period: 0.1s} and "
+            "bind evidence with spi: to monitor it"
+        )
     whole_log = options.stl_engine != "rtamt"
     if options.stl_engine not in ENGINES:
         raise InputError(f"unknown STL engine {options.stl_engine!r} (one of {', '.join(ENGINES)})")
     if whole_log and str(source) == "-":
-        raise InputError(f"--stl-engine {options.stl_engine} judges whole logs; a live stream on "
-                         "standard input needs --stl-engine rtamt")  # fmt: skip
+        raise InputError(
+            f"--stl-engine {options.stl_engine} judges whole logs; a live stream on "
+            "standard input needs --stl-engine rtamt"
+        )
     labels = None
     if options.labels is not None:
         labels = read_labels(options.labels)
@@ -149,8 +154,12 @@ def evaluate_stream(
         recorder = SignalRecorder(names, case.monitor.period, case.monitor.metrics.max_gap)
     if not bag:
         text = io.TextIOWrapper(binary, encoding="utf-8", errors="strict")
-        reader = read_stream(text, strict=options.strict, channels=list(case.monitor.channels),
-                             period=case.monitor.period)
+        reader = read_stream(
+            text,
+            strict=options.strict,
+            channels=list(case.monitor.channels),
+            period=case.monitor.period,
+        )
     arbitration = RunLength()
     clock = _Clock()
     complete = True
@@ -205,8 +214,7 @@ def evaluate_stream(
                 binary.close()
                 hashing.close()
         if columns is not None:
-            evaluator = _judge_whole_log(case, spec, columns, tick_conditions, options, emit,
-                                         clock)  # fmt: skip
+            evaluator = _judge_whole_log(case, spec, columns, tick_conditions, options, emit, clock)
         evaluator.finish()
     finally:
         if log is not None:
@@ -237,10 +245,14 @@ def evaluate_stream(
     share = no_data_ticks / root_ticks if root_ticks else 1.0
     ground_truth = None
     if labels is not None:
-        hazards = {n.id: n.text for n in case.nodes.values()
-                   if n.type is NodeType.COUNTER_SOLUTION and n.hazard is not None}
-        ground_truth = score_events(evaluator.episodes, labels[0], hazards,
-                                    str(options.labels), labels[1])
+        hazards = {
+            n.id: n.text
+            for n in case.nodes.values()
+            if n.type is NodeType.COUNTER_SOLUTION and n.hazard is not None
+        }
+        ground_truth = score_events(
+            evaluator.episodes, labels[0], hazards, str(options.labels), labels[1]
+        )
     return RunResult(
         casewatch_version=__version__,
         created=dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
@@ -254,8 +266,9 @@ def evaluate_stream(
         status=statuses,
         series=evaluator.series(),
         arbitration=[
-            ArbitrationInterval(channel=r.value, start=round(r.start, 6), end=round(r.end, 6),
-                                ticks=r.ticks)
+            ArbitrationInterval(
+                channel=r.value, start=round(r.start, 6), end=round(r.end, 6), ticks=r.ticks
+            )
             for r in arbitration.runs
         ],
         ground_truth=ground_truth,
@@ -280,14 +293,26 @@ def evaluate_stream(
         conditions=evaluator.condition_stats(),
         odd=evaluator.odd_summaries(),
         track=where.track(),
-        scores=score_run(evaluator.episodes, evaluator.formula_stats(), where.times(),
-                         where.columns(), case.monitor.period, case.monitor.scoring),
+        scores=score_run(
+            evaluator.episodes,
+            evaluator.formula_stats(),
+            where.times(),
+            where.columns(),
+            case.monitor.period,
+            case.monitor.scoring,
+        ),
     )
 
 
-def _judge_whole_log(case: Case, spec: CompiledSpec, columns: Columns,
-                     conditions: list[dict], options: RunOptions,
-                     emit: Callable[[Event], None], clock: _Clock) -> Evaluator:  # fmt: skip
+def _judge_whole_log(
+    case: Case,
+    spec: CompiledSpec,
+    columns: Columns,
+    conditions: list[dict],
+    options: RunOptions,
+    emit: Callable[[Event], None],
+    clock: _Clock,
+) -> Evaluator:
     """Every formula over the whole log at once (numpy), then the ticks replayed through the
     evaluator with those values; with `both`, rtamt runs too and must agree on every value."""
     started = time.perf_counter()
@@ -301,8 +326,9 @@ def _judge_whole_log(case: Case, spec: CompiledSpec, columns: Columns,
             return PrecomputedMonitor(whole.values[f.id])
         return CheckedMonitor(rtamt_monitor(f, period), f, whole, found, counter)
 
-    evaluator = Evaluator(case, spec, on_event=emit, monitor_factory=factory,
-                          series_points=options.series_points)  # fmt: skip
+    evaluator = Evaluator(
+        case, spec, on_event=emit, monitor_factory=factory, series_points=options.series_points
+    )
     t = columns.t.tolist()
     replay = time.perf_counter()
     for i, ti in enumerate(t):
@@ -318,8 +344,13 @@ def _open_bag(case: Case, source: str | Path, options: RunOptions) -> tuple[BagR
     """A bag's reader, display name and digest (sha256 of its files), or `InputError`."""
     try:
         mapping = resolve_mapping(options.topics, case.path, case.monitor.topics)
-        reader = read_bag(source, mapping, channels=list(case.monitor.channels),
-                          period=case.monitor.period, strict=options.strict)  # fmt: skip
+        reader = read_bag(
+            source,
+            mapping,
+            channels=list(case.monitor.channels),
+            period=case.monitor.period,
+            strict=options.strict,
+        )
         return reader, str(source), path_digest(source)
     except (MappingError, BagError) as exc:
         raise InputError(str(exc)) from None

@@ -29,11 +29,13 @@ from typing import Any
 
 import numpy as np
 
+from casewatch.errors import CasewatchError
+
 FORMAT_VERSION = 1
 FILE_NAME = "signals.npz"
 
 
-class SignalsError(ValueError):
+class SignalsError(CasewatchError, ValueError):
     """A saved-signals file that cannot be used (says which file and what is wrong)."""
 
 
@@ -150,10 +152,14 @@ class SignalRecorder:
         tmp = path.with_name(path.name + ".tmp")
         with open(tmp, "wb") as fh:
             np.savez_compressed(
-                fh, t=self._columns.t, names=np.array(self.names, dtype=str),
-                values=values, period=np.float64(self.period), max_gap=np.float64(self.max_gap),
+                fh,
+                t=self._columns.t,
+                names=np.array(self.names, dtype=str),
+                values=values,
+                period=np.float64(self.period),
+                max_gap=np.float64(self.max_gap),
                 version=np.int64(FORMAT_VERSION),
-            )  # fmt: skip
+            )
         os.replace(tmp, path)
         return path
 
@@ -171,18 +177,23 @@ def load_signals(path: str | Path) -> SavedSignals:
             arrays = {k: data[k] for k in data.files}
     except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
         raise SignalsError(f"{where}: not a saved-signals file ({exc})") from None
-    missing = [k for k in ("t", "names", "values", "period", "max_gap", "version")
-               if k not in arrays]  # fmt: skip
+    missing = [
+        k for k in ("t", "names", "values", "period", "max_gap", "version") if k not in arrays
+    ]
     if missing:
         raise SignalsError(f"{where}: not a saved-signals file (missing {', '.join(missing)})")
     scalars = {k: _scalar(arrays[k]) for k in ("version", "period", "max_gap")}
     bad = [k for k, v in scalars.items() if v is None or not math.isfinite(v) or v <= 0]
     if bad:  # a NaN or array period would fail far from here (tune, calibrate)
-        raise SignalsError(f"{where}: {', '.join(bad)} must be a finite number above 0, got "
-                           + ", ".join(repr(arrays[k].tolist())[:40] for k in bad))
+        raise SignalsError(
+            f"{where}: {', '.join(bad)} must be a finite number above 0, got "
+            + ", ".join(repr(arrays[k].tolist())[:40] for k in bad)
+        )
     if int(scalars["version"]) != FORMAT_VERSION:  # type: ignore[arg-type]
-        raise SignalsError(f"{where}: format version {scalars['version']:g}, this casewatch "
-                           f"reads {FORMAT_VERSION}; run the log again with --save-signals")
+        raise SignalsError(
+            f"{where}: format version {scalars['version']:g}, this casewatch "
+            f"reads {FORMAT_VERSION}; run the log again with --save-signals"
+        )
     if arrays["t"].ndim != 1 or arrays["names"].ndim != 1 or arrays["t"].dtype.kind not in "fiu":
         raise SignalsError(f"{where}: t and names must be lists (1-D arrays), t of numbers")
     t = arrays["t"].astype(np.float64)
@@ -193,12 +204,15 @@ def load_signals(path: str | Path) -> SavedSignals:
     if values.dtype.kind not in "fiub":
         raise SignalsError(f"{where}: values must be numbers, found {values.dtype}")
     if values.ndim != 2 or values.shape != (len(t), len(names)):
-        raise SignalsError(f"{where}: values are {values.shape}, expected ({len(t)}, "
-                           f"{len(names)}) (ticks x signals)")
+        raise SignalsError(
+            f"{where}: values are {values.shape}, expected ({len(t)}, "
+            f"{len(names)}) (ticks x signals)"
+        )
     if len(t) and not np.all(np.diff(t) > 0):
         raise SignalsError(f"{where}: tick times do not increase")
-    return SavedSignals(where, t, names, values.astype(np.float64), scalars["period"],
-                        scalars["max_gap"])  # type: ignore[arg-type]  # fmt: skip
+    return SavedSignals(
+        where, t, names, values.astype(np.float64), scalars["period"], scalars["max_gap"]
+    )  # type: ignore[arg-type]
 
 
 def _scalar(array: np.ndarray) -> float | None:

@@ -36,8 +36,12 @@ from casewatch.safety_case.model import Case, NodeType
 
 Verdict = Literal["ok", "violated", "no-data", "outside-assumption"]
 OddVerdict = Literal["inside", "outside", "unknown"]
-_OWN = {"ok": "satisfied", "violated": "violated", "no-data": "no-data",
-        "outside-assumption": "outside-assumption"}  # fmt: skip
+_OWN = {
+    "ok": "satisfied",
+    "violated": "violated",
+    "no-data": "no-data",
+    "outside-assumption": "outside-assumption",
+}
 _ODD_CONTEXT = {"inside": "satisfied", "outside": "outside-odd", "unknown": "no-data"}
 _ODD_SCOPE = {"outside": "outside-odd", "unknown": "no-data"}
 
@@ -52,8 +56,12 @@ class StatusPropagator:
     for long stretches, so results are memoised by the verdict tuple.
     """
 
-    def __init__(self, case: Case, formula_of_node: Mapping[str, str],
-                 odd_contexts: list[str] | tuple[str, ...] = ()):  # fmt: skip
+    def __init__(
+        self,
+        case: Case,
+        formula_of_node: Mapping[str, str],
+        odd_contexts: list[str] | tuple[str, ...] = (),
+    ):
         self.case = case
         self.odd_contexts = tuple(odd_contexts)
         self.scope = self._odd_scope(case, self.odd_contexts)
@@ -96,8 +104,9 @@ class StatusPropagator:
                 scope.setdefault(node_id, []).append(context)
         return scope
 
-    def statuses(self, verdicts: Mapping[str, Verdict],
-                 odd: Mapping[str, OddVerdict] | None = None) -> dict[str, str]:  # fmt: skip
+    def statuses(
+        self, verdicts: Mapping[str, Verdict], odd: Mapping[str, OddVerdict] | None = None
+    ) -> dict[str, str]:
         """Status of every node given each formula's verdict (`ok`, `violated`, `no-data`,
         `outside-assumption`) and each ODD context's (`inside`, `outside`, `unknown`)."""
         odd = odd or {}
@@ -115,7 +124,10 @@ class StatusPropagator:
         return out
 
     def _status_of(
-        self, node_id: str, verdicts: Mapping[str, Verdict], known: Mapping[str, str],
+        self,
+        node_id: str,
+        verdicts: Mapping[str, Verdict],
+        known: Mapping[str, str],
         odd: Mapping[str, OddVerdict],
     ) -> str:
         node = self.case.nodes[node_id]

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from casewatch.errors import EXIT_ENGINES_DISAGREE, CasewatchError
 from casewatch.evaluator.signal_store import Columns
 from casewatch.evaluator.vector_eval import Segments, evaluated_ticks, robustness
 from casewatch.spec.model import CompiledFormula, CompiledSpec
@@ -88,17 +89,20 @@ class Mismatch:
     numpy: float
 
     def format(self) -> str:
-        return (f"{self.formula_id} at t = {self.t:g} s: rtamt {self.rtamt!r}, "
-                f"numpy {self.numpy!r}")  # fmt: skip
+        return f"{self.formula_id} at t = {self.t:g} s: rtamt {self.rtamt!r}, numpy {self.numpy!r}"
 
 
-class EngineMismatch(Exception):
+class EngineMismatch(CasewatchError):
     """The two STL engines disagree (a bug in one of them, never a verdict)."""
+
+    exit_code = EXIT_ENGINES_DISAGREE
 
     def __init__(self, mismatches: list[Mismatch], total: int):
         shown = "\n".join(f"  {m.format()}" for m in mismatches)
-        super().__init__(f"the rtamt and numpy STL engines disagree on {total} value(s), "
-                         f"first {len(mismatches)}:\n{shown}")  # fmt: skip
+        super().__init__(
+            f"the rtamt and numpy STL engines disagree on {total} value(s), "
+            f"first {len(mismatches)}:\n{shown}"
+        )
         self.mismatches = mismatches
         self.total = total
 
@@ -106,8 +110,14 @@ class EngineMismatch(Exception):
 class CheckedMonitor:
     """rtamt's monitor, each of whose values is compared with the numpy engine's."""
 
-    def __init__(self, rtamt: Any, formula: CompiledFormula, whole: WholeLog,
-                 found: list[Mismatch], counter: list[int]):  # fmt: skip
+    def __init__(
+        self,
+        rtamt: Any,
+        formula: CompiledFormula,
+        whole: WholeLog,
+        found: list[Mismatch],
+        counter: list[int],
+    ):
         self._rtamt = rtamt
         self._id = formula.id
         self._warmup = formula.warmup_ticks
@@ -129,8 +139,9 @@ class CheckedMonitor:
         if i >= self._warmup and not _agree(theirs, ours):
             self._counter[0] += 1
             if len(self._found) < 20:
-                self._found.append(Mismatch(self._id, float(self._t[self._ticks[self._k]]),
-                                            theirs, ours))  # fmt: skip
+                self._found.append(
+                    Mismatch(self._id, float(self._t[self._ticks[self._k]]), theirs, ours)
+                )
         self._k += 1
         return theirs
 

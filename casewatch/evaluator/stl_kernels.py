@@ -38,8 +38,9 @@ def past_window(values, start, lo, hi, take_max):  # pragma: no cover - compiled
         r = i - lo  # the newest index the window of i takes
         if r >= seg:
             v = values[r]
-            while tail > head and ((values[dq[tail - 1]] <= v) if take_max
-                                   else (values[dq[tail - 1]] >= v)):  # fmt: skip
+            while tail > head and (
+                (values[dq[tail - 1]] <= v) if take_max else (values[dq[tail - 1]] >= v)
+            ):
                 tail -= 1
             dq[tail] = r
             tail += 1

@@ -138,9 +138,15 @@ def summarise_result(result: RunResult, out_dir: str, seconds: float) -> LogSumm
             )
             for f in result.formulas
         ],
-        ground_truth=None if result.ground_truth is None else [
-            HazardCount(hazard=h.hazard, true_positives=h.true_positives,
-                        false_positives=h.false_positives, false_negatives=h.false_negatives)
+        ground_truth=None
+        if result.ground_truth is None
+        else [
+            HazardCount(
+                hazard=h.hazard,
+                true_positives=h.true_positives,
+                false_positives=h.false_positives,
+                false_negatives=h.false_negatives,
+            )
             for h in result.ground_truth.per_hazard
         ],
     )
@@ -164,9 +170,14 @@ def _ground_truth(logs: list[LogSummary]) -> dict[str, object] | None:
             row[2] += h.false_negatives
 
     def score(name: str, tp: int, fp: int, fn: int) -> dict[str, object]:
-        return {"hazard": name, "true_positives": tp, "false_positives": fp,
-                "false_negatives": fn, "precision": _ratio(tp, tp + fp),
-                "recall": _ratio(tp, tp + fn)}
+        return {
+            "hazard": name,
+            "true_positives": tp,
+            "false_positives": fp,
+            "false_negatives": fn,
+            "precision": _ratio(tp, tp + fp),
+            "recall": _ratio(tp, tp + fn),
+        }
 
     per_hazard = [score(name, *row) for name, row in sorted(sums.items())]
     total = [sum(row[i] for row in sums.values()) for i in range(3)]
@@ -182,9 +193,16 @@ def summarise(logs: list[LogSummary], case_path: str, case_digest: str) -> dict[
         for f in log.formulas:
             entry = per_formula.setdefault(
                 f.formula_id,
-                {"formula_id": f.formula_id, "node_id": f.node_id, "kind": f.kind,
-                 "episodes": 0, "ticks_violated": 0, "ticks_evaluated": 0, "ticks_no_data": 0,
-                 "logs_with_episodes": 0},
+                {
+                    "formula_id": f.formula_id,
+                    "node_id": f.node_id,
+                    "kind": f.kind,
+                    "episodes": 0,
+                    "ticks_violated": 0,
+                    "ticks_evaluated": 0,
+                    "ticks_no_data": 0,
+                    "logs_with_episodes": 0,
+                },
             )
             entry["episodes"] += f.episodes
             entry["ticks_violated"] += f.ticks_violated

@@ -21,6 +21,7 @@ from fractions import Fraction
 
 import numpy as np
 
+from casewatch.errors import CasewatchError
 from casewatch.evaluator.ground_truth import Label, match_counts, resolve_hazard
 from casewatch.evaluator.signal_store import SavedSignals
 from casewatch.evaluator.vector_eval import Segments, Unsupported, evaluated_ticks, robustness
@@ -37,7 +38,7 @@ HAZARD_DURATIONS = (0.0, 0.5, 1.0, 1.5, 2.0)
 OBJECTIVES = ("f1", "min-precision")
 
 
-class TuningError(ValueError):
+class TuningError(CasewatchError, ValueError):
     """Input tuning cannot use (names the rule, log or file)."""
 
 
@@ -92,9 +93,14 @@ def knobs(case: Case, spec: CompiledSpec) -> tuple[list[Knob], list[dict[str, st
     for f in spec.formulas:
         node = case.nodes[f.node_id]
         if node.contract is not None:
-            skipped.append({"formula": f.id, "reason": "a contract: its guarantee is judged "
-                            "only where its assumption holds, which a threshold sweep of the "
-                            "guarantee alone ignores; set its parameters instead"})  # fmt: skip
+            skipped.append(
+                {
+                    "formula": f.id,
+                    "reason": "a contract: its guarantee is judged "
+                    "only where its assumption holds, which a threshold sweep of the "
+                    "guarantee alone ignores; set its parameters instead",
+                }
+            )
             continue
         duration_kind: str | None = None
         duration = 0.0
@@ -116,25 +122,45 @@ def knobs(case: Case, spec: CompiledSpec) -> tuple[list[Knob], list[dict[str, st
                 duration_kind, duration = "min_duration", f.min_duration
         found = _swept(condition)
         if found is None:
-            skipped.append({"formula": f.id, "reason": "no comparison of a signal with a "
-                            "number to sweep"})  # fmt: skip
+            skipped.append(
+                {"formula": f.id, "reason": "no comparison of a signal with a number to sweep"}
+            )
             continue
         bad = [n for n in walk(condition) if not _supported(n)]
         if bad:
-            skipped.append({"formula": f.id, "reason": "uses future operators or `since` "
-                            "(tuning evaluates past-time formulas)"})  # fmt: skip
+            skipped.append(
+                {
+                    "formula": f.id,
+                    "reason": "uses future operators or `since` "
+                    "(tuning evaluates past-time formulas)",
+                }
+            )
             continue
         path, cmp = found
         left = isinstance(cmp.left, Signal)
         sig = cmp.left if left else cmp.right
         num = cmp.right if left else cmp.left
         assert isinstance(sig, Signal) and isinstance(num, Num)
-        out.append(Knob(
-            formula_id=f.id, node_id=f.node_id, node_text=f.node_text, kind=f.kind,
-            source=f.source, condition=condition, path=path, signal=sig.name, op=cmp.op,
-            signal_left=left, value=float(num.value), duration_kind=duration_kind,
-            duration=duration, merge_gap=f.merge_gap, min_duration=f.min_duration, raw_stl=raw,
-        ))  # fmt: skip
+        out.append(
+            Knob(
+                formula_id=f.id,
+                node_id=f.node_id,
+                node_text=f.node_text,
+                kind=f.kind,
+                source=f.source,
+                condition=condition,
+                path=path,
+                signal=sig.name,
+                op=cmp.op,
+                signal_left=left,
+                value=float(num.value),
+                duration_kind=duration_kind,
+                duration=duration,
+                merge_gap=f.merge_gap,
+                min_duration=f.min_duration,
+                raw_stl=raw,
+            )
+        )
     return out, skipped
 
 
@@ -218,8 +244,9 @@ def filling(log: SavedSignals, evaluated: np.ndarray, duration: float) -> np.nda
 def episodes_for(knob: Knob, log: SavedSignals, threshold: float, duration: float):
     """The candidate's episodes on one log."""
     min_duration = duration if knob.duration_kind == "min_duration" else knob.min_duration
-    return episodes_from(log.t, violations(knob, log, threshold, duration), log.period,
-                         knob.merge_gap, min_duration)  # fmt: skip
+    return episodes_from(
+        log.t, violations(knob, log, threshold, duration), log.period, knob.merge_gap, min_duration
+    )
 
 
 def round_sig(value: float, digits: int = 4) -> float:
@@ -234,8 +261,9 @@ def threshold_candidates(knob: Knob, logs: Sequence[SavedSignals], count: int) -
     values = np.concatenate([log.column(knob.signal) for log in logs])
     values = values[np.isfinite(values)]
     if len(values) == 0:
-        raise TuningError(f"{knob.formula_id}: signal {knob.signal!r} has no value in any log; "
-                          "nothing to sweep")  # fmt: skip
+        raise TuningError(
+            f"{knob.formula_id}: signal {knob.signal!r} has no value in any log; nothing to sweep"
+        )
     distinct = np.unique(values)
     if len(distinct) <= count:
         quantiles = distinct
@@ -293,8 +321,12 @@ class Sweep:
         return [(th, d) for d in self.durations for th in self.thresholds]
 
 
-def sweep(knob: Knob, logs: Sequence[SavedSignals], labels: Sequence[Sequence[Label]] | None,
-          count: int = 50) -> Sweep:  # fmt: skip
+def sweep(
+    knob: Knob,
+    logs: Sequence[SavedSignals],
+    labels: Sequence[Sequence[Label]] | None,
+    count: int = 50,
+) -> Sweep:
     """Every (threshold, duration) candidate on every log. Without labels only the episode
     counts are meaningful (calibration)."""
     if not logs:
@@ -309,19 +341,22 @@ def sweep(knob: Knob, logs: Sequence[SavedSignals], labels: Sequence[Sequence[La
             found = episodes_for(knob, log, th, d)
             tp, fp, fn = match_counts(found, truth[k])
             counts[c, k] = (tp, fp, fn, len(found))
-    return Sweep(knob, thresholds, durations, counts, [log.path for log in logs],
-                 [len(x) for x in truth])  # fmt: skip
+    return Sweep(
+        knob, thresholds, durations, counts, [log.path for log in logs], [len(x) for x in truth]
+    )
 
 
 def scores(tp: int, fp: int, fn: int) -> dict[str, float | int | None]:
     """Counts with precision, recall (None when undefined) and F1, as plain numbers."""
     tp, fp, fn = int(tp), int(fp), int(fn)
     return {
-        "tp": tp, "fp": fp, "fn": fn,
+        "tp": tp,
+        "fp": fp,
+        "fn": fn,
         "precision": tp / (tp + fp) if tp + fp else None,
         "recall": tp / (tp + fn) if tp + fn else None,
         "f1": 2 * tp / (2 * tp + fp + fn) if tp else 0.0,
-    }  # fmt: skip
+    }
 
 
 def pr_text(row: dict | None, counts: bool = False) -> str:
@@ -424,13 +459,21 @@ def pick(sw: Sweep, logs: Sequence[int], objective: str, min_precision: float | 
             others = np.delete(per_log[rows], j, axis=1).sum(axis=1)
             best = _is_best(_score_keys(others, objective, min_precision))
             held += per_log[rows[best], j].mean(axis=0)
-        held_keys.append(_score_keys(held, objective, min_precision) if len(logs) >= 2
-                         else fitted[-1])  # fmt: skip
+        held_keys.append(
+            _score_keys(held, objective, min_precision) if len(logs) >= 2 else fitted[-1]
+        )
     fitted_keys = np.array(fitted)
     room = margins(np.asarray(sw.durations, dtype=float), _is_best(fitted_keys))
-    ranks = [(*fitted_keys[k].round(12), d == sw.knob.duration, *held_keys[k].round(12),
-              round(float(room[k]), 9), -abs(d - sw.knob.duration))
-             for k, d in enumerate(sw.durations)]  # fmt: skip
+    ranks = [
+        (
+            *fitted_keys[k].round(12),
+            d == sw.knob.duration,
+            *held_keys[k].round(12),
+            round(float(room[k]), 9),
+            -abs(d - sw.knob.duration),
+        )
+        for k, d in enumerate(sw.durations)
+    ]
     return at[max(range(len(ranks)), key=ranks.__getitem__)]
 
 
@@ -451,10 +494,7 @@ def tune(sw: Sweep, objective: str = "f1", min_precision: float | None = None) -
         held = scores(*counts)
     best = chosen if chosen >= 0 else original
     th, d = grid[best]
-    curve = [
-        {"threshold": g[0], "duration": g[1], **scores(*total[c])}
-        for c, g in enumerate(grid)
-    ]
+    curve = [{"threshold": g[0], "duration": g[1], **scores(*total[c])} for c, g in enumerate(grid)]
     return {
         "formula": sw.knob.formula_id,
         "node": sw.knob.node_id,
@@ -463,8 +503,11 @@ def tune(sw: Sweep, objective: str = "f1", min_precision: float | None = None) -
         "duration_kind": sw.knob.duration_kind,
         "logs": len(sw.logs),
         "labels": int(sum(sw.labelled)),
-        "original": {"threshold": sw.knob.value, "duration": sw.knob.duration,
-                     **scores(*total[original])},
+        "original": {
+            "threshold": sw.knob.value,
+            "duration": sw.knob.duration,
+            **scores(*total[original]),
+        },
         "tuned": {"threshold": th, "duration": d, **scores(*total[best])},
         "reached": chosen >= 0,
         "heldout": held,

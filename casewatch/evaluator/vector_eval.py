@@ -27,6 +27,7 @@ from collections.abc import Callable, Mapping
 
 import numpy as np
 
+from casewatch.errors import CasewatchError
 from casewatch.evaluator import stl_kernels
 from casewatch.spec.ast import (
     Abs,
@@ -52,7 +53,7 @@ from casewatch.spec.ast import (
 INF = np.inf
 
 
-class Unsupported(ValueError):
+class Unsupported(CasewatchError, ValueError):
     """A formula operator the vectorised evaluator does not implement."""
 
 
@@ -127,8 +128,12 @@ class _Evaluator:
             return np.abs(self.term(node.operand))
         if isinstance(node, Arith):
             a, b = self.term(node.left), self.term(node.right)
-            ops: dict[str, Callable] = {"+": np.add, "-": np.subtract, "*": np.multiply,
-                                        "/": np.divide}  # fmt: skip
+            ops: dict[str, Callable] = {
+                "+": np.add,
+                "-": np.subtract,
+                "*": np.multiply,
+                "/": np.divide,
+            }
             with np.errstate(divide="ignore", invalid="ignore"):
                 return ops[node.op](a, b)
         if isinstance(node, Sum):

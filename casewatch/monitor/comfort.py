@@ -204,8 +204,9 @@ def _projection(h: int) -> np.ndarray:
     return proj
 
 
-def _score(times: np.ndarray, xy: np.ndarray, centres: np.ndarray, half: float,
-           steepness: float) -> float | None:
+def _score(
+    times: np.ndarray, xy: np.ndarray, centres: np.ndarray, half: float, steepness: float
+) -> float | None:
     value = _comfort_kernel(times, xy, centres, float(half), float(steepness))
     return None if math.isnan(value) else value
 
@@ -248,13 +249,13 @@ def ppcs(plan: np.ndarray, span: float, steepness: float) -> float | None:
     half = 0.5 * span
     first, last = times[0], times[-1]
     if last - first < span - TIME_EPS:
-        return _score(times, xy, np.array([0.5 * (first + last)]), 0.5 * (last - first),
-                      steepness)  # fmt: skip
+        return _score(times, xy, np.array([0.5 * (first + last)]), 0.5 * (last - first), steepness)
     step = (last - first) / (len(times) - 1)
     h = round(half / step)
     if abs(h * step - half) <= TIME_EPS and _uniform(times, step):
         # the canonical grid (always, for a resampled plan): one projection for every window
-        return _uniform_kernel(xy, h, len(times) - 1 - h, _projection(h), float(half),
-                               float(steepness))  # fmt: skip
+        return _uniform_kernel(
+            xy, h, len(times) - 1 - h, _projection(h), float(half), float(steepness)
+        )
     inside = (times - half >= first - TIME_EPS) & (times + half <= last + TIME_EPS)
     return _score(times, xy, times[inside], half, steepness)

@@ -36,14 +36,14 @@ def inside(coverage: Coverage, ego: Ego, pos: np.ndarray, margin: float) -> np.n
         bearing = np.abs((bearing + math.pi) % (2.0 * math.pi) - math.pi)
         # signed distance to the nearer edge ray (positive inside): r sin(angle to the ray),
         # and r itself once the nearest point of the ray is its apex (past a right angle)
-        to_edge = np.clip(math.radians(coverage.fov_deg) / 2.0 - bearing, -math.pi / 2,
-                          math.pi / 2)  # fmt: skip
+        to_edge = np.clip(math.radians(coverage.fov_deg) / 2.0 - bearing, -math.pi / 2, math.pi / 2)
         keep &= r * np.sin(to_edge) >= margin - EDGE_EPS
     return keep
 
 
-def _view(objects: Objects, views: tuple[tuple[Coverage, Ego], ...], margin: float
-          ) -> tuple[Objects, np.ndarray]:
+def _view(
+    objects: Objects, views: tuple[tuple[Coverage, Ego], ...], margin: float
+) -> tuple[Objects, np.ndarray]:
     """The objects inside every coverage grown by `margin`, and which of them lie inside every
     coverage shrunk by it (the core)."""
     outer = np.ones(len(objects), dtype=bool)
@@ -58,8 +58,12 @@ def _view(objects: Objects, views: tuple[tuple[Coverage, Ego], ...], margin: flo
 
 
 def common_view(
-    a: Objects, ego_a: Ego, cov_a: Coverage,
-    b: Objects, ego_b: Ego, cov_b: Coverage,
+    a: Objects,
+    ego_a: Ego,
+    cov_a: Coverage,
+    b: Objects,
+    ego_b: Ego,
+    cov_b: Coverage,
     margin: float,
 ) -> tuple[Objects, np.ndarray | None, Objects, np.ndarray | None]:
     """What the pair (A, B) compares: each channel's objects within `margin` of the coverage of

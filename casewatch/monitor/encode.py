@@ -51,8 +51,14 @@ def _objects(objs: Objects) -> list[dict[str, Any]]:
 
 def channel_to_dict(state: ChannelState) -> dict[str, Any]:
     e = state.ego
-    ego = {"x": e.x, "y": e.y, "yaw": e.yaw, "vx": e.vx, "vy": e.vy,
-           **_footprint(e.half, e.footprint)}  # fmt: skip
+    ego = {
+        "x": e.x,
+        "y": e.y,
+        "yaw": e.yaw,
+        "vx": e.vx,
+        "vy": e.vy,
+        **_footprint(e.half, e.footprint),
+    }
     return {"ego": ego, "plan": state.plan.tolist(), "objects": _objects(state.objects)}
 
 
@@ -69,13 +75,19 @@ def frame_to_dict(frame: Frame) -> dict[str, Any]:
 
 def header_to_dict(header: Header) -> dict[str, Any]:
     """The header line (`{"header": {...}}`)."""
-    body: dict[str, Any] = {"format": FORMAT_NAME, "version": FORMAT_VERSION,
-                            "channels": list(header.channels), "period": header.period,
-                            "meta": dict(header.meta)}  # fmt: skip
+    body: dict[str, Any] = {
+        "format": FORMAT_NAME,
+        "version": FORMAT_VERSION,
+        "channels": list(header.channels),
+        "period": header.period,
+        "meta": dict(header.meta),
+    }
     if header.coverage:
         body["coverage"] = {
-            c: {"fov_deg": cov.fov_deg, **({} if cov.range_m == float("inf")
-                                           else {"range_m": cov.range_m})}
+            c: {
+                "fov_deg": cov.fov_deg,
+                **({} if cov.range_m == float("inf") else {"range_m": cov.range_m}),
+            }
             for c, cov in header.coverage.items()
-        }  # fmt: skip
+        }
     return {"header": body}

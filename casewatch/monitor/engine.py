@@ -54,9 +54,7 @@ from casewatch.safety_case.signals import (
 )
 
 #: Metric families, as the benchmark reports them.
-FAMILIES = (
-    "resampling", "similarity", "motion_prediction", "comfort", "situation", "safety_score"
-)
+FAMILIES = ("resampling", "similarity", "motion_prediction", "comfort", "situation", "safety_score")
 
 
 def _worst(values: list[float | None], use_max: bool) -> float | None:
@@ -167,9 +165,7 @@ class MetricEngine:
         #: crpps Fréchet inputs per pair of the current step (None: no value), see _similarity
         self._crpps_inputs: list[tuple[np.ndarray, np.ndarray] | None] = []
         # Signal names, built once: per pair {metric: name}, per channel {metric: name}.
-        self._pair_names = {
-            pr: {m: pair_name(m, *pr) for m in PAIR_METRICS} for pr in self.pairs
-        }
+        self._pair_names = {pr: {m: pair_name(m, *pr) for m in PAIR_METRICS} for pr in self.pairs}
         self._channel_names = {
             c: {m: channel_name(m, c) for m in ("chpps", "ompv", "hcs", "ppcs", SAFETY_SCORE)}
             for c in self.channels
@@ -236,7 +232,8 @@ class MetricEngine:
         span = self.params.plan_smoothing
         return {
             c: ChannelState(
-                s.ego, hold_standing(resample_plan(smooth_plan(s.plan, span), step), still),
+                s.ego,
+                hold_standing(resample_plan(smooth_plan(s.plan, span), step), still),
                 resample_objects(s.objects, step),
             )
             for c, s in frame.channels.items()
@@ -259,27 +256,52 @@ class MetricEngine:
                 vals.update(ego_similarities(sa, sb))
                 # spi-reference "Channel coverage": only objects both channels can see
                 oa, core_a, ob, core_b = common_view(
-                    sa.objects, sa.ego, self.coverage[a],
-                    sb.objects, sb.ego, self.coverage[b], p.coverage_margin,
-                )  # fmt: skip
+                    sa.objects,
+                    sa.ego,
+                    self.coverage[a],
+                    sb.objects,
+                    sb.ego,
+                    self.coverage[b],
+                    p.coverage_margin,
+                )
                 ranges = (None, None)
                 if p.ols_range_scale > 0.0:
-                    ranges = (np.hypot(oa.pos[:, 0] - sa.ego.x, oa.pos[:, 1] - sa.ego.y),
-                              np.hypot(ob.pos[:, 0] - sb.ego.x, ob.pos[:, 1] - sb.ego.y))
-                cmp = compare_objects(oa, ob, p.pairing_gate, p.trajectory_decay, core_a, core_b,
-                                      p.standing_motion, *ranges, p.ols_range_scale,
-                                      p.ots_time_scale)
+                    ranges = (
+                        np.hypot(oa.pos[:, 0] - sa.ego.x, oa.pos[:, 1] - sa.ego.y),
+                        np.hypot(ob.pos[:, 0] - sb.ego.x, ob.pos[:, 1] - sb.ego.y),
+                    )
+                cmp = compare_objects(
+                    oa,
+                    ob,
+                    p.pairing_gate,
+                    p.trajectory_decay,
+                    core_a,
+                    core_b,
+                    p.standing_motion,
+                    *ranges,
+                    p.ols_range_scale,
+                    p.ots_time_scale,
+                )
                 ages_a, ages_b = self._lone[(a, b)]
                 age_a = ages_a.update(t, oa.pos, oa.vel, cmp.lone_a)
                 age_b = ages_b.update(t, ob.pos, ob.vel, cmp.lone_b)
-                vals.update(cmp.scores(benefit_of_doubt(age_a, p.lone_horizon),
-                                       benefit_of_doubt(age_b, p.lone_horizon)))
+                vals.update(
+                    cmp.scores(
+                        benefit_of_doubt(age_a, p.lone_horizon),
+                        benefit_of_doubt(age_b, p.lone_horizon),
+                    )
+                )
                 vals["lone_age"] = max(age_a.max(initial=0.0), age_b.max(initial=0.0))
                 shift = (sa.ego.x - sb.ego.x, sa.ego.y - sb.ego.y)
-                vals["ets"] = ets(sa.plan, sb.plan, p.trajectory_decay,
-                                  shift if p.ets_relative == 1 else None)
+                vals["ets"] = ets(
+                    sa.plan, sb.plan, p.trajectory_decay, shift if p.ets_relative == 1 else None
+                )
                 vals["plan_lat"] = plan_lateral(
-                    sa.plan, sb.plan, shift, (sa.ego.yaw, sb.ego.yaw), p.plan_lat_horizon,
+                    sa.plan,
+                    sb.plan,
+                    shift,
+                    (sa.ego.yaw, sb.ego.yaw),
+                    p.plan_lat_horizon,
                 )
                 self._crpps_inputs.append(crpps_inputs(sa.plan, sb.plan))
                 window.push(t, vals["els"])
@@ -330,12 +352,15 @@ class MetricEngine:
             if prev.recent(t):
                 # spi-reference "ompv" Decision: the newest observation at least ompv_lookback
                 # old (the study's previous frame when the lookback is one period)
-                old = [(tp, objs) for tp, objs in prev.items
-                       if t - tp >= p.ompv_lookback - 1e-9]
+                old = [(tp, objs) for tp, objs in prev.items if t - tp >= p.ompv_lookback - 1e-9]
                 if old:
                     tp, objs = old[-1]
                     ompv_values[c] = ompv(
-                        objs, t - tp, s.objects, p.prediction_tolerance, p.pairing_gate,
+                        objs,
+                        t - tp,
+                        s.objects,
+                        p.prediction_tolerance,
+                        p.pairing_gate,
                         p.standing_motion,
                     )
             prev.push(t, s.objects)
@@ -384,8 +409,9 @@ class MetricEngine:
             speed = math.hypot(ego.vx, ego.vy)
             names = self._situation_names[c]
             driven = self._ego[c].window()[:-1, 1:3] if c in behind_seeing else None
-            lead, follower = neighbours(ego, s.plan, driven, s.objects, p.lane_half_width,
-                                        ego_half_length(ego), reach)  # fmt: skip
+            lead, follower = neighbours(
+                ego, s.plan, driven, s.objects, p.lane_half_width, ego_half_length(ego), reach
+            )
             out[names["ego_speed"]] = speed
             out[names["ego_accel"]] = self._accel(c, t, speed)
             out[names["lead_gap"]] = lead.gap
@@ -421,8 +447,9 @@ class MetricEngine:
     def _safety(
         self, t: float, states: dict[str, ChannelState], out: dict[str, float | None]
     ) -> None:
-        matrix = safety_matrix(self.channels, states, self.params.pet_ref,
-                               self.params.plan_standstill > 0)
+        matrix = safety_matrix(
+            self.channels, states, self.params.pet_ref, self.params.plan_standstill > 0
+        )
         per_channel: list[float | None] = []
         for ij, v in matrix.items():
             out[self._ss_names[ij]] = v

@@ -125,8 +125,9 @@ class Objects:
             if box.all():
                 self._areas = 4.0 * half[:, 0] * half[:, 1]
             else:
-                self._areas = np.where(box, 4.0 * half[:, 0] * half[:, 1],
-                                       polygon_area(self.footprints))  # fmt: skip
+                self._areas = np.where(
+                    box, 4.0 * half[:, 0] * half[:, 1], polygon_area(self.footprints)
+                )
         return self._areas
 
     @property

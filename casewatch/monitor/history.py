@@ -172,8 +172,8 @@ def common_path(p: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     that their Fréchet distance measures where the paths go, not how fast they are driven."""
     rows = np.zeros((len(p) + len(q), 3))
     rows[: len(p), 1:] = p
-    rows[len(p):, 1:] = q
-    out = _common_path(rows[: len(p)], rows[len(p):])
+    rows[len(p) :, 1:] = q
+    out = _common_path(rows[: len(p)], rows[len(p) :])
     n_out = max(len(p), len(q))
     return out[:n_out], out[n_out:]
 
@@ -259,8 +259,9 @@ def _cut(plans, lens, times, count, head, t, decay, pair_xy, pair_lens):  # prag
             src[k, 5] = n_out
             raw[k, 0] = b - a
             raw[k, 1] = sb - sa
-            common[k] = min(_arc_length(plans[c, h], a, b - a),
-                            _arc_length(plans[c, s], sa, sb - sa))  # fmt: skip
+            common[k] = min(
+                _arc_length(plans[c, h], a, b - a), _arc_length(plans[c, s], sa, sb - sa)
+            )
             owner[k] = c
             # Decision: j is the rank among stored plans (1 = most recent), skipped included.
             weight[k] = decay ** float(rank)
@@ -304,8 +305,17 @@ def _cut(plans, lens, times, count, head, t, decay, pair_xy, pair_lens):  # prag
                     coords[pos + j, 0] = pair_xy[first + j, 0]
                     coords[pos + j, 1] = pair_xy[first + j, 1]
             else:
-                _along(plans[owner[i], slot], first, raw[i, side], common[i], n_side, off_x,
-                       off_y, coords, pos)  # fmt: skip
+                _along(
+                    plans[owner[i], slot],
+                    first,
+                    raw[i, side],
+                    common[i],
+                    n_side,
+                    off_x,
+                    off_y,
+                    coords,
+                    pos,
+                )
             index[pos : pos + n_side] = g + side
             pos += n_side
         table[i, OWNER] = owner[i]
@@ -376,9 +386,16 @@ def frame_inputs(
     else:
         xy, lens = _NO_XY, _NO_LENS
     return _cut(
-        history.plans, history.lens, history.times, history.count, history.head, t, decay,
-        xy, lens,
-    )  # fmt: skip
+        history.plans,
+        history.lens,
+        history.times,
+        history.count,
+        history.head,
+        t,
+        decay,
+        xy,
+        lens,
+    )
 
 
 def chpps_frame(

@@ -76,8 +76,11 @@ def _depth(value: Any, limit: int = MAX_META_DEPTH + 1) -> int:
     """Nesting depth of a decoded JSON value (0 for a scalar), counted up to `limit` + 1."""
     depth, level = 0, [value]
     while level and depth <= limit:
-        level = [v for x in level for v in (x.values() if isinstance(x, dict) else
-                                           x if isinstance(x, list) else ())]  # fmt: skip
+        level = [
+            v
+            for x in level
+            for v in (x.values() if isinstance(x, dict) else x if isinstance(x, list) else ())
+        ]
         depth += 1
     return depth - 1 if not level else depth
 
@@ -102,8 +105,11 @@ def _number(d: dict[str, Any], key: str, where: str, default: float | None = Non
     if not math.isfinite(v):
         raise FrameDefect("non-finite", f"{where}.{key}: {v} is not a finite number")
     if key != "t" and abs(v) > MAX_MAGNITUDE:  # `t` has its own bound (bad-time)
-        raise FrameDefect("out-of-range", f"{where}.{key}: {v:g} is beyond ±{MAX_MAGNITUDE:g} "
-                          "(metres, m/s, radians: a drive's values are far smaller)")  # fmt: skip
+        raise FrameDefect(
+            "out-of-range",
+            f"{where}.{key}: {v:g} is beyond ±{MAX_MAGNITUDE:g} "
+            "(metres, m/s, radians: a drive's values are far smaller)",
+        )
     return float(v)
 
 
@@ -136,8 +142,9 @@ def _points(v: Any, where: str, ncols: int, what: str) -> np.ndarray:
         raise FrameDefect("non-finite", f"{where}[{row}]: NaN, inf or null in {v[row]!r:.60}")
     if len(arr) and np.abs(arr).max() > MAX_MAGNITUDE:
         row = int(np.nonzero((np.abs(arr) > MAX_MAGNITUDE).any(axis=1))[0][0])
-        raise FrameDefect("out-of-range", f"{where}[{row}]: a value beyond ±{MAX_MAGNITUDE:g} "
-                          f"in {v[row]!r:.60}")  # fmt: skip
+        raise FrameDefect(
+            "out-of-range", f"{where}[{row}]: a value beyond ±{MAX_MAGNITUDE:g} in {v[row]!r:.60}"
+        )
     return arr
 
 
@@ -267,10 +274,17 @@ def _objects_fast(v: list[Any]) -> Objects | None:
         ids = [o["id"] for o in v]
         cls = [o.get("cls", "unknown") for o in v]
         rows = [
-            (o["x"], o["y"], o.get("yaw", 0.0), o.get("vx", 0.0), o.get("vy", 0.0), o["length"],
-             o["width"])
+            (
+                o["x"],
+                o["y"],
+                o.get("yaw", 0.0),
+                o.get("vx", 0.0),
+                o.get("vy", 0.0),
+                o["length"],
+                o["width"],
+            )
             for o in v
-        ]  # fmt: skip
+        ]
         preds = [o.get("prediction") for o in v]
         if any("polygon" in o for o in v):
             return None
@@ -476,8 +490,10 @@ def parse_header(obj: Any) -> Header:
     if not isinstance(meta, dict):
         raise FrameDefect("bad-header", "header.meta: expected an object")
     if _depth(meta) > MAX_META_DEPTH:  # result.json repeats meta: its writer has a depth limit
-        raise FrameDefect("bad-header", f"header.meta: nested deeper than {MAX_META_DEPTH} "
-                          "levels of objects and lists")  # fmt: skip
+        raise FrameDefect(
+            "bad-header",
+            f"header.meta: nested deeper than {MAX_META_DEPTH} levels of objects and lists",
+        )
     conditions: dict[str, OddValue] = {}
     conditions_problem = None
     if meta.get("odd") is not None:
@@ -486,9 +502,14 @@ def parse_header(obj: Any) -> Header:
         except OddError as exc:  # the rest of the header stands; no condition is reported
             conditions_problem = str(exc)
     return Header(
-        format=fmt, version=version, channels=list(chans), period=float(period), meta=meta,
+        format=fmt,
+        version=version,
+        channels=list(chans),
+        period=float(period),
+        meta=meta,
         coverage=parse_coverage(h.get("coverage", {}), "header.coverage"),
-        conditions=conditions, conditions_problem=conditions_problem,
+        conditions=conditions,
+        conditions_problem=conditions_problem,
     )
 
 

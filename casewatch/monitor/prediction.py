@@ -159,7 +159,11 @@ def _ompv_counts(predicted, reaches, cur, pi, ci, tolerance):  # pragma: no cove
 
 
 def ompv(
-    prev: Objects, elapsed: float, cur: Objects, tolerance: float, gate: float,
+    prev: Objects,
+    elapsed: float,
+    cur: Objects,
+    tolerance: float,
+    gate: float,
     standing: float = 0.0,
 ) -> float:
     """Share of objects that followed their prediction: N1 / N2 (1.0 when N2 = 0).

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO
 
+from casewatch.errors import CasewatchError
 from casewatch.monitor.frames import Frame, Header
 from casewatch.monitor.parse import FrameDefect, parse_frame, parse_header
 
@@ -72,7 +73,7 @@ class StreamDefect:
         return f"{self.source}:{self.line}: {self.kind}: {self.message}"
 
 
-class StreamError(Exception):
+class StreamError(CasewatchError):
     """Raised in strict mode on the first defect."""
 
     def __init__(self, defect: StreamDefect):

@@ -270,8 +270,7 @@ def resample_objects(objects: Objects, step: float) -> Objects:
         pred = np.ascontiguousarray(objects.pred[:, 1:])
         lens = np.maximum(objects.pred_len - 1, 0)
     else:
-        pred, lens = _resample_predictions(objects.pos, objects.pred, objects.pred_len,
-                                           float(step))  # fmt: skip
+        pred, lens = _resample_predictions(objects.pos, objects.pred, objects.pred_len, float(step))
     return replace(objects, pred=pred, pred_len=lens)
 
 
@@ -340,10 +339,12 @@ def _smooth_plan(plan, half):  # pragma: no cover - compiled
         det = s0 * (s2 * s4 - s3 * s3) - s1 * (s1 * s4 - s2 * s3) + s2 * (s1 * s3 - s2 * s2)
         if abs(det) < 1e-12:
             continue
-        cx = (bx0 * (s2 * s4 - s3 * s3) - s1 * (bx1 * s4 - s3 * bx2)
-              + s2 * (bx1 * s3 - s2 * bx2)) / det
-        cy = (by0 * (s2 * s4 - s3 * s3) - s1 * (by1 * s4 - s3 * by2)
-              + s2 * (by1 * s3 - s2 * by2)) / det
+        cx = (
+            bx0 * (s2 * s4 - s3 * s3) - s1 * (bx1 * s4 - s3 * bx2) + s2 * (bx1 * s3 - s2 * bx2)
+        ) / det
+        cy = (
+            by0 * (s2 * s4 - s3 * s3) - s1 * (by1 * s4 - s3 * by2) + s2 * (by1 * s3 - s2 * by2)
+        ) / det
         out[k, 1] = cx
         out[k, 2] = cy
     return out

@@ -51,8 +51,9 @@ SLACK = 1e-6
 
 
 @kernel
-def _headings(x: np.ndarray, y: np.ndarray, n: int, yaw: float, cos: np.ndarray,
-              sin: np.ndarray) -> None:  # fmt: skip
+def _headings(
+    x: np.ndarray, y: np.ndarray, n: int, yaw: float, cos: np.ndarray, sin: np.ndarray
+) -> None:
     """`_directions` for one track of n >= 2 points (x, y) into (cos, sin)."""
     c = math.cos(yaw)
     s = math.sin(yaw)
@@ -71,8 +72,18 @@ def _headings(x: np.ndarray, y: np.ndarray, n: int, yaw: float, cos: np.ndarray,
 
 
 @kernel
-def _box_hit(dx: float, dy: float, ca: float, sa: float, la: float, wa: float, cb: float,
-             sb: float, lb: float, wb: float) -> bool:  # fmt: skip
+def _box_hit(
+    dx: float,
+    dy: float,
+    ca: float,
+    sa: float,
+    la: float,
+    wa: float,
+    cb: float,
+    sb: float,
+    lb: float,
+    wb: float,
+) -> bool:
     """`boxes_intersect` for one pair, the same arithmetic in the same order."""
     cd = abs(ca * cb + sa * sb)
     sd = abs(sb * ca - cb * sa)
@@ -108,8 +119,16 @@ def _nanmin(a: float, b: float) -> float:
 
 
 @kernel
-def _track(px: float, py: float, pred: np.ndarray, base: int, n_pred: int, times: np.ndarray,
-           x: np.ndarray, y: np.ndarray) -> None:  # fmt: skip
+def _track(
+    px: float,
+    py: float,
+    pred: np.ndarray,
+    base: int,
+    n_pred: int,
+    times: np.ndarray,
+    x: np.ndarray,
+    y: np.ndarray,
+) -> None:
     """`interpolate_tracks` for one object at (px, py) (the same arithmetic): its prediction
     is the n_pred points [dt, x, y] at pred[base:]."""
     n_t = times.shape[0]
@@ -347,8 +366,12 @@ def _score_scene(scene: np.ndarray, pet_ref: float) -> np.ndarray:
             reach = r + SLACK
             near = False
             for i in range(n_i):
-                if (x0 - reach <= esweep[i, 1] and x1 + reach >= esweep[i, 0]
-                        and y0 - reach <= esweep[i, 3] and y1 + reach >= esweep[i, 2]):  # fmt: skip
+                if (
+                    x0 - reach <= esweep[i, 1]
+                    and x1 + reach >= esweep[i, 0]
+                    and y0 - reach <= esweep[i, 3]
+                    and y1 + reach >= esweep[i, 2]
+                ):
                     live[i, k] = True
                     near = True
             if not near:
@@ -369,8 +392,18 @@ def _score_scene(scene: np.ndarray, pet_ref: float) -> np.ndarray:
                         _headings(ox[k], oy[k], n_t, yaw[k], oc[k], os_[k])
                         headed[k] = True
                     h = min(t, n - 2)  # the last point of a shorter grid: its last segment
-                    if _box_hit(dx, dy, ec[i, t], es[i, t], egos[i, 1], egos[i, 2],
-                                oc[k, h], os_[k, h], hl, hw):  # fmt: skip
+                    if _box_hit(
+                        dx,
+                        dy,
+                        ec[i, t],
+                        es[i, t],
+                        egos[i, 1],
+                        egos[i, 2],
+                        oc[k, h],
+                        os_[k, h],
+                        hl,
+                        hw,
+                    ):
                         meets[i, k] = True
                         if _from_behind(dx, dy, ec[i, t], es[i, t], oc[k, h], os_[k, h]):
                             break  # the follower's contact, not the plan's (conflict types)
@@ -404,9 +437,12 @@ def _score_scene(scene: np.ndarray, pet_ref: float) -> np.ndarray:
                             bound = limit if limit < best else best
                             if max(t_lo[a] - t_hi[b], t_lo[b] - t_hi[a]) >= bound:
                                 continue
-                            if (erun[i, a, 0] > orun[k, b, 1] or erun[i, a, 1] < orun[k, b, 0]
-                                    or erun[i, a, 2] > orun[k, b, 3]
-                                    or erun[i, a, 3] < orun[k, b, 2]):  # fmt: skip
+                            if (
+                                erun[i, a, 0] > orun[k, b, 1]
+                                or erun[i, a, 1] < orun[k, b, 0]
+                                or erun[i, a, 2] > orun[k, b, 3]
+                                or erun[i, a, 3] < orun[k, b, 2]
+                            ):
                                 continue
                             if not headed[k]:
                                 _headings(ox[k], oy[k], n_t, yaw[k], oc[k], os_[k])
@@ -438,8 +474,18 @@ def _score_scene(scene: np.ndarray, pet_ref: float) -> np.ndarray:
                                     h = min(m, n - 2)
                                     if _rear_end(ec[i, t], es[i, t], oc[k, h], os_[k, h]):
                                         continue  # following: TTC's and the headways' job
-                                    if _box_hit(dx, dy, ec[i, t], es[i, t], la, wa,
-                                                oc[k, h], os_[k, h], hl, hw):  # fmt: skip
+                                    if _box_hit(
+                                        dx,
+                                        dy,
+                                        ec[i, t],
+                                        es[i, t],
+                                        la,
+                                        wa,
+                                        oc[k, h],
+                                        os_[k, h],
+                                        hl,
+                                        hw,
+                                    ):
                                         best = dt
             pet[i, j] = best
     for i in range(n_i):

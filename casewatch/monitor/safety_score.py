@@ -63,10 +63,12 @@ def _directions(centres: np.ndarray, fallback: np.ndarray) -> tuple[np.ndarray, 
         moved = last >= 0
         flat = (np.maximum(last, 0) + np.arange(len(seg_x))[:, None] * t).ravel()
         fb = np.asarray(fallback, dtype=float)[:, None]
-        cos[..., :-1] = np.where(moved, (seg_x / safe).ravel().take(flat).reshape(moved.shape),
-                                 np.cos(fb))  # fmt: skip
-        sin[..., :-1] = np.where(moved, (seg_y / safe).ravel().take(flat).reshape(moved.shape),
-                                 np.sin(fb))  # fmt: skip
+        cos[..., :-1] = np.where(
+            moved, (seg_x / safe).ravel().take(flat).reshape(moved.shape), np.cos(fb)
+        )
+        sin[..., :-1] = np.where(
+            moved, (seg_y / safe).ravel().take(flat).reshape(moved.shape), np.sin(fb)
+        )
     cos[..., -1] = cos[..., -2]
     sin[..., -1] = sin[..., -2]
     return cos, sin
@@ -159,11 +161,18 @@ class _Movers:
         "xf",
         "y",
         "yf",
-    )  # fmt: skip
+    )
 
-    def __init__(self, centres: np.ndarray, fallback: np.ndarray, radius: np.ndarray,
-                 half: np.ndarray, convex: np.ndarray, footprints: Sequence[np.ndarray],
-                 n_egos: int):  # fmt: skip
+    def __init__(
+        self,
+        centres: np.ndarray,
+        fallback: np.ndarray,
+        radius: np.ndarray,
+        half: np.ndarray,
+        convex: np.ndarray,
+        footprints: Sequence[np.ndarray],
+        n_egos: int,
+    ):
         m, n = centres.shape[:2]
         cos, sin = _directions(centres, fallback)
         x = centres[..., 0]
@@ -370,10 +379,17 @@ def _exact(
     score_grid)."""
     if mv.all_boxes:
         return boxes_intersect(
-            mv.xf.take(fk) - mv.xf.take(fi), mv.yf.take(fk) - mv.yf.take(fi),
-            mv.cosf.take(fi), mv.sinf.take(fi), mv.hl.take(i), mv.hw.take(i),
-            mv.cosf.take(fh), mv.sinf.take(fh), mv.hl.take(k), mv.hw.take(k),
-        )  # fmt: skip
+            mv.xf.take(fk) - mv.xf.take(fi),
+            mv.yf.take(fk) - mv.yf.take(fi),
+            mv.cosf.take(fi),
+            mv.sinf.take(fi),
+            mv.hl.take(i),
+            mv.hw.take(i),
+            mv.cosf.take(fh),
+            mv.sinf.take(fh),
+            mv.hl.take(k),
+            mv.hw.take(k),
+        )
     ehalf = mv.half[i]
     ohalf = mv.half[k]
     boxes = ~(np.isnan(ehalf[:, 0]) | np.isnan(ohalf[:, 0]))
@@ -381,10 +397,17 @@ def _exact(
     if boxes.any():
         bfi, bfk, bfh = fi[boxes], fk[boxes], fh[boxes]
         hit[boxes] = boxes_intersect(
-            mv.xf.take(bfk) - mv.xf.take(bfi), mv.yf.take(bfk) - mv.yf.take(bfi),
-            mv.cosf.take(bfi), mv.sinf.take(bfi), ehalf[boxes, 0], ehalf[boxes, 1],
-            mv.cosf.take(bfh), mv.sinf.take(bfh), ohalf[boxes, 0], ohalf[boxes, 1],
-        )  # fmt: skip
+            mv.xf.take(bfk) - mv.xf.take(bfi),
+            mv.yf.take(bfk) - mv.yf.take(bfi),
+            mv.cosf.take(bfi),
+            mv.sinf.take(bfi),
+            ehalf[boxes, 0],
+            ehalf[boxes, 1],
+            mv.cosf.take(bfh),
+            mv.sinf.take(bfh),
+            ohalf[boxes, 0],
+            ohalf[boxes, 1],
+        )
     for row in np.nonzero(~boxes)[0]:
         # Polygon footprints are rare; one candidate at a time keeps ragged vertex counts simple.
         a = place(
@@ -412,8 +435,9 @@ def _rear_end(mv: _Movers, fi: np.ndarray, fh: np.ndarray) -> np.ndarray:
 
 def _from_behind(mv: _Movers, fi: np.ndarray, fk: np.ndarray, fh: np.ndarray) -> np.ndarray:
     """A rear-end contact with the object's centre behind the ego's: the follower's."""
-    ahead = ((mv.xf.take(fk) - mv.xf.take(fi)) * mv.cosf.take(fi)
-             + (mv.yf.take(fk) - mv.yf.take(fi)) * mv.sinf.take(fi))  # fmt: skip
+    ahead = (mv.xf.take(fk) - mv.xf.take(fi)) * mv.cosf.take(fi) + (
+        mv.yf.take(fk) - mv.yf.take(fi)
+    ) * mv.sinf.take(fi)
     return _rear_end(mv, fi, fh) & (ahead < -BEHIND_EPS)
 
 
@@ -488,8 +512,17 @@ def score_grid_numpy(
     lim = np.where(colliding, -np.inf, limit[pi, owner.take(pk)])
     keep = np.flatnonzero(lim > 0)
     if len(keep):
-        _pet(mv, owner, times, pi.take(keep), pk.take(keep), lim.take(keep), plen.take(keep),
-             uniform, pet)  # fmt: skip
+        _pet(
+            mv,
+            owner,
+            times,
+            pi.take(keep),
+            pk.take(keep),
+            lim.take(keep),
+            plen.take(keep),
+            uniform,
+            pet,
+        )
     ss = np.minimum(1.0, np.minimum(ttc / horizon[:, None], pet / pet_ref))
     return ss, ttc, pet
 
@@ -661,7 +694,9 @@ def prediction_horizon(objects: Objects) -> float:
 
 
 def safety_matrix(
-    channels: list[str], states: dict[str, ChannelState], pet_ref: float,
+    channels: list[str],
+    states: dict[str, ChannelState],
+    pet_ref: float,
     standing_is_clear: bool = False,
 ) -> dict[tuple[str, str], float | None]:
     """ss_ij for every ordered pair of declared channels: None when i or j is absent or plan i
@@ -705,7 +740,9 @@ def safety_matrix(
         world_objects = [states[j].objects for j in group]
         for members in _prefix_groups(cut):
             ss = score_grid(
-                [cut[i] for i in members], [states[i].ego for i in members], world_objects,
+                [cut[i] for i in members],
+                [states[i].ego for i in members],
+                world_objects,
                 pet_ref,
             )[0]
             for i, row in zip(members, ss.tolist(), strict=True):

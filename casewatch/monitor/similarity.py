@@ -238,8 +238,7 @@ def _object_kernel(
                 gap = gap / (1.0 + t_p / time_scale)
             num += w[p] * (1.0 / (1.0 + gap))
             den += w[p]
-            if p == length - 1 and (math.hypot(xa, ya) > standing
-                                    or math.hypot(xb, yb) > standing):
+            if p == length - 1 and (math.hypot(xa, ya) > standing or math.hypot(xb, yb) > standing):
                 moving = True
         if moving:
             ots += num / den
@@ -290,8 +289,7 @@ class ObjectComparison:
         lone = n_lone_a + n_lone_b
         out = {"ocs": 1.0 / (1.0 + abs(n_lone_a - n_lone_b))}
         counts = (self.pairs, self.pairs, self.pairs, self.ots_pairs)
-        for name, total, pairs in zip(("ols", "oos", "oas", "ots"), self.sums, counts,
-                                      strict=True):  # fmt: skip
+        for name, total, pairs in zip(("ols", "oos", "oas", "ots"), self.sums, counts, strict=True):
             mean = total / pairs if pairs else 1.0
             # spi-reference: 1.0 when nothing both channels can compare is there
             out[name] = (total + keep * mean) / (pairs + lone) if pairs + lone else 1.0
@@ -323,13 +321,28 @@ def compare_objects(
         return ObjectComparison((0.0, 0.0, 0.0, 0.0), 0, np.zeros(0, bool), np.zeros(0, bool), 0)
     w = _weights(decay, max(a.pred.shape[1], b.pred.shape[1], 1))
     ols, oos, oas, ots, n, n_ots, lone_a, lone_b = _object_kernel(
-        a.pos, a.yaw, a.half, a.footprints, a.pred, a.pred_len,
-        b.pos, b.yaw, b.half, b.footprints, b.pred, b.pred_len,
-        float(gate), w, all_a, all_b, float(standing),
+        a.pos,
+        a.yaw,
+        a.half,
+        a.footprints,
+        a.pred,
+        a.pred_len,
+        b.pos,
+        b.yaw,
+        b.half,
+        b.footprints,
+        b.pred,
+        b.pred_len,
+        float(gate),
+        w,
+        all_a,
+        all_b,
+        float(standing),
         np.zeros(len(a)) if range_a is None else range_a,
         np.zeros(len(b)) if range_b is None else range_b,
-        float(range_scale), float(time_scale),
-    )  # fmt: skip
+        float(range_scale),
+        float(time_scale),
+    )
     return ObjectComparison((ols, oos, oas, ots), int(n), lone_a, lone_b, int(n_ots))
 
 
@@ -349,8 +362,7 @@ def object_similarities(
     study's reading: a disagreement about whether anything is there is the least similar
     outcome."""
     cmp = compare_objects(a, b, gate, decay, core_a, core_b, standing)
-    return cmp.scores(np.full(int(cmp.lone_a.sum()), keep),
-                      np.full(int(cmp.lone_b.sum()), keep))
+    return cmp.scores(np.full(int(cmp.lone_a.sum()), keep), np.full(int(cmp.lone_b.sum()), keep))
 
 
 def ego_similarities(a: ChannelState, b: ChannelState) -> dict[str, float]:
@@ -390,7 +402,10 @@ def common_range(plan_a: np.ndarray, plan_b: np.ndarray) -> tuple[np.ndarray, np
 
 
 def ets(
-    plan_a: np.ndarray, plan_b: np.ndarray, decay: float, shift: tuple[float, float] | None = None,
+    plan_a: np.ndarray,
+    plan_b: np.ndarray,
+    decay: float,
+    shift: tuple[float, float] | None = None,
 ) -> float | None:
     """Weighted point-wise similarity of two plans on the canonical time grid over the time
     range both cover (spi-reference "ets"); None if a plan is empty or the ranges do not
@@ -477,8 +492,11 @@ def crpps_distance(plan_a: np.ndarray, plan_b: np.ndarray) -> float | None:
 
 
 def plan_lateral(
-    plan_a: np.ndarray, plan_b: np.ndarray, shift: tuple[float, float],
-    yaws: tuple[float, float], horizon: float,
+    plan_a: np.ndarray,
+    plan_b: np.ndarray,
+    shift: tuple[float, float],
+    yaws: tuple[float, float],
+    horizon: float,
 ) -> float | None:
     """plan_lat (spi-reference): the largest sideways distance between the two plans at equal
     times over their first `horizon` seconds, plan B moved by `shift` (ego A minus ego B, so a
@@ -504,8 +522,9 @@ def plan_lateral(
             norm = np.hypot(t[:, 0], t[:, 1])
             direction += t / np.where(norm > 1e-3, norm, np.inf)[:, None]
     norm = np.hypot(direction[:, 0], direction[:, 1])
-    fallback = np.array([math.cos(yaws[0]) + math.cos(yaws[1]),
-                         math.sin(yaws[0]) + math.sin(yaws[1])])
+    fallback = np.array(
+        [math.cos(yaws[0]) + math.cos(yaws[1]), math.sin(yaws[0]) + math.sin(yaws[1])]
+    )
     fallback /= max(float(np.hypot(*fallback)), 1e-12)
     moving = norm > 1e-3
     ux = np.where(moving, direction[:, 0] / np.where(moving, norm, 1.0), fallback[0])

@@ -167,8 +167,9 @@ def _shares_lane(x0, y0, heading, px, py, yaw, half_width):  # pragma: no cover 
 
 
 @kernel
-def _nearest(path, pos, yaw, hl, hw, vel, half_width, ego_half, hold, lane_x, lane_y,
-             lane_heading, lane):  # pragma: no cover - compiled  # fmt: skip
+def _nearest(
+    path, pos, yaw, hl, hw, vel, half_width, ego_half, hold, lane_x, lane_y, lane_heading, lane
+):  # pragma: no cover - compiled
     """The object with the smallest gap among those within `half_width` of `path` at positive
     arc length whose velocity across the path keeps it there for `hold` seconds (its signed
     offset from the nearest segment's line plus `hold` times its velocity across it stays
@@ -209,8 +210,9 @@ def _nearest(path, pos, yaw, hl, hw, vel, half_width, ego_half, hold, lane_x, la
         drift = ux_best * vel[k, 1] - uy_best * vel[k, 0]
         if abs(lat_best + hold * drift) > half_width + EPS:
             continue  # crossing the corridor: passing through, not in the lane (LANE_HOLD)
-        if lane and not _shares_lane(lane_x, lane_y, lane_heading, pos[k, 0], pos[k, 1],
-                                     yaw[k], half_width):  # fmt: skip
+        if lane and not _shares_lane(
+            lane_x, lane_y, lane_heading, pos[k, 0], pos[k, 1], yaw[k], half_width
+        ):
             continue  # in the planned path, but not yet in the ego's lane (LEAD_LANE)
         # |cos| and |sin| of the heading against the tangent, the sine from the cross product:
         # sqrt(1 - cos^2) turns a rounding error of 1e-16 in cos into 1e-8 (a rigid motion of
@@ -239,13 +241,15 @@ def path_behind(ego: Ego, history: np.ndarray, lookahead: float) -> np.ndarray:
     """(P, 2) polyline from the ego back along its driven positions `history` (oldest first),
     extended straight backwards to `lookahead` metres; straight back along its heading when
     it has not moved."""
-    return _path(ego.x, ego.y, history[:, 0], history[:, 1], True, float(ego.yaw) + math.pi,
-                 float(lookahead))  # fmt: skip
+    return _path(
+        ego.x, ego.y, history[:, 0], history[:, 1], True, float(ego.yaw) + math.pi, float(lookahead)
+    )
 
 
 @kernel
-def _in_own_lane(x0, y0, heading, ego_half, ego_hw, pos, yaw, hl, half_width,
-                 lookahead):  # pragma: no cover - compiled  # fmt: skip
+def _in_own_lane(
+    x0, y0, heading, ego_half, ego_hw, pos, yaw, hl, half_width, lookahead
+):  # pragma: no cover - compiled
     """The nearest object behind the ego whose own lane holds the ego: the ego's centre lies
     ahead of it, within `half_width` of the line along its heading, and the two head less
     than FOLLOW_ALIGN apart. (index or -1, gap, and the unit vector from the ego towards it,
@@ -280,8 +284,25 @@ def _in_own_lane(x0, y0, heading, ego_half, ego_hw, pos, yaw, hl, half_width,
 
 
 @kernel
-def _neighbours(x0, y0, heading, plan_x, plan_y, driven_x, driven_y, behind, pos, yaw, hl, hw,
-                vel, half_width, ego_half, ego_hw, lookahead):  # pragma: no cover - compiled
+def _neighbours(
+    x0,
+    y0,
+    heading,
+    plan_x,
+    plan_y,
+    driven_x,
+    driven_y,
+    behind,
+    pos,
+    yaw,
+    hl,
+    hw,
+    vel,
+    half_width,
+    ego_half,
+    ego_hw,
+    lookahead,
+):  # pragma: no cover - compiled
     """Leader along the plan and (when `behind`) follower in one call: (lead gap, lead speed
     along the path, 1.0 if there is a leader, and the same three for the follower). The
     follower is the nearer of the one along the driven path and the one whose own lane holds
@@ -289,18 +310,21 @@ def _neighbours(x0, y0, heading, plan_x, plan_y, driven_x, driven_y, behind, pos
     out = np.zeros(6)
     out[0] = out[3] = GAP_CAP
     path = _path(x0, y0, plan_x, plan_y, False, heading, lookahead)
-    k, gap, ux, uy = _nearest(path, pos, yaw, hl, hw, vel, half_width, ego_half, LANE_HOLD,
-                              x0, y0, heading, True)  # fmt: skip
+    k, gap, ux, uy = _nearest(
+        path, pos, yaw, hl, hw, vel, half_width, ego_half, LANE_HOLD, x0, y0, heading, True
+    )
     if k >= 0:
         out[0] = min(gap, GAP_CAP)
         out[1] = vel[k, 0] * ux + vel[k, 1] * uy
         out[2] = 1.0
     if behind:
         path = _path(x0, y0, driven_x, driven_y, True, heading + math.pi, lookahead)
-        k, gap, ux, uy = _nearest(path, pos, yaw, hl, hw, vel, half_width, ego_half, LANE_HOLD,
-                                  x0, y0, heading, False)  # fmt: skip
-        k2, gap2, ux2, uy2 = _in_own_lane(x0, y0, heading, ego_half, ego_hw, pos, yaw, hl,
-                                          half_width, lookahead)  # fmt: skip
+        k, gap, ux, uy = _nearest(
+            path, pos, yaw, hl, hw, vel, half_width, ego_half, LANE_HOLD, x0, y0, heading, False
+        )
+        k2, gap2, ux2, uy2 = _in_own_lane(
+            x0, y0, heading, ego_half, ego_hw, pos, yaw, hl, half_width, lookahead
+        )
         if k2 >= 0 and (k < 0 or gap2 < gap - EPS):
             k, gap, ux, uy = k2, gap2, ux2, uy2
         if k >= 0:
@@ -322,8 +346,13 @@ def _half_extents(objects: Objects) -> tuple[np.ndarray, np.ndarray]:
 
 
 def neighbours(
-    ego: Ego, plan: np.ndarray, driven: np.ndarray | None, objects: Objects, half_width: float,
-    ego_half: float, lookahead: float,
+    ego: Ego,
+    plan: np.ndarray,
+    driven: np.ndarray | None,
+    objects: Objects,
+    half_width: float,
+    ego_half: float,
+    lookahead: float,
 ) -> tuple[Neighbour, Neighbour | None]:
     """The leader along `plan` and, when `driven` (the ego's earlier positions, oldest first)
     is given, the follower (along that path, or in whose own lane the ego drives): one
@@ -333,9 +362,25 @@ def neighbours(
     hl, hw = _half_extents(objects)
     d = driven if driven is not None else _NO_POINTS
     ego_hw = float(np.max(np.abs(ego.footprint[:, 1])))
-    v = _neighbours(ego.x, ego.y, float(ego.yaw), plan[:, 1], plan[:, 2], d[:, 0], d[:, 1],
-                    driven is not None, objects.pos, objects.yaw, hl, hw, objects.vel,
-                    float(half_width), float(ego_half), ego_hw, float(lookahead))  # fmt: skip
+    v = _neighbours(
+        ego.x,
+        ego.y,
+        float(ego.yaw),
+        plan[:, 1],
+        plan[:, 2],
+        d[:, 0],
+        d[:, 1],
+        driven is not None,
+        objects.pos,
+        objects.yaw,
+        hl,
+        hw,
+        objects.vel,
+        float(half_width),
+        float(ego_half),
+        ego_hw,
+        float(lookahead),
+    )
     lead = Neighbour(float(v[0]), float(v[1]), bool(v[2]))
     if driven is None:
         return lead, None
@@ -375,9 +420,21 @@ def neighbour(
     if len(objects) == 0:
         return NONE
     hl, hw = _half_extents(objects)
-    k, gap, ux, uy = _nearest(path, objects.pos, objects.yaw, hl, hw, objects.vel,
-                              float(half_width), float(ego_half_length), LANE_HOLD, ego.x, ego.y,
-                              float(ego.yaw), False)  # fmt: skip
+    k, gap, ux, uy = _nearest(
+        path,
+        objects.pos,
+        objects.yaw,
+        hl,
+        hw,
+        objects.vel,
+        float(half_width),
+        float(ego_half_length),
+        LANE_HOLD,
+        ego.x,
+        ego.y,
+        float(ego.yaw),
+        False,
+    )
     if k < 0:
         return NONE
     speed = float(objects.vel[k, 0] * ux + objects.vel[k, 1] * uy)

@@ -35,12 +35,25 @@ def _channel(t: float, offset: float, ids: tuple[Any, Any], coarse: bool) -> dic
         "ego": {"x": x, "y": 0.0, "yaw": 0.0, "length": 4.5, "width": 1.9},
         "plan": plan,
         "objects": [
-            {"id": ids[0], "x": x + 12.0, "y": 0.0, "length": 4.5, "width": 1.9,
-             "prediction": ahead},
-            {"id": ids[1], "x": x + 8.0, "y": -6.0, "yaw": math.pi / 2, "length": 4.5, "width": 1.9,
-             "prediction": crossing},
+            {
+                "id": ids[0],
+                "x": x + 12.0,
+                "y": 0.0,
+                "length": 4.5,
+                "width": 1.9,
+                "prediction": ahead,
+            },
+            {
+                "id": ids[1],
+                "x": x + 8.0,
+                "y": -6.0,
+                "yaw": math.pi / 2,
+                "length": 4.5,
+                "width": 1.9,
+                "prediction": crossing,
+            },
         ],
-    }  # fmt: skip
+    }
 
 
 def warm_up(frames: int = 35) -> None:

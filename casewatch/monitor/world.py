@@ -23,6 +23,8 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+from casewatch.errors import CasewatchError
+
 #: Distance [m] a traffic light or stop line reads when there is none ahead (the rules compare
 #: distances, so "none" must be a number far away, like the situation signals' GAP_CAP).
 NONE_AHEAD = 1000.0
@@ -74,7 +76,7 @@ CROSSING_SIDE = "crossing_side"
 SIDES = {"left": 1.0, "right": 2.0}
 
 
-class WorldError(ValueError):
+class WorldError(CasewatchError, ValueError):
     """A `world` entry that cannot be read; the message names the key."""
 
 
@@ -115,9 +117,22 @@ def _map(v: Any, where: str, known: tuple[str, ...] | None = None) -> dict:
     return v
 
 
-KEYS = ("speed", "speed_limit", "traffic_light", "stop_sign", "marking", "crossing",
-        "indicator", "lights", "collisions", "route", "blocked", "timeouts",
-        "emergency_vehicle", "traffic_speed")  # fmt: skip
+KEYS = (
+    "speed",
+    "speed_limit",
+    "traffic_light",
+    "stop_sign",
+    "marking",
+    "crossing",
+    "indicator",
+    "lights",
+    "collisions",
+    "route",
+    "blocked",
+    "timeouts",
+    "emergency_vehicle",
+    "traffic_speed",
+)
 ROUTE_KEYS = ("progress", "length", "outside_lanes", "deviated")
 TIMEOUT_KEYS = ("route", "scenario")
 
@@ -140,14 +155,16 @@ def parse_world(raw: Any) -> dict[str, float | None]:
     stop = w.get("stop_sign")
     out["stop_distance"] = NONE_AHEAD
     if stop is not None:
-        out["stop_distance"] = _num(_map(stop, "world.stop_sign").get("distance"),
-                                    "world.stop_sign.distance")  # fmt: skip
+        out["stop_distance"] = _num(
+            _map(stop, "world.stop_sign").get("distance"), "world.stop_sign.distance"
+        )
     marking = w.get("marking")
     out["marking"] = 0.0 if marking is None else _choice(marking, MARKINGS, "world.marking")
     if w.get("crossing") is not None:
         if marking is None:
-            raise WorldError("world.crossing: a side without a marking being crossed "
-                             "(world.marking)")  # fmt: skip
+            raise WorldError(
+                "world.crossing: a side without a marking being crossed (world.marking)"
+            )
         out[CROSSING_SIDE] = _choice(w["crossing"], SIDES, "world.crossing")
     elif marking is None:
         out[CROSSING_SIDE] = 0.0  # nothing crossed: no side to report
@@ -179,8 +196,7 @@ def parse_world(raw: Any) -> dict[str, float | None]:
     if w.get("route") is not None:
         route = _map(w["route"], "world.route", ROUTE_KEYS)
         out["route_progress"] = _num(route.get("progress"), "world.route.progress")
-        out["route_length"] = _num(route.get("length"), "world.route.length",
-                                   allow_negative=False)  # fmt: skip
+        out["route_length"] = _num(route.get("length"), "world.route.length", allow_negative=False)
         for key, name in (("outside_lanes", "route_outside_lanes"), ("deviated", "route_deviated")):
             if route.get(key) is not None:
                 out[name] = _bool(route[key], f"world.route.{key}")
@@ -194,13 +210,15 @@ def parse_world(raw: Any) -> dict[str, float | None]:
     if w.get("emergency_vehicle") is not None:
         ev = _map(w["emergency_vehicle"], "world.emergency_vehicle")
         if set(ev) - {"failed_to_yield"}:
-            raise WorldError("world.emergency_vehicle: expected {\"failed_to_yield\": true|false}, "
-                             f"got keys {', '.join(sorted(ev))}")  # fmt: skip
-        out["yield_failed"] = _bool(ev.get("failed_to_yield"),
-                                    "world.emergency_vehicle.failed_to_yield")  # fmt: skip
+            raise WorldError(
+                'world.emergency_vehicle: expected {"failed_to_yield": true|false}, '
+                f"got keys {', '.join(sorted(ev))}"
+            )
+        out["yield_failed"] = _bool(
+            ev.get("failed_to_yield"), "world.emergency_vehicle.failed_to_yield"
+        )
     if w.get("traffic_speed") is not None:
-        out["traffic_speed"] = _num(w["traffic_speed"], "world.traffic_speed",
-                                    allow_negative=False)  # fmt: skip
+        out["traffic_speed"] = _num(w["traffic_speed"], "world.traffic_speed", allow_negative=False)
     return out
 
 
@@ -215,5 +233,7 @@ def condition_values(conditions: dict) -> dict[str, float | None]:
     """`night` and `fog` from the reported conditions (no value when not reported)."""
     light = conditions.get("environment.light")
     weather = conditions.get("environment.weather")
-    return {"night": None if light is None else float(light == "night"),
-            "fog": None if weather is None else float(weather == "fog")}  # fmt: skip
+    return {
+        "night": None if light is None else float(light == "night"),
+        "fog": None if weather is None else float(weather == "fog"),
+    }

@@ -45,8 +45,7 @@ def _plot(row: dict, budget: float) -> dict | None:
         return None
     tradeoff = row["faults"] > 0
     # the rate axis ends a little past what matters: the budget and the two marked points
-    cap = max(3 * budget, row["original"]["per_hour"] or 0.0, row["chosen"]["per_hour"] or 0.0,
-              1.0)  # fmt: skip
+    cap = max(3 * budget, row["original"]["per_hour"] or 0.0, row["chosen"]["per_hour"] or 0.0, 1.0)
     thresholds = [p["threshold"] for p in curve]
     lo, hi = min(thresholds), max(thresholds)
     span = (hi - lo) or 1.0
@@ -85,11 +84,19 @@ def _plot(row: dict, budget: float) -> dict | None:
         x_ticks = [(f"{lo + v * span:.3g}", g.x(v)) for v in (0.0, 0.5, 1.0)]
         y_ticks = [(f"{v * cap:.3g}", g.y(v)) for v in (0.0, 0.5, 1.0)]
     return {
-        **g.__dict__, "lines": lines, "hidden": hidden, "cap": f"{cap:.3g}",
-        "tradeoff": tradeoff, "budget_at": round(budget_at, 2), "x_label": x_label,
-        "y_label": y_label, "x_ticks": x_ticks, "y_ticks": y_ticks,
-        "chosen": mark(row["chosen"], "chosen"), "original": mark(row["original"], "original"),
-    }  # fmt: skip
+        **g.__dict__,
+        "lines": lines,
+        "hidden": hidden,
+        "cap": f"{cap:.3g}",
+        "tradeoff": tradeoff,
+        "budget_at": round(budget_at, 2),
+        "x_label": x_label,
+        "y_label": y_label,
+        "x_ticks": x_ticks,
+        "y_ticks": y_ticks,
+        "chosen": mark(row["chosen"], "chosen"),
+        "original": mark(row["original"], "original"),
+    }
 
 
 def render_calibration(report: dict) -> str:
@@ -97,19 +104,35 @@ def render_calibration(report: dict) -> str:
     rows = []
     for r in report["spis"]:
         same = (r["original"]["threshold"], r["original"]["for"]) == (
-            r["chosen"]["threshold"], r["chosen"]["for"])  # fmt: skip
-        rows.append({
-            "formula": r["formula"], "parameter": r["parameter"], "hours": f"{r['hours']:.2f}",
-            "original": _setting(r["original"], r["op"]), "original_rate": _rate(r["original"]),
-            "chosen": "(the original)" if same else _setting(r["chosen"], r["op"]),
-            "chosen_rate": _rate(r["chosen"]), "status": r["status"], "reason": r["reason"],
-            "over": r["original_over_budget"],
-            "detection": _detection(r["chosen"], r["faults"]),
-            "plot": _plot(r, report["per_hour"]),
-        })  # fmt: skip
+            r["chosen"]["threshold"],
+            r["chosen"]["for"],
+        )
+        rows.append(
+            {
+                "formula": r["formula"],
+                "parameter": r["parameter"],
+                "hours": f"{r['hours']:.2f}",
+                "original": _setting(r["original"], r["op"]),
+                "original_rate": _rate(r["original"]),
+                "chosen": "(the original)" if same else _setting(r["chosen"], r["op"]),
+                "chosen_rate": _rate(r["chosen"]),
+                "status": r["status"],
+                "reason": r["reason"],
+                "over": r["original_over_budget"],
+                "detection": _detection(r["chosen"], r["faults"]),
+                "plot": _plot(r, report["per_hour"]),
+            }
+        )
     return render_page(
-        "calibration.html.j2", case_name=report["case"], logs=report["logs"],
-        hours=report["hours"], budget=report["per_hour"], min_hours=report["min_hours"],
-        margin=report["margin"], faults=report["faults"], tighten=report["tighten"],
-        confidence=report["confidence"], rows=rows,
-    )  # fmt: skip
+        "calibration.html.j2",
+        case_name=report["case"],
+        logs=report["logs"],
+        hours=report["hours"],
+        budget=report["per_hour"],
+        min_hours=report["min_hours"],
+        margin=report["margin"],
+        faults=report["faults"],
+        tighten=report["tighten"],
+        confidence=report["confidence"],
+        rows=rows,
+    )

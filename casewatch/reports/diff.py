@@ -28,7 +28,7 @@ MEANING = {
     "gone": "in A only, without labels to say whether it was a false alarm or a hazard",
     "moved": "in one run only, but the other run finds its label with another episode",
     "changed": "paired by overlap, but moved by more than a period or with another worst "
-               "robustness",
+    "robustness",
 }
 
 
@@ -58,47 +58,72 @@ def _rate(v: float | None) -> str:
 def _labels_line(d: dict) -> str:
     if d.get("labelled"):
         return f"hazards judged against the labels {d.get('labels', '')}"
-    return (f"no labels ({d.get('labels') or 'not given'}): episodes in A only are 'gone', "
-            "not 'fixed'")
+    return (
+        f"no labels ({d.get('labels') or 'not given'}): episodes in A only are 'gone', not 'fixed'"
+    )
 
 
 def render_diff_md(report: dict) -> str:
     """Markdown: a summary line per log, then the nodes with differences."""
-    lines = [f"# Run diff: {report['a']} -> {report['b']}", "",
-             f"Policy `--fail-on {report['fail_on']}`: {report['regressions']} regression(s) "
-             f"(new episodes and lost detections it counts).", ""]  # fmt: skip
+    lines = [
+        f"# Run diff: {report['a']} -> {report['b']}",
+        "",
+        f"Policy `--fail-on {report['fail_on']}`: {report['regressions']} regression(s) "
+        f"(new episodes and lost detections it counts).",
+        "",
+    ]
     for name in report["only_a"]:
         lines.append(f"- `{name}`: only in A")
     for name in report["only_b"]:
         lines.append(f"- `{name}`: only in B")
     for d in report["logs"]:
-        lines += ["", f"## {d['log']}", "",
-                  f"Verdict {d['verdict_a']} -> {d['verdict_b']}; episodes per hour "
-                  f"{_rate(d['per_hour_a'])} -> {_rate(d['per_hour_b'])}"
-                  + ("" if d["same_stream"] else " (the two runs read different streams)")
-                  + f"; {_labels_line(d)}.", ""]  # fmt: skip
+        lines += [
+            "",
+            f"## {d['log']}",
+            "",
+            f"Verdict {d['verdict_a']} -> {d['verdict_b']}; episodes per hour "
+            f"{_rate(d['per_hour_a'])} -> {_rate(d['per_hour_b'])}"
+            + ("" if d["same_stream"] else " (the two runs read different streams)")
+            + f"; {_labels_line(d)}.",
+            "",
+        ]
         rows = [r for r in d["nodes"] if any(r[k] for k in COLUMNS)]
         if not rows:
             lines.append("No episode differs.")
             continue
         columns = columns_of(d)
-        lines += ["| node | kind | A | B | " + " | ".join(CHANGE_LABELS[k] for k in columns) + " |",
-                  "| --- " * (4 + len(columns)) + "|"]  # fmt: skip
+        lines += [
+            "| node | kind | A | B | " + " | ".join(CHANGE_LABELS[k] for k in columns) + " |",
+            "| --- " * (4 + len(columns)) + "|",
+        ]
         for r in rows:
-            lines.append(f"| {r['formula']} | {r['kind']} | {r['a']} | {r['b']} | "
-                         + " | ".join(str(len(r[k])) for k in columns) + " |")
+            lines.append(
+                f"| {r['formula']} | {r['kind']} | {r['a']} | {r['b']} | "
+                + " | ".join(str(len(r[k])) for k in columns)
+                + " |"
+            )
         for r in rows:
             for kind in CHANGE_KINDS:
                 for s in r[kind]:
                     lines.append(f"- {CHANGE_LABELS[kind]} {r['formula']}: {_span(s)}")
             for c in r["changed"]:
                 lines.append(f"- changed {r['formula']}: {_span(c['a'])} -> {_span(c['b'])}")
-    lines += ["", "Meaning: " + "; ".join(f"**{CHANGE_LABELS[k]}**: {MEANING[k]}"
-                                           for k in COLUMNS) + "."]  # fmt: skip
+    lines += [
+        "",
+        "Meaning: " + "; ".join(f"**{CHANGE_LABELS[k]}**: {MEANING[k]}" for k in COLUMNS) + ".",
+    ]
     return "\n".join(lines) + "\n"
 
 
 def render_diff_html(report: dict) -> str:
-    return render_page("diff.html.j2", {"span": _span, "rate": _rate, "tone": tone},
-                       r=report, columns=COLUMNS, columns_of=columns_of, kinds=CHANGE_KINDS,
-                       names=CHANGE_LABELS, meaning=MEANING, labels_line=_labels_line)  # fmt: skip
+    return render_page(
+        "diff.html.j2",
+        {"span": _span, "rate": _rate, "tone": tone},
+        r=report,
+        columns=COLUMNS,
+        columns_of=columns_of,
+        kinds=CHANGE_KINDS,
+        names=CHANGE_LABELS,
+        meaning=MEANING,
+        labels_line=_labels_line,
+    )

@@ -39,28 +39,41 @@ def fleet_view(summary: dict, folder: Path) -> dict:
         link = None
         if report.is_file():
             link = os.path.relpath(report.resolve(), folder.resolve())
-        logs.append({
-            "name": Path(log["out_dir"]).name, "stream": log["stream"], "ok": log.get("ok", True),
-            "error": log.get("error", ""), "verdict": log.get("verdict", "failed"),
-            "frames": log.get("frames", 0), "hours": round(hours, 4), "spi": spi,
-            "hazard": hazard, "per_hour": _rate(spi + hazard, hours), "link": link,
-            "too_little_data": log.get("too_little_data", False),
-        })  # fmt: skip
-    worst = sorted((x for x in logs if x["per_hour"] is not None),
-                   key=lambda x: (-x["per_hour"], x["name"]))[:WORST]  # fmt: skip
+        logs.append(
+            {
+                "name": Path(log["out_dir"]).name,
+                "stream": log["stream"],
+                "ok": log.get("ok", True),
+                "error": log.get("error", ""),
+                "verdict": log.get("verdict", "failed"),
+                "frames": log.get("frames", 0),
+                "hours": round(hours, 4),
+                "spi": spi,
+                "hazard": hazard,
+                "per_hour": _rate(spi + hazard, hours),
+                "link": link,
+                "too_little_data": log.get("too_little_data", False),
+            }
+        )
+    worst = sorted(
+        (x for x in logs if x["per_hour"] is not None), key=lambda x: (-x["per_hour"], x["name"])
+    )[:WORST]
     formulas = summary.get("formulas", [])
     return {
         "case": summary.get("case", {}).get("path", ""),
-        "logs": summary.get("logs", len(logs)), "hours": summary.get("hours", 0.0),
-        "frames": summary.get("frames", 0), "failed": summary.get("logs_failed", 0),
+        "logs": summary.get("logs", len(logs)),
+        "hours": summary.get("hours", 0.0),
+        "frames": summary.get("frames", 0),
+        "failed": summary.get("logs_failed", 0),
         "crashed": summary.get("logs_crashed", 0),
         "without_data": summary.get("logs_without_data", 0),
         "verdicts": sorted(summary.get("verdicts", {}).items(), key=lambda kv: -kv[1]),
         "spis": sorted((f for f in formulas if f["kind"] == "spi"), key=_natural),
         "hazards": sorted((f for f in formulas if f["kind"] == "hazard"), key=_natural),
         "truth": summary.get("ground_truth"),
-        "worst": worst, "rows": logs,
-    }  # fmt: skip
+        "worst": worst,
+        "rows": logs,
+    }
 
 
 def render_fleet(summary: dict, folder: Path) -> str:

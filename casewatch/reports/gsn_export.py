@@ -104,8 +104,7 @@ def _monitor(monitor: MonitorConfig) -> dict[str, Any]:
     if monitor.signals:
         out["signals"] = dict(monitor.signals)
     if monitor.coverage:
-        out["coverage"] = {c: v.model_dump(exclude_none=True)
-                           for c, v in monitor.coverage.items()}  # fmt: skip
+        out["coverage"] = {c: v.model_dump(exclude_none=True) for c, v in monitor.coverage.items()}
     if monitor.topics is not None:
         out["topics"] = monitor.topics
     return out
@@ -129,7 +128,8 @@ def _node(node: Node, status: str | None) -> dict[str, Any]:
         classes = node.gsn.get("classes") or []
         classes = [classes] if isinstance(classes, str) else list(classes)
         out["classes"] = [c for c in classes if not c.startswith("casewatch_")] + [
-            status_class(status)]
+            status_class(status)
+        ]
     return out
 
 
@@ -165,11 +165,16 @@ def gsn_document(case: Case, statuses: dict[str, str] | None = None) -> dict[str
 
 def status_css() -> str:
     """CSS for gsn2x's SVG: the worst status of each node as its outline and fill."""
-    rules = [f".{status_class(s)} rect, .{status_class(s)} path, .{status_class(s)} ellipse, "
-             f".{status_class(s)} polygon {{ stroke: {stroke}; fill: {fill}; stroke-width: 2; }}"
-             for s, (stroke, fill) in STATUS_STYLE.items()]  # fmt: skip
-    return ("/* casewatch: each node's worst status over a run (casewatch export-gsn) */\n"
-            + "\n".join(rules) + "\n")
+    rules = [
+        f".{status_class(s)} rect, .{status_class(s)} path, .{status_class(s)} ellipse, "
+        f".{status_class(s)} polygon {{ stroke: {stroke}; fill: {fill}; stroke-width: 2; }}"
+        for s, (stroke, fill) in STATUS_STYLE.items()
+    ]
+    return (
+        "/* casewatch: each node's worst status over a run (casewatch export-gsn) */\n"
+        + "\n".join(rules)
+        + "\n"
+    )
 
 
 def write_gsn(case: Case, out_dir: Path, statuses: dict[str, str] | None = None) -> list[Path]:
@@ -178,8 +183,9 @@ def write_gsn(case: Case, out_dir: Path, statuses: dict[str, str] | None = None)
     stem = "".join(c if c.isalnum() or c in "-_." else "-" for c in case.module.name) or "case"
     path = out_dir / f"{stem}.gsn.yaml"
     header = "# gsn2x argument written by casewatch export-gsn (docs/gsn2x.md)\n"
-    text = yaml.safe_dump(gsn_document(case, statuses), sort_keys=False, allow_unicode=True,
-                          width=100)  # fmt: skip
+    text = yaml.safe_dump(
+        gsn_document(case, statuses), sort_keys=False, allow_unicode=True, width=100
+    )
     path.write_text(header + text, encoding="utf-8")
     written = [path]
     if statuses is not None:

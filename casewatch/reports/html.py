@@ -107,9 +107,11 @@ def _plots(result: RunResult) -> list[PlotCard]:
             continue
         episodes = [e for e in result.episodes if e.formula_id == formula.id]
         gaps = [g for g in result.data_gaps if g.formula_id == formula.id]
-        labels = [(lab.start, lab.end) for lab in
-                  (result.ground_truth.labels if result.ground_truth else [])
-                  if lab.node_id == formula.node_id]  # fmt: skip
+        labels = [
+            (lab.start, lab.end)
+            for lab in (result.ground_truth.labels if result.ground_truth else [])
+            if lab.node_id == formula.node_id
+        ]
         plot = plot_series(series, episodes, gaps, result.case.period, t_range, labels)
         if series.quantity == "signal":
             title = f"{series.name} {formula.threshold or ''}".strip()
@@ -144,8 +146,10 @@ def _arbitration(result: RunResult) -> tuple[list[ArbitrationRect], dict[str, st
     """The recommended channel over the run as a strip (one rectangle per pixel column at
     most, the channel covering most of a column wins it) and each channel's CSS class."""
     channels = sorted({iv.channel or "none" for iv in result.arbitration})
-    css = {c: ("arb-none" if c == "none" else f"arb-{k % 4}") for k, c in enumerate(
-        [c for c in channels if c != "none"])}  # fmt: skip
+    css = {
+        c: ("arb-none" if c == "none" else f"arb-{k % 4}")
+        for k, c in enumerate([c for c in channels if c != "none"])
+    }
     css.setdefault("none", "arb-none")
     t0 = result.stream.t_start or 0.0
     t1 = (result.stream.t_end if result.stream.t_end is not None else t0) + result.case.period

@@ -61,8 +61,10 @@ def _case(
     if episodes and not gated(formula.kind, fail_on):
         noun = "episode" if formula.kind == "spi" else "event"
         worst = min(episodes, key=lambda e: e.worst_robustness)
-        out.append(f"{len(episodes)} {noun}{'s' if len(episodes) != 1 else ''}, not counted as "
-                   f"failures (--fail-on {fail_on}); worst {_episode_line(worst)}")
+        out.append(
+            f"{len(episodes)} {noun}{'s' if len(episodes) != 1 else ''}, not counted as "
+            f"failures (--fail-on {fail_on}); worst {_episode_line(worst)}"
+        )
         episodes = []
     ET.SubElement(case, "system-out").text = xml_text("\n".join(out))
     if episodes:
@@ -131,15 +133,30 @@ def render_junit(result: RunResult) -> str:
             )
             tests, failures, errors = tests + 1, failures + f_count, errors + e_count
     if damaged(result.stream.defect_count):  # a finding under every --fail-on policy
-        stream_case = ET.SubElement(suite, "testcase", classname=f"casewatch.{slug}.stream",
-                                    name="stream read without damage")  # fmt: skip
-        message = (f"the log is damaged: {result.stream.defect_count} stream defect(s); the "
-                   "frames they lost were not judged")
-        failure = ET.SubElement(stream_case, "failure", message=xml_text(message),
-                                type="casewatch.damage")  # fmt: skip
-        failure.text = xml_text("\n".join(
-            [message, *(f"  line {d.line}: {d.kind}: {d.message}"
-                        for d in result.stream.defects[:JUNIT_EPISODE_CAP])]))  # fmt: skip
+        stream_case = ET.SubElement(
+            suite,
+            "testcase",
+            classname=f"casewatch.{slug}.stream",
+            name="stream read without damage",
+        )
+        message = (
+            f"the log is damaged: {result.stream.defect_count} stream defect(s); the "
+            "frames they lost were not judged"
+        )
+        failure = ET.SubElement(
+            stream_case, "failure", message=xml_text(message), type="casewatch.damage"
+        )
+        failure.text = xml_text(
+            "\n".join(
+                [
+                    message,
+                    *(
+                        f"  line {d.line}: {d.kind}: {d.message}"
+                        for d in result.stream.defects[:JUNIT_EPISODE_CAP]
+                    ),
+                ]
+            )
+        )
         tests, failures = tests + 1, failures + 1
     if not result.complete:
         case = ET.SubElement(

@@ -50,17 +50,38 @@ def _contracts(result: RunResult) -> list[str]:
     rows = [f for f in result.formulas if f.assumption is not None]
     if not rows:
         return []
-    return ["", "## Contracts", "",
-            "Judged only where the assumption holds; elsewhere *outside assumption*, neither a "
-            "pass nor a violation.", "",
-            *_table(["node", "library", "assume", "guarantee", "violated / judged",
-                     "outside assumption", "no data"],
-                    [[f"**{md_escape(f.node_id)}** {md_escape(f.node_text)}",
-                      md_code(f.contract_use) if f.contract_use else "",
-                      md_code(f.assumption), md_code(f.source),
-                      f"{f.ticks_violated:,} / {f.ticks_evaluated:,}",
-                      f"{f.ticks_outside_assumption:,}", f"{f.ticks_no_data:,}"]
-                     for f in rows], ["l", "l", "l", "l", "r", "r", "r"])]  # fmt: skip
+    return [
+        "",
+        "## Contracts",
+        "",
+        "Judged only where the assumption holds; elsewhere *outside assumption*, neither a "
+        "pass nor a violation.",
+        "",
+        *_table(
+            [
+                "node",
+                "library",
+                "assume",
+                "guarantee",
+                "violated / judged",
+                "outside assumption",
+                "no data",
+            ],
+            [
+                [
+                    f"**{md_escape(f.node_id)}** {md_escape(f.node_text)}",
+                    md_code(f.contract_use) if f.contract_use else "",
+                    md_code(f.assumption),
+                    md_code(f.source),
+                    f"{f.ticks_violated:,} / {f.ticks_evaluated:,}",
+                    f"{f.ticks_outside_assumption:,}",
+                    f"{f.ticks_no_data:,}",
+                ]
+                for f in rows
+            ],
+            ["l", "l", "l", "l", "r", "r", "r"],
+        ),
+    ]
 
 
 def _odd(result: RunResult) -> list[str]:
@@ -71,14 +92,30 @@ def _odd(result: RunResult) -> list[str]:
     def by(counts: dict[str, int]) -> str:
         return ", ".join(f"{md_code(k)} {v:,}" for k, v in counts.items())
 
-    return ["", "## Operational design domain", "",
-            "Outside the ODD the argument claims nothing: what would be satisfied there is "
-            "*outside ODD*; violations stay violations.", "",
-            *_table(["context", "ODD", "inside", "outside", "not reported", "outside by",
-                     "not reported"],
-                    [[md_escape(o.node_id), md_escape(o.name), f"{o.inside:,}",
-                      f"{o.outside:,}", f"{o.unknown:,}", by(o.outside_by), by(o.unknown_by)]
-                     for o in result.odd], ["l", "l", "r", "r", "r", "l", "l"])]  # fmt: skip
+    return [
+        "",
+        "## Operational design domain",
+        "",
+        "Outside the ODD the argument claims nothing: what would be satisfied there is "
+        "*outside ODD*; violations stay violations.",
+        "",
+        *_table(
+            ["context", "ODD", "inside", "outside", "not reported", "outside by", "not reported"],
+            [
+                [
+                    md_escape(o.node_id),
+                    md_escape(o.name),
+                    f"{o.inside:,}",
+                    f"{o.outside:,}",
+                    f"{o.unknown:,}",
+                    by(o.outside_by),
+                    by(o.unknown_by),
+                ]
+                for o in result.odd
+            ],
+            ["l", "l", "r", "r", "r", "l", "l"],
+        ),
+    ]
 
 
 def _scores(result: RunResult) -> list[str]:
@@ -89,19 +126,30 @@ def _scores(result: RunResult) -> list[str]:
     out = ["", "## Traffic rules: scores", ""]
     p, c = sc.get("penalty"), sc.get("carla")
     if p is not None:
-        out.append(f"- penalty score (eq. 6.1) **{p['score']:.2f}**, made of: "
-                   f"{md_escape(p.get('made_of', ''))}")
+        out.append(
+            f"- penalty score (eq. 6.1) **{p['score']:.2f}**, made of: "
+            f"{md_escape(p.get('made_of', ''))}"
+        )
     if c is not None:
-        out.append(f"- CARLA Leaderboard driving score **{c['driving_score']:.2f}**, made of: "
-                   f"{md_escape(c.get('made_of', ''))}")
+        out.append(
+            f"- CARLA Leaderboard driving score **{c['driving_score']:.2f}**, made of: "
+            f"{md_escape(c.get('made_of', ''))}"
+        )
     if sc.get("reason"):
         out.append(f"No {'penalty ' if c else ''}score: {md_escape(sc.get('reason'))}.")
     rules = (p or sc).get("per_rule") or {}
     if rules:
-        out += ["", *_table(["rule", "events", "while speeding", "penalty"],
-                            [[md_escape(k), str(r["events"]), str(r["while_speeding"]),
-                              f"{r['penalty']:g}"] for k, r in rules.items()],
-                            ["l", "r", "r", "r"])]  # fmt: skip
+        out += [
+            "",
+            *_table(
+                ["rule", "events", "while speeding", "penalty"],
+                [
+                    [md_escape(k), str(r["events"]), str(r["while_speeding"]), f"{r['penalty']:g}"]
+                    for k, r in rules.items()
+                ],
+                ["l", "r", "r", "r"],
+            ),
+        ]
     return out
 
 
@@ -238,16 +286,29 @@ def render_markdown(result: RunResult) -> str:
     if len(view.episodes) > MD_EPISODE_CAP:
         out += ["", f"… and {len(view.episodes) - MD_EPISODE_CAP} more episodes (see report.html)."]
     if result.near_misses:
-        out += ["", f"## Near misses ({len(result.near_misses)})", "",
-                "Formulas with a warning margin (`warn:`) that held, but by less than the "
-                "margin: reported, never violations.", ""]  # fmt: skip
+        out += [
+            "",
+            f"## Near misses ({len(result.near_misses)})",
+            "",
+            "Formulas with a warning margin (`warn:`) that held, but by less than the "
+            "margin: reported, never violations.",
+            "",
+        ]
         out += _table(
             ["node", "from", "to", "ticks", "least robustness", "margin"],
-            [[md_escape(n.node_id), fmt_time(n.start), fmt_time(n.end), str(n.ticks),
-              f"{n.least_robustness:.4g}", f"{n.warn:g}"]
-             for n in result.near_misses[:MD_EPISODE_CAP]],
+            [
+                [
+                    md_escape(n.node_id),
+                    fmt_time(n.start),
+                    fmt_time(n.end),
+                    str(n.ticks),
+                    f"{n.least_robustness:.4g}",
+                    f"{n.warn:g}",
+                ]
+                for n in result.near_misses[:MD_EPISODE_CAP]
+            ],
             ["l", "r", "r", "r", "r", "r"],
-        )  # fmt: skip
+        )
     out += ["", f"## Data gaps ({len(result.data_gaps)})", ""]
     if view.gaps.shown:
         out += _table(
@@ -280,9 +341,14 @@ def render_markdown(result: RunResult) -> str:
     else:
         out.append("No stream defects.")
     if h.topic_gaps:
-        out += ["", "Bag topics missing or stale: " + "; ".join(
-            f"{md_code(t)} {n} ticks" + (f", {late} late" if late else "")
-            for t, n, late in h.topic_gaps)]  # fmt: skip
+        out += [
+            "",
+            "Bag topics missing or stale: "
+            + "; ".join(
+                f"{md_code(t)} {n} ticks" + (f", {late} late" if late else "")
+                for t, n, late in h.topic_gaps
+            ),
+        ]
     if h.meta:
         out += ["", "Stream meta: " + "; ".join(f"{md_code(k)} = {md_code(v)}" for k, v in h.meta)]
     out.append("")

@@ -45,8 +45,10 @@ def value_text(value: object) -> str:
 
 
 def cell_label(conditions: dict) -> str:
-    return ", ".join(f"{k}={value_text(v)}" for k, v in conditions.items()) or \
-        "(no conditions reported)"  # fmt: skip
+    return (
+        ", ".join(f"{k}={value_text(v)}" for k, v in conditions.items())
+        or "(no conditions reported)"
+    )
 
 
 def render_odd_html(report: dict) -> str:
@@ -85,31 +87,47 @@ def render_odd_text(report: dict) -> list[str]:
     gating = report["gating"]
     which = "upper bound" if report["criterion"] == "upper" else "estimate"
     relation = "at or below" if report.get("acceptance") == "inclusive" else "below"
-    lines = [f"{len(report['cells'])} cells over {', '.join(report['by']) or '(nothing)'}; "
-             f"{report['runs']} runs",
-             f"accepted: every gating formula's violation rate ({which}) {relation} "
-             f"{pct(report['max_violation_rate'])}"]  # fmt: skip
+    lines = [
+        f"{len(report['cells'])} cells over {', '.join(report['by']) or '(nothing)'}; "
+        f"{report['runs']} runs",
+        f"accepted: every gating formula's violation rate ({which}) {relation} "
+        f"{pct(report['max_violation_rate'])}",
+    ]
     for name, b in (report.get("bins") or {}).items():
         edges, labels = b["edges"], b["labels"]
-        spans = [f"{'[' if k == 0 else '('}{edges[k]:g}, {edges[k + 1]:g}]"
-                 for k in range(len(labels))]  # fmt: skip
-        lines.append(f"{name} binned: " + ", ".join(
-            span if span == label else f"{label} {span}"
-            for span, label in zip(spans, labels, strict=True)))
+        spans = [
+            f"{'[' if k == 0 else '('}{edges[k]:g}, {edges[k + 1]:g}]" for k in range(len(labels))
+        ]
+        lines.append(
+            f"{name} binned: "
+            + ", ".join(
+                span if span == label else f"{label} {span}"
+                for span, label in zip(spans, labels, strict=True)
+            )
+        )
     if report.get("mae_note"):
         lines += textwrap.wrap(report["mae_note"], WIDTH, subsequent_indent="  ")
-    lines += ["per formula: rate, 95 % interval over runs (no spread: every run had the same "
-              "rate; ticks: one run,", "Wilson over its ticks), runs violated / judged (<= their "
-              "Wilson 95 % upper bound)"]  # fmt: skip
+    lines += [
+        "per formula: rate, 95 % interval over runs (no spread: every run had the same "
+        "rate; ticks: one run,",
+        "Wilson over its ticks), runs violated / judged (<= their Wilson 95 % upper bound)",
+    ]
     for cell in report["cells"]:
         verdict = "ACCEPTED" if cell["accepted"] else "rejected"
         values = ", ".join(value_text(v) for v in cell["conditions"].values())
-        lines.append(f"  {verdict} {values or cell_label(cell['conditions'])} "
-                     f"({cell['runs']} runs, {cell['ticks']} ticks)")
-        entries = [f"{fid} {pct(f['rate'])} {interval_text(f)}, {f['runs_violated']}/"
-                   f"{f['runs_judged']} (<= {pct(f['runs_violated_high'])})"
-                   for fid in gating if (f := cell["formulas"].get(fid)) is not None]
-        entries += [f"MAE {n} {m['mae']:.3g}" if m["mae"] is not None else f"MAE {n} n/a"
-                    for n, m in cell["mae"].items()]  # fmt: skip
+        lines.append(
+            f"  {verdict} {values or cell_label(cell['conditions'])} "
+            f"({cell['runs']} runs, {cell['ticks']} ticks)"
+        )
+        entries = [
+            f"{fid} {pct(f['rate'])} {interval_text(f)}, {f['runs_violated']}/"
+            f"{f['runs_judged']} (<= {pct(f['runs_violated_high'])})"
+            for fid in gating
+            if (f := cell["formulas"].get(fid)) is not None
+        ]
+        entries += [
+            f"MAE {n} {m['mae']:.3g}" if m["mae"] is not None else f"MAE {n} n/a"
+            for n, m in cell["mae"].items()
+        ]
         lines += _wrap(entries, "      ")
     return lines

@@ -19,11 +19,13 @@ from markupsafe import Markup
 TEMPLATES = Path(__file__).parent / "templates"
 
 
-def render_page(template: str, filters: dict[str, Callable[..., Any]] | None = None,
-                **context: Any) -> str:  # fmt: skip
+def render_page(
+    template: str, filters: dict[str, Callable[..., Any]] | None = None, **context: Any
+) -> str:
     """`template` rendered with `context`, the page's own `filters` and `css`."""
-    env = jinja2.Environment(loader=jinja2.FileSystemLoader(TEMPLATES), autoescape=True,
-                             undefined=jinja2.StrictUndefined)  # fmt: skip
+    env = jinja2.Environment(
+        loader=jinja2.FileSystemLoader(TEMPLATES), autoescape=True, undefined=jinja2.StrictUndefined
+    )
     env.filters.update(filters or {})
     css = Markup((TEMPLATES / "report.css").read_text(encoding="utf-8"))
     return env.get_template(template).render(css=css, **context)

@@ -13,6 +13,7 @@ from pathlib import Path
 
 from pydantic import ValidationError
 
+from casewatch.errors import CasewatchError
 from casewatch.evaluator.result import RESULT_FORMAT, RESULT_VERSION, RunResult
 from casewatch.reports.html import render_html
 from casewatch.reports.junit import render_junit
@@ -26,7 +27,7 @@ FORMATS: dict[str, tuple[str, Callable[[RunResult], str]]] = {
 }
 
 
-class ResultError(Exception):
+class ResultError(CasewatchError):
     """`result.json` cannot be read as a casewatch result; the message says why and where."""
 
 

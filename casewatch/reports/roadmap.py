@@ -23,6 +23,8 @@ from pathlib import Path
 import numpy as np
 import shapely
 
+from casewatch.errors import CasewatchError
+
 #: Tolerance beyond a lane's half width before a marker counts as off the road [m].
 ROAD_MARGIN_M = 0.5
 #: SUMO's default lane width [m] (`netconvert --default.lanewidth`).
@@ -30,14 +32,33 @@ SUMO_DEFAULT_WIDTH = 3.2
 #: Sampling step along OpenDRIVE reference lines [m].
 XODR_STEP_M = 1.0
 #: SUMO vehicle classes that make a lane no road for a car (sidewalks, bike lanes, rails).
-_NOT_ROAD = {"pedestrian", "bicycle", "tram", "rail_urban", "rail", "rail_electric",
-             "rail_fast", "ship", "subway", "cable_car"}  # fmt: skip
+_NOT_ROAD = {
+    "pedestrian",
+    "bicycle",
+    "tram",
+    "rail_urban",
+    "rail",
+    "rail_electric",
+    "rail_fast",
+    "ship",
+    "subway",
+    "cable_car",
+}
 #: OpenDRIVE lane types a car drives on (a lane without type counts as driving).
-XODR_DRIVABLE = {"driving", "entry", "exit", "onRamp", "offRamp", "connectingRamp",
-                 "bidirectional", "stop", "parking"}  # fmt: skip
+XODR_DRIVABLE = {
+    "driving",
+    "entry",
+    "exit",
+    "onRamp",
+    "offRamp",
+    "connectingRamp",
+    "bidirectional",
+    "stop",
+    "parking",
+}
 
 
-class NetworkError(ValueError):
+class NetworkError(CasewatchError, ValueError):
     """A network file that cannot be drawn; the message names the file and what is wrong."""
 
 
@@ -69,8 +90,12 @@ class RoadNetwork:
             return None
         xy = np.concatenate(parts)
         pad = max((ln.width for ln in self.lanes), default=0.0) / 2
-        return (float(xy[:, 0].min()) - pad, float(xy[:, 1].min()) - pad,
-                float(xy[:, 0].max()) + pad, float(xy[:, 1].max()) + pad)  # fmt: skip
+        return (
+            float(xy[:, 0].min()) - pad,
+            float(xy[:, 1].min()) - pad,
+            float(xy[:, 0].max()) + pad,
+            float(xy[:, 1].max()) + pad,
+        )
 
 
 def _parse_xml(path: Path, root_tag: str, what: str) -> ET.Element:
@@ -84,13 +109,15 @@ def _parse_xml(path: Path, root_tag: str, what: str) -> ET.Element:
         line, col = exc.position
         raise NetworkError(f"{path}:{line}:{col}: not well-formed XML ({exc.msg})") from None
     if root.tag != root_tag:
-        raise NetworkError(f"{path}: root element is <{root.tag}>, expected <{root_tag}> "
-                           f"(is this {what}?)")  # fmt: skip
+        raise NetworkError(
+            f"{path}: root element is <{root.tag}>, expected <{root_tag}> (is this {what}?)"
+        )
     return root
 
 
-def _float(element: ET.Element, name: str, path: Path, where: str,
-           default: float | None = None) -> float:  # fmt: skip
+def _float(
+    element: ET.Element, name: str, path: Path, where: str, default: float | None = None
+) -> float:
     text = element.get(name)
     if text is None:
         if default is not None:
@@ -99,8 +126,9 @@ def _float(element: ET.Element, name: str, path: Path, where: str,
     try:
         value = float(text)
     except ValueError:
-        raise NetworkError(f"{path}: {where}: attribute '{name}' is {text!r}, not a number")\
-            from None
+        raise NetworkError(
+            f"{path}: {where}: attribute '{name}' is {text!r}, not a number"
+        ) from None
     if not math.isfinite(value):
         raise NetworkError(f"{path}: {where}: attribute '{name}' is {text!r}, not finite")
     return value
@@ -113,8 +141,9 @@ def _shape(text: str, path: Path, where: str) -> np.ndarray:
     except ValueError:
         xy = np.empty((0, 3))
     if xy.ndim != 2 or xy.shape[1] != 2 or len(xy) < 2 or not np.isfinite(xy).all():
-        raise NetworkError(f"{path}: {where}: shape {text[:60]!r} is not a list of at least "
-                           "two x,y points")  # fmt: skip
+        raise NetworkError(
+            f"{path}: {where}: shape {text[:60]!r} is not a list of at least two x,y points"
+        )
     return xy
 
 
@@ -144,8 +173,9 @@ def read_sumo_net(path: Path | str) -> RoadNetwork:
             dx, dy = (float(v) for v in location.get("netOffset", "").split(","))
             offset = (dx, dy)
         except ValueError:
-            raise NetworkError(f"{path}: <location> netOffset {location.get('netOffset')!r} is "
-                               "not x,y") from None  # fmt: skip
+            raise NetworkError(
+                f"{path}: <location> netOffset {location.get('netOffset')!r} is not x,y"
+            ) from None
     return RoadNetwork("sumo", str(path), lanes, other, net_offset=offset)
 
 
@@ -165,8 +195,9 @@ def _integrate(s: np.ndarray, heading: np.ndarray, x0: float, y0: float) -> np.n
     return np.column_stack((x, y))
 
 
-def geometry_points(kind: str, x0: float, y0: float, hdg: float, length: float,
-                    params: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+def geometry_points(
+    kind: str, x0: float, y0: float, hdg: float, length: float, params: dict[str, float]
+) -> tuple[np.ndarray, np.ndarray]:
     """Samples (n x 2) and headings (n) of one planView geometry (OpenDRIVE 1.6, 7.x)."""
     if kind == "line":
         s = _steps(length)
@@ -174,13 +205,17 @@ def geometry_points(kind: str, x0: float, y0: float, hdg: float, length: float,
         return xy, np.full(len(s), hdg)
     if kind == "arc":
         k = params["curvature"]
-        s = np.linspace(0.0, length, max(2, math.ceil(length / XODR_STEP_M) + 1,
-                                         math.ceil(abs(k) * length / 0.05) + 1))  # fmt: skip
+        s = np.linspace(
+            0.0,
+            length,
+            max(2, math.ceil(length / XODR_STEP_M) + 1, math.ceil(abs(k) * length / 0.05) + 1),
+        )
         if abs(k) < 1e-12:
             return geometry_points("line", x0, y0, hdg, length, {})
         h = hdg + k * s  # exact circle: centre at the left normal, radius 1/k
-        xy = np.column_stack((x0 + (np.sin(h) - math.sin(hdg)) / k,
-                              y0 - (np.cos(h) - math.cos(hdg)) / k))  # fmt: skip
+        xy = np.column_stack(
+            (x0 + (np.sin(h) - math.sin(hdg)) / k, y0 - (np.cos(h) - math.cos(hdg)) / k)
+        )
         return xy, h
     if kind == "spiral":  # curvature linear in s: heading is quadratic, positions integrated
         s = np.linspace(0.0, length, max(2, math.ceil(length / 0.1) + 1))
@@ -215,9 +250,13 @@ def geometry_points(kind: str, x0: float, y0: float, hdg: float, length: float,
     raise KeyError(kind)
 
 
-_PARAMS = {"line": (), "arc": ("curvature",), "spiral": ("curvStart", "curvEnd"),
-           "poly3": ("a", "b", "c", "d"),
-           "paramPoly3": ("aU", "bU", "cU", "dU", "aV", "bV", "cV", "dV")}  # fmt: skip
+_PARAMS = {
+    "line": (),
+    "arc": ("curvature",),
+    "spiral": ("curvStart", "curvEnd"),
+    "poly3": ("a", "b", "c", "d"),
+    "paramPoly3": ("aU", "bU", "cU", "dU", "aV", "bV", "cV", "dV"),
+}
 
 
 def _offset(xy: np.ndarray, heading: np.ndarray, t: float) -> np.ndarray:
@@ -257,18 +296,28 @@ def read_opendrive(path: Path | str) -> RoadNetwork:
         xy_parts, h_parts = [], []
         for i, geometry in enumerate(plan.findall("geometry"), 1):
             where = f"road {name!r} geometry {i}"
-            x0, y0, hdg, length = (_float(geometry, a, path, where)
-                                   for a in ("x", "y", "hdg", "length"))  # fmt: skip
+            x0, y0, hdg, length = (
+                _float(geometry, a, path, where) for a in ("x", "y", "hdg", "length")
+            )
             if length < 0:
                 raise NetworkError(f"{path}: {where}: negative length {length}")
             shape = next(iter(geometry), None)
             if shape is None or shape.tag not in _PARAMS:
                 found = "nothing" if shape is None else f"<{shape.tag}>"
-                raise NetworkError(f"{path}: {where}: {found} where line, arc, spiral, poly3 "
-                                   "or paramPoly3 was expected")  # fmt: skip
-            params = {a: _float(shape, a, path, f"{where} <{shape.tag}>", 0.0 if shape.tag
-                                in ("poly3", "paramPoly3") else None)
-                      for a in _PARAMS[shape.tag]}  # fmt: skip
+                raise NetworkError(
+                    f"{path}: {where}: {found} where line, arc, spiral, poly3 "
+                    "or paramPoly3 was expected"
+                )
+            params = {
+                a: _float(
+                    shape,
+                    a,
+                    path,
+                    f"{where} <{shape.tag}>",
+                    0.0 if shape.tag in ("poly3", "paramPoly3") else None,
+                )
+                for a in _PARAMS[shape.tag]
+            }
             if shape.tag == "paramPoly3":
                 params["pRange"] = shape.get("pRange", "normalized")  # type: ignore[assignment]
             if shape.tag == "spiral" and length == 0:
@@ -282,15 +331,19 @@ def read_opendrive(path: Path | str) -> RoadNetwork:
         references.append(xy)
         section = road.find("lanes/laneSection")
         offset_el = road.find("lanes/laneOffset")
-        base = 0.0 if offset_el is None else _float(offset_el, "a", path, f"road {name!r} "
-                                                     "laneOffset", 0.0)  # fmt: skip
+        base = (
+            0.0
+            if offset_el is None
+            else _float(offset_el, "a", path, f"road {name!r} laneOffset", 0.0)
+        )
         for side, sign in (("left", 1.0), ("right", -1.0)):
             rows = _lane_widths(None if section is None else section.find(side), path, name)
             inner = 0.0
             for lane_id, w, kind in rows:
                 if w > 0 and kind in XODR_DRIVABLE:
-                    lanes.append(Lane(f"{name}:{lane_id}",
-                                      _offset(xy, h, base + sign * (inner + w / 2)), w))
+                    lanes.append(
+                        Lane(f"{name}:{lane_id}", _offset(xy, h, base + sign * (inner + w / 2)), w)
+                    )
                 inner += w
             if inner > 0:
                 edges.append(_offset(xy, h, base + sign * inner))
@@ -336,13 +389,17 @@ def check_markers(markers: list[dict], network: RoadNetwork) -> dict:
         m["off_road"] = not bool(ok)
     off = [i for i, m in enumerate(markers) if m["off_road"]]
     return {
-        "path": network.path, "kind": network.kind, "lanes": len(network.lanes),
-        "margin_m": ROAD_MARGIN_M, "checked": len(markers), "off_road": len(off),
+        "path": network.path,
+        "kind": network.kind,
+        "lanes": len(network.lanes),
+        "margin_m": ROAD_MARGIN_M,
+        "checked": len(markers),
+        "off_road": len(off),
         "off_road_markers": off,
         "max_distance": round(float(near.max()), 3) if len(near) else None,
         "net_offset": list(network.net_offset) if network.net_offset else None,
         "hint": frame_hint(points, network) if off else None,
-    }  # fmt: skip
+    }
 
 
 def frame_hint(points: np.ndarray, network: RoadNetwork) -> str | None:
@@ -351,16 +408,19 @@ def frame_hint(points: np.ndarray, network: RoadNetwork) -> str | None:
     candidates = [("y negated (CARLA's left-handed frame vs OpenDRIVE's)", points * flip)]
     if network.net_offset:
         offset = np.asarray(network.net_offset, dtype=float)
-        candidates += [("plus the net's netOffset (positions in the original map frame)",
-                        points + offset),
-                       ("minus the net's netOffset (offset applied twice)",
-                        points - offset)]  # fmt: skip
+        candidates += [
+            ("plus the net's netOffset (positions in the original map frame)", points + offset),
+            ("minus the net's netOffset (offset applied twice)", points - offset),
+        ]
     base = int(lane_distances(points, network)[1].sum())
-    best = max(((int(lane_distances(p, network)[1].sum()), why) for why, p in candidates),
-               default=(0, ""))  # fmt: skip
+    best = max(
+        ((int(lane_distances(p, network)[1].sum()), why) for why, p in candidates), default=(0, "")
+    )
     if best[0] > base:
-        return (f"{best[0]} of {len(points)} markers would be on the road with {best[1]}: "
-                "the positions and the network may not share one frame")
+        return (
+            f"{best[0]} of {len(points)} markers would be on the road with {best[1]}: "
+            "the positions and the network may not share one frame"
+        )
     return None
 
 
@@ -381,13 +441,21 @@ class MapTransform:
 
     def apply(self, xy: np.ndarray) -> np.ndarray:
         xy = np.asarray(xy, dtype=float).reshape(-1, 2)
-        return np.column_stack((self.offset_x + (xy[:, 0] - self.min_x) * self.scale,
-                                self.offset_y + (self.max_y - xy[:, 1]) * self.scale))
+        return np.column_stack(
+            (
+                self.offset_x + (xy[:, 0] - self.min_x) * self.scale,
+                self.offset_y + (self.max_y - xy[:, 1]) * self.scale,
+            )
+        )
 
 
-def fit_transform(bounds: tuple[float, float, float, float], width: float = 900.0,
-                  max_height: float = 640.0, margin: float = 16.0,
-                  min_extent: float = 20.0) -> MapTransform:  # fmt: skip
+def fit_transform(
+    bounds: tuple[float, float, float, float],
+    width: float = 900.0,
+    max_height: float = 640.0,
+    margin: float = 16.0,
+    min_extent: float = 20.0,
+) -> MapTransform:
     """The transform showing `bounds` (min_x, min_y, max_x, max_y) in `width` pixels and at
     most `max_height`, keeping the aspect; extents below `min_extent` metres are widened
     (one straight road is not a 0-pixel-high map)."""
@@ -397,6 +465,12 @@ def fit_transform(bounds: tuple[float, float, float, float], width: float = 900.
     x0, x1, y0, y1 = cx - dx / 2, cx + dx / 2, cy - dy / 2, cy + dy / 2
     scale = min((width - 2 * margin) / dx, (max_height - 2 * margin) / dy)
     height = dy * scale + 2 * margin
-    return MapTransform(scale=scale, min_x=x0, max_y=y1,
-                        offset_x=(width - dx * scale) / 2, offset_y=margin,
-                        width=width, height=height)  # fmt: skip
+    return MapTransform(
+        scale=scale,
+        min_x=x0,
+        max_y=y1,
+        offset_x=(width - dx * scale) / 2,
+        offset_y=margin,
+        width=width,
+        height=height,
+    )

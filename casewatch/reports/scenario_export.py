@@ -26,6 +26,7 @@ from pathlib import Path
 
 from scenariogeneration import xosc
 
+from casewatch.errors import CasewatchError
 from casewatch.evaluator.inputs import path_digest
 from casewatch.evaluator.result import Episode, RunResult
 from casewatch.monitor.bags.mapping import MappingError, resolve_mapping
@@ -39,7 +40,7 @@ from casewatch.safety_case.loader import require_case
 OSC_MINOR = 2
 
 
-class ExportError(ValueError):
+class ExportError(CasewatchError, ValueError):
     """Input the export cannot use (names the event, file or channel)."""
 
 
@@ -92,8 +93,9 @@ def _frames(result: RunResult, stream: Path, topics: Path | None) -> Iterable[Fr
             case_topics = None
     try:
         mapping = resolve_mapping(topics, result.case.path, case_topics)
-        return read_bag(stream, mapping, channels=list(result.case.channels),
-                        period=result.case.period)  # fmt: skip
+        return read_bag(
+            stream, mapping, channels=list(result.case.channels), period=result.case.period
+        )
     except (MappingError, BagError) as exc:
         raise ExportError(str(exc)) from None
 
@@ -121,8 +123,10 @@ def _collect(frames: Iterable[Frame], windows: list[_Window]) -> None:
                 fp = o.footprints[k]
                 track = w.objects.get(oid)
                 if track is None:
-                    track = w.objects[oid] = _Track(float(fp[:, 0].max() - fp[:, 0].min()),
-                                                    float(fp[:, 1].max() - fp[:, 1].min()))
+                    track = w.objects[oid] = _Track(
+                        float(fp[:, 0].max() - fp[:, 0].min()),
+                        float(fp[:, 1].max() - fp[:, 1].min()),
+                    )
                 _add(track, frame.t - w.t0, x, y, float(o.yaw[k]))
                 if inside:
                     track.nearest = min(track.nearest, math.hypot(x - e.x, y - e.y))
@@ -138,56 +142,90 @@ def _add(track: _Track, t: float, x: float, y: float, h: float) -> None:
 def _vehicle(name: str, track: _Track) -> xosc.Vehicle:
     box = xosc.BoundingBox(track.width, track.length, 1.5, 0.0, 0.0, 0.75)
     axle = xosc.Axle(0.5, 0.7, max(track.width - 0.2, 0.1), track.length / 3, 0.35)
-    return xosc.Vehicle(name, xosc.VehicleCategory.car, box, axle,
-                        xosc.Axle(0.0, 0.7, max(track.width - 0.2, 0.1), 0.0, 0.35), 70.0, 10.0,
-                        10.0)  # fmt: skip
+    return xosc.Vehicle(
+        name,
+        xosc.VehicleCategory.car,
+        box,
+        axle,
+        xosc.Axle(0.0, 0.7, max(track.width - 0.2, 0.1), 0.0, 0.35),
+        70.0,
+        10.0,
+        10.0,
+    )
 
 
 def _follow(name: str, track: _Track) -> xosc.FollowTrajectoryAction:
-    positions = [xosc.WorldPosition(x, y, 0.0, h) for x, y, h in
-                 zip(track.x, track.y, track.h, strict=True)]  # fmt: skip
+    positions = [
+        xosc.WorldPosition(x, y, 0.0, h) for x, y, h in zip(track.x, track.y, track.h, strict=True)
+    ]
     trajectory = xosc.Trajectory(f"{name}_path", False)
     trajectory.add_shape(xosc.Polyline(list(track.t), positions))
-    return xosc.FollowTrajectoryAction(trajectory, xosc.FollowingMode.position,
-                                       xosc.ReferenceContext.absolute, 1.0, 0.0)  # fmt: skip
+    return xosc.FollowTrajectoryAction(
+        trajectory, xosc.FollowingMode.position, xosc.ReferenceContext.absolute, 1.0, 0.0
+    )
 
 
-def _scenario(w: _Window, entities: dict[str, _Track], opendrive: Path | None,
-              node_text: str) -> xosc.Scenario:  # fmt: skip
+def _scenario(
+    w: _Window, entities: dict[str, _Track], opendrive: Path | None, node_text: str
+) -> xosc.Scenario:
     catalog = xosc.Catalog()
     road = xosc.RoadNetwork(roadfile=str(opendrive)) if opendrive else xosc.RoadNetwork()
     objects = xosc.Entities()
     init = xosc.Init()
-    start = xosc.ValueTrigger("start", 0.0, xosc.ConditionEdge.none,
-                              xosc.SimulationTimeCondition(0.0, xosc.Rule.greaterThan))  # fmt: skip
+    start = xosc.ValueTrigger(
+        "start",
+        0.0,
+        xosc.ConditionEdge.none,
+        xosc.SimulationTimeCondition(0.0, xosc.Rule.greaterThan),
+    )
     act = xosc.Act("replay", start)
     for name, track in entities.items():
         objects.add_scenario_object(name, _vehicle(name, track))
-        init.add_init_action(name, xosc.TeleportAction(
-            xosc.WorldPosition(track.x[0], track.y[0], 0.0, track.h[0])))  # fmt: skip
+        init.add_init_action(
+            name, xosc.TeleportAction(xosc.WorldPosition(track.x[0], track.y[0], 0.0, track.h[0]))
+        )
         event = xosc.Event(f"{name}_follow", xosc.Priority.override)
         event.add_action(f"{name}_trajectory", _follow(name, track))
-        event.add_trigger(xosc.ValueTrigger(f"{name}_start", 0.0, xosc.ConditionEdge.none,
-                                            xosc.SimulationTimeCondition(0.0,
-                                                                         xosc.Rule.greaterThan)))
+        event.add_trigger(
+            xosc.ValueTrigger(
+                f"{name}_start",
+                0.0,
+                xosc.ConditionEdge.none,
+                xosc.SimulationTimeCondition(0.0, xosc.Rule.greaterThan),
+            )
+        )
         maneuver = xosc.Maneuver(f"{name}_maneuver")
         maneuver.add_event(event)
         group = xosc.ManeuverGroup(f"{name}_group")
         group.add_actor(name)
         group.add_maneuver(maneuver)
         act.add_maneuver_group(group)
-    stop = xosc.ValueTrigger("end", 0.0, xosc.ConditionEdge.none,
-                             xosc.SimulationTimeCondition(w.t1 - w.t0, xosc.Rule.greaterThan),
-                             "stop")  # fmt: skip
+    stop = xosc.ValueTrigger(
+        "end",
+        0.0,
+        xosc.ConditionEdge.none,
+        xosc.SimulationTimeCondition(w.t1 - w.t0, xosc.Rule.greaterThan),
+        "stop",
+    )
     board = xosc.StoryBoard(init, stop)
     board.add_act(act)
     e = w.event
     road_note = "" if opendrive else "; no road network attached (casewatch does not invent roads)"
-    description = (f"casewatch hazard event {w.number}: {e.node_id} ({node_text}) from "
-                   f"{e.start:g} s to {e.end:g} s, replayed from channel {w.channel} over "
-                   f"{w.t0:g}-{w.t1:g} s{road_note}")  # fmt: skip
-    return xosc.Scenario(description, "casewatch", xosc.ParameterDeclarations(), objects,
-                         board, road, catalog, osc_minor_version=OSC_MINOR)  # fmt: skip
+    description = (
+        f"casewatch hazard event {w.number}: {e.node_id} ({node_text}) from "
+        f"{e.start:g} s to {e.end:g} s, replayed from channel {w.channel} over "
+        f"{w.t0:g}-{w.t1:g} s{road_note}"
+    )
+    return xosc.Scenario(
+        description,
+        "casewatch",
+        xosc.ParameterDeclarations(),
+        objects,
+        board,
+        road,
+        catalog,
+        osc_minor_version=OSC_MINOR,
+    )
 
 
 def export_scenarios(
@@ -205,45 +243,74 @@ def export_scenarios(
     """Write one `.xosc` per hazard event (or only event `event`, 1-based) into `out` and the
     catalogue `scenarios.json`'s entries, which it returns."""
     if result.stream.digest and path_digest(stream) != result.stream.digest:
-        raise ExportError(f"{stream}: not the stream this run judged (sha256 differs from "
-                          f"result.json's {result.stream.digest[:12]}...)")  # fmt: skip
+        raise ExportError(
+            f"{stream}: not the stream this run judged (sha256 differs from "
+            f"result.json's {result.stream.digest[:12]}...)"
+        )
     if channel is not None and channel not in result.case.channels:
-        raise ExportError(f"channel {channel!r} is not one of the run's channels "
-                          f"({', '.join(result.case.channels)})")  # fmt: skip
+        raise ExportError(
+            f"channel {channel!r} is not one of the run's channels "
+            f"({', '.join(result.case.channels)})"
+        )
     events = hazard_events(result)
     if event is not None and not 1 <= event <= len(events):
-        raise ExportError(f"no hazard event {event}: the run has {len(events)} "
-                          f"(1 to {len(events)})" if events else "the run has no hazard event")
+        raise ExportError(
+            f"no hazard event {event}: the run has {len(events)} (1 to {len(events)})"
+            if events
+            else "the run has no hazard event"
+        )
     chosen = [(n, e) for n, e in enumerate(events, start=1) if event is None or n == event]
-    windows = [_Window(n, e, channel or _channel_at(result, e.start),
-                       max(e.start - lead_in, result.stream.t_start or 0.0), e.end + lead_out)
-               for n, e in chosen]  # fmt: skip
+    windows = [
+        _Window(
+            n,
+            e,
+            channel or _channel_at(result, e.start),
+            max(e.start - lead_in, result.stream.t_start or 0.0),
+            e.end + lead_out,
+        )
+        for n, e in chosen
+    ]
     _collect(_frames(result, stream, topics), windows)
     texts = {n.id: n.text for n in result.case.nodes}
     out.mkdir(parents=True, exist_ok=True)
     entries = []
     for w in windows:
         if w.ego is None:
-            raise ExportError(f"hazard event {w.number} ({w.event.node_id} at "
-                              f"{w.event.start:g} s): channel {w.channel} has no frame in "
-                              "its window")  # fmt: skip
-        involved = {f"obj_{oid}": track for oid, track in sorted(w.objects.items())
-                    if track.nearest <= radius}  # fmt: skip
+            raise ExportError(
+                f"hazard event {w.number} ({w.event.node_id} at "
+                f"{w.event.start:g} s): channel {w.channel} has no frame in "
+                "its window"
+            )
+        involved = {
+            f"obj_{oid}": track
+            for oid, track in sorted(w.objects.items())
+            if track.nearest <= radius
+        }
         if not involved:
-            raise ExportError(f"hazard event {w.number} ({w.event.node_id} at "
-                              f"{w.event.start:g} s): channel {w.channel} saw no object within "
-                              f"{radius:g} m of the ego during the event")  # fmt: skip
+            raise ExportError(
+                f"hazard event {w.number} ({w.event.node_id} at "
+                f"{w.event.start:g} s): channel {w.channel} saw no object within "
+                f"{radius:g} m of the ego during the event"
+            )
         entities = {"ego": w.ego, **involved}
         name = f"event-{w.number:03d}-{w.event.node_id}-{w.event.start:.1f}s.xosc"
-        _scenario(w, entities, opendrive, texts.get(w.event.node_id, "")).write_xml(
-            str(out / name))
-        entries.append({
-            "file": name, "event": w.number, "formula": w.event.formula_id,
-            "node": w.event.node_id, "node_text": texts.get(w.event.node_id, ""),
-            "start": w.event.start, "end": w.event.end, "window": [w.t0, w.t1],
-            "channel": w.channel, "entities": sorted(entities), "stream": str(stream),
-            "stream_digest": result.stream.digest,
-            "road_network": str(opendrive) if opendrive else None,
-            "trace": [[step.id for step in path] for path in w.event.trace],
-        })  # fmt: skip
+        _scenario(w, entities, opendrive, texts.get(w.event.node_id, "")).write_xml(str(out / name))
+        entries.append(
+            {
+                "file": name,
+                "event": w.number,
+                "formula": w.event.formula_id,
+                "node": w.event.node_id,
+                "node_text": texts.get(w.event.node_id, ""),
+                "start": w.event.start,
+                "end": w.event.end,
+                "window": [w.t0, w.t1],
+                "channel": w.channel,
+                "entities": sorted(entities),
+                "stream": str(stream),
+                "stream_digest": result.stream.digest,
+                "road_network": str(opendrive) if opendrive else None,
+                "trace": [[step.id for step in path] for path in w.event.trace],
+            }
+        )
     return entries

@@ -38,33 +38,50 @@ def _plot(result: dict) -> dict:
             "x": round(g.x(point["recall"]), 2),
             "y": round(g.y(point["precision"]), 2),
             "title": f"{_setting(point, result['duration_kind'])}: P {point['precision']:.0%}, "
-                     f"R {point['recall']:.0%}",
-        }  # fmt: skip
+            f"R {point['recall']:.0%}",
+        }
 
     points = [p for p in (at(c) for c in result["curve"]) if p is not None]
     ticks = [{"label": f"{v:.1f}", "x": g.x(v), "y": g.y(v)} for v in (0.0, 0.5, 1.0)]
-    return {**g.__dict__, "points": points, "ticks": ticks, "original": at(result["original"]),
-            "tuned": at(result["tuned"]), "hidden": len(result["curve"]) - len(points)}  # fmt: skip
+    return {
+        **g.__dict__,
+        "points": points,
+        "ticks": ticks,
+        "original": at(result["original"]),
+        "tuned": at(result["tuned"]),
+        "hidden": len(result["curve"]) - len(points),
+    }
 
 
 def render_tuning(report: dict) -> str:
     """HTML of a tuning report (`casewatch tune`'s `tuning.json` value)."""
     rows = []
     for r in report["rules"]:
-        rows.append({
-            "formula": r["formula"], "node_text": r.get("node_text", ""),
-            "parameter": r["parameter"], "labels": r["labels"],
-            "original_text": _setting(r["original"], r["duration_kind"]),
-            "tuned_text": _setting(r["tuned"], r["duration_kind"])
-            + ("" if r["reached"] else " (none reaches the precision asked)"),
-            "original_pr": _pr(r["original"]), "tuned_pr": _pr(r["tuned"]),
-            "heldout_pr": _pr(r["heldout"]), "plot": _plot(r),
-        })  # fmt: skip
+        rows.append(
+            {
+                "formula": r["formula"],
+                "node_text": r.get("node_text", ""),
+                "parameter": r["parameter"],
+                "labels": r["labels"],
+                "original_text": _setting(r["original"], r["duration_kind"]),
+                "tuned_text": _setting(r["tuned"], r["duration_kind"])
+                + ("" if r["reached"] else " (none reaches the precision asked)"),
+                "original_pr": _pr(r["original"]),
+                "tuned_pr": _pr(r["tuned"]),
+                "heldout_pr": _pr(r["heldout"]),
+                "plot": _plot(r),
+            }
+        )
     skipped: dict[str, list[str]] = {}
     for s in report["skipped"]:
         skipped.setdefault(s["reason"], []).append(s["formula"])
     return render_page(
-        "tuning.html.j2", case_name=report["case"], logs=report["logs"], hours=report["hours"],
-        labels=sum(r["labels"] for r in report["rules"]), objective=report["objective"],
-        rows=rows, skipped=list(skipped.items()),
-    )  # fmt: skip
+        "tuning.html.j2",
+        case_name=report["case"],
+        logs=report["logs"],
+        hours=report["hours"],
+        labels=sum(r["labels"] for r in report["rules"]),
+        objective=report["objective"],
+        rows=rows,
+        skipped=list(skipped.items()),
+    )

@@ -251,11 +251,15 @@ def incidents(episodes: list[EpisodeView]) -> list[IncidentView]:
     out = []
     for number, members in enumerate(groups, start=1):
         shared = set.intersection(*(_claims(m.raw) for m in members))
-        out.append(IncidentView(
-            number=number, start=fmt_time(min(m.raw.start for m in members)),
-            end=fmt_time(max(m.raw.end for m in members)), members=members,
-            shared=sorted(shared),
-        ))  # fmt: skip
+        out.append(
+            IncidentView(
+                number=number,
+                start=fmt_time(min(m.raw.start for m in members)),
+                end=fmt_time(max(m.raw.end for m in members)),
+                members=members,
+                shared=sorted(shared),
+            )
+        )
     return out
 
 
@@ -316,8 +320,11 @@ def _shares(status: NodeStatus | None, period: float) -> list[tuple[str, str, st
             continue
         share = fmt_share(n, total)
         if name == "no-data" and summary.warmup_ticks:
-            share += (" (all warm-up)" if summary.warmup_ticks == n
-                      else f" (warm-up {fmt_share(summary.warmup_ticks, total)})")  # fmt: skip
+            share += (
+                " (all warm-up)"
+                if summary.warmup_ticks == n
+                else f" (warm-up {fmt_share(summary.warmup_ticks, total)})"
+            )
         out.append((name, STATUS_LABELS.get(name, name), share))
     return out
 
@@ -331,8 +338,10 @@ def _worst_note(result: RunResult, root: NodeStatus | None) -> str:
     label = STATUS_LABELS.get(result.verdict, result.verdict)
     n = summary.ticks.get(result.verdict, 0)
     warm = " (all warm-up)" if result.verdict == "no-data" and n == summary.warmup_ticks else ""
-    return (f"worst tick: {label}{warm}, {fmt_share(n, summary.total)} of the run "
-            "(the verdict in result.json)")
+    return (
+        f"worst tick: {label}{warm}, {fmt_share(n, summary.total)} of the run "
+        "(the verdict in result.json)"
+    )
 
 
 def _meta_text(value: object) -> str:
@@ -357,8 +366,7 @@ def build_view(result: RunResult) -> ReportView:
     case, stream = result.case, result.stream
     status_by_node = {s.node_id: s for s in result.status}
     # the colour of each node: evaluator.status.summarize's rule, not the worst tick's status
-    status_of = {n.id: summarize(status_by_node.get(n.id), case.period).status
-                 for n in case.nodes}  # fmt: skip
+    status_of = {n.id: summarize(status_by_node.get(n.id), case.period).status for n in case.nodes}
     text_of = {n.id: n.text for n in case.nodes}
     formula_of_node = {f.node_id: f for f in result.formulas}
     plotted = {s.formula_id for s in result.series}
@@ -394,9 +402,11 @@ def build_view(result: RunResult) -> ReportView:
         channels=", ".join(case.channels),
         period=case.period,
         dropouts=sorted(stream.dropouts.items()),
-        topic_gaps=[(topic, r.get("missing_ticks", 0), r.get("late_messages", 0))
-                    for topic, r in sorted(stream.topics.items())
-                    if r.get("missing_ticks") or r.get("late_messages")],
+        topic_gaps=[
+            (topic, r.get("missing_ticks", 0), r.get("late_messages", 0))
+            for topic, r in sorted(stream.topics.items())
+            if r.get("missing_ticks") or r.get("late_messages")
+        ],
     )
 
     spi_rows = [
@@ -449,8 +459,10 @@ def build_view(result: RunResult) -> ReportView:
             )
         )
 
-    marks = {(m.formula_id, m.start, m.end): m.match
-             for m in (result.ground_truth.marks if result.ground_truth else [])}  # fmt: skip
+    marks = {
+        (m.formula_id, m.start, m.end): m.match
+        for m in (result.ground_truth.marks if result.ground_truth else [])
+    }
     episodes = [
         EpisodeView(
             number=number,
@@ -473,8 +485,10 @@ def build_view(result: RunResult) -> ReportView:
     grouped = incidents(episodes)
     of_episode = {m.number: inc.number for inc in grouped for m in inc.members}
     episodes = [dataclasses.replace(e, incident=of_episode[e.number]) for e in episodes]
-    grouped = [dataclasses.replace(inc, members=[episodes[m.number - 1] for m in inc.members])
-               for inc in grouped]  # fmt: skip
+    grouped = [
+        dataclasses.replace(inc, members=[episodes[m.number - 1] for m in inc.members])
+        for inc in grouped
+    ]
 
     supports: dict[str, list[str]] = {}
     for n in case.nodes:

@@ -36,8 +36,12 @@ _TABLE: tuple[tuple[str, Severity, str], ...] = (
         "unsupported YAML construct (alias, explicit tag, complex key, deep nesting)",
     ),
     ("CW007", "error", "number in a YAML 1.1-only notation (1_000, 1:30, 0b101, 017)"),
-    ("CW008", "error", "library contract or rule cannot be expanded (unknown entry or "
-     "parameter, parameter out of range, undeclared signal)"),
+    (
+        "CW008",
+        "error",
+        "library contract or rule cannot be expanded (unknown entry or "
+        "parameter, parameter out of range, undeclared signal)",
+    ),
     ("CW009", "error", "ODD specification cannot be used (unreadable, malformed, misplaced)"),
     ("CW010", "error", "missing `module` block"),
     ("CW011", "warning", "no `monitor` block: a pure argument, nothing to judge at run time"),
@@ -47,8 +51,12 @@ _TABLE: tuple[tuple[str, Severity, str], ...] = (
     ("CW016", "error", "malformed threshold"),
     ("CW015", "error", "malformed warning margin (`warn`): not a finite number above 0"),
     ("CW017", "error", "malformed duration"),
-    ("CW018", "error", "binding of the wrong shape (`spi`: `signal` + `threshold` or `stl`; "
-     "`contract`: `guarantee` or `use`; not both `spi` and `contract`)"),
+    (
+        "CW018",
+        "error",
+        "binding of the wrong shape (`spi`: `signal` + `threshold` or `stl`; "
+        "`contract`: `guarantee` or `use`; not both `spi` and `contract`)",
+    ),
     ("CW019", "error", "invalid channel set"),
     ("CW020", "error", "unknown node type (id prefix)"),
     ("CW021", "error", "`spi` or `contract` on a node that is not a solution (Sn)"),

@@ -20,6 +20,7 @@ from typing import Any
 
 import yaml
 
+from casewatch.errors import CasewatchError
 from casewatch.safety_case.signals import available_signals
 from casewatch.spec.emit import number_text
 
@@ -29,7 +30,7 @@ _PLACE = re.compile(r"\{([A-Za-z_][A-Za-z0-9_]*)(?::([a-z]+))?\}")
 _IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 
 
-class ContractError(ValueError):
+class ContractError(CasewatchError, ValueError):
     """A `use:` that cannot be expanded; `key` is the YAML key to point at (`use`, `params`,
     or `params.<name>`)."""
 
@@ -93,16 +94,25 @@ def library(name: str = LIBRARY) -> dict[str, Template]:
     out: dict[str, Template] = {}
     for key, entry in raw["entries"].items():
         params = {
-            p: Param(p, spec.get("kind", "number"), spec.get("default"), spec.get("min"),
-                     spec.get("max"), bool(spec.get("integer", False)), spec.get("unit", ""),
-                     spec.get("description", ""))
+            p: Param(
+                p,
+                spec.get("kind", "number"),
+                spec.get("default"),
+                spec.get("min"),
+                spec.get("max"),
+                bool(spec.get("integer", False)),
+                spec.get("unit", ""),
+                spec.get("description", ""),
+            )
             for p, spec in (entry.get("params") or {}).items()
         }
         formulas = {k: entry[k] for k in FORMULA_KEYS if entry.get(k)}
-        data = {k: v for k, v in entry.items()
-                if k not in (*FORMULA_KEYS, "text", "needs", "params")}  # fmt: skip
-        out[key] = Template(key, entry["text"], dict(entry.get("needs") or {}), params,
-                            formulas, data)  # fmt: skip
+        data = {
+            k: v for k, v in entry.items() if k not in (*FORMULA_KEYS, "text", "needs", "params")
+        }
+        out[key] = Template(
+            key, entry["text"], dict(entry.get("needs") or {}), params, formulas, data
+        )
     return out
 
 
@@ -119,8 +129,11 @@ def _value(param: Param, given: Any, channels: list[str]) -> float | int | str:
     where = f"params.{param.name}"
     if param.kind == "channel":
         if given not in channels:
-            raise ContractError(f"`{where}` must be one of the case's channels "
-                                f"({', '.join(channels)}), got {given!r}", where)  # fmt: skip
+            raise ContractError(
+                f"`{where}` must be one of the case's channels "
+                f"({', '.join(channels)}), got {given!r}",
+                where,
+            )
         return str(given)
     if param.kind == "signal":
         if not isinstance(given, str) or not _IDENT.match(given):
@@ -135,29 +148,36 @@ def _value(param: Param, given: Any, channels: list[str]) -> float | int | str:
     if param.integer:
         value = int(value)
     if (param.lo is not None and value < param.lo) or (param.hi is not None and value > param.hi):
-        raise ContractError(f"`{where}` must lie in [{param.lo:g}, {param.hi:g}]"
-                            f"{' ' + param.unit if param.unit else ''}, got {given!r}",
-                            where)  # fmt: skip
+        raise ContractError(
+            f"`{where}` must lie in [{param.lo:g}, {param.hi:g}]"
+            f"{' ' + param.unit if param.unit else ''}, got {given!r}",
+            where,
+        )
     return value
 
 
-def resolve_params(template: Template, given: dict[str, Any], channels: list[str]
-                   ) -> dict[str, float | str]:  # fmt: skip
+def resolve_params(
+    template: Template, given: dict[str, Any], channels: list[str]
+) -> dict[str, float | str]:
     """Every parameter of `template`: the given value (checked) or its default."""
     unknown = sorted(set(given) - set(template.params))
     if unknown:
         known = ", ".join(template.params) or "none"
-        raise ContractError(f"contract {template.name} has no parameter {unknown[0]!r} "
-                            f"(its parameters: {known})", f"params.{unknown[0]}",
-                            at_key=True)  # fmt: skip
+        raise ContractError(
+            f"contract {template.name} has no parameter {unknown[0]!r} (its parameters: {known})",
+            f"params.{unknown[0]}",
+            at_key=True,
+        )
     out: dict[str, float | str] = {}
     for name, param in template.params.items():
         if name in given:
             out[name] = _value(param, given[name], channels)
         elif param.default is None:
             choices = f" (one of {', '.join(channels)})" if param.kind == "channel" else ""
-            raise ContractError(f"contract {template.name} needs `params.{name}`: "
-                                f"{param.description}{choices}", "params")  # fmt: skip
+            raise ContractError(
+                f"contract {template.name} needs `params.{name}`: {param.description}{choices}",
+                "params",
+            )
         else:
             default = param.default
             out[name] = default if isinstance(default, str) or param.integer else float(default)
@@ -179,9 +199,14 @@ def substitute(text: str, values: dict[str, float | str], period: float) -> str:
     return _PLACE.sub(fill, text)
 
 
-def instantiate(use: str, given: dict[str, Any], channels: list[str], declared: dict[str, str],
-                period: float, name: str = LIBRARY
-                ) -> tuple[Template, dict[str, float | str], dict[str, str]]:  # fmt: skip
+def instantiate(
+    use: str,
+    given: dict[str, Any],
+    channels: list[str],
+    declared: dict[str, str],
+    period: float,
+    name: str = LIBRARY,
+) -> tuple[Template, dict[str, float | str], dict[str, str]]:
     """(template, resolved parameters, formula texts by key) for `use: ENTRY` of library
     `name`; raises `ContractError` for an unknown entry, parameter or undeclared signal."""
     entries = library(name)
@@ -193,14 +218,20 @@ def instantiate(use: str, given: dict[str, Any], channels: list[str], declared: 
 
         close = difflib.get_close_matches(key, list(entries), n=1)
         mean = f"; did you mean {close[0]!r}?" if close else ""
-        raise ContractError(f"no {what} {use!r} in the {name} library{mean}", "use",
-                            f"the library's {what}s: {', '.join(entries)}")  # fmt: skip
+        raise ContractError(
+            f"no {what} {use!r} in the {name} library{mean}",
+            "use",
+            f"the library's {what}s: {', '.join(entries)}",
+        )
     missing = [s for s in template.needs if s not in declared]
     if missing:
         lines = ", ".join(f"{s}: {template.needs[s]}" for s in missing)
-        raise ContractError(f"{what} {key} reads the stream signal(s) {', '.join(missing)}, "
-                            "which monitor.signals does not declare", "use",
-                            f"declare them: monitor: {{signals: {{{lines}}}}}")  # fmt: skip
+        raise ContractError(
+            f"{what} {key} reads the stream signal(s) {', '.join(missing)}, "
+            "which monitor.signals does not declare",
+            "use",
+            f"declare them: monitor: {{signals: {{{lines}}}}}",
+        )
     values = resolve_params(template, given, channels)
     known = available_signals(channels, declared)
     for pname, param in template.params.items():
@@ -208,8 +239,10 @@ def instantiate(use: str, given: dict[str, Any], channels: list[str], declared: 
             where = f"params.{pname}" if pname in given else "use"
             raise ContractError(
                 f"{what} {key} reads `{pname}` = {values[pname]!r}, which is no signal of this "
-                f"case ({param.description})", where,
+                f"case ({param.description})",
+                where,
                 f"declare it under monitor.signals, or set params.{pname} to a signal the case "
-                "has, e.g. lead_gap__<channel>")  # fmt: skip
+                "has, e.g. lead_gap__<channel>",
+            )
     texts = {k: substitute(v, values, period) for k, v in template.formulas.items()}
     return template, values, texts

@@ -10,6 +10,8 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 from typing import Literal
 
+from casewatch.errors import CasewatchError
+
 Severity = Literal["error", "warning"]
 
 
@@ -40,7 +42,7 @@ def has_errors(findings: list[Finding]) -> bool:
     return any(f.severity == "error" for f in findings)
 
 
-class CaseError(Exception):
+class CaseError(CasewatchError):
     """Raised by the public API when a safety case has errors; carries every finding."""
 
     def __init__(self, findings: list[Finding]):

@@ -68,8 +68,11 @@ RESERVED_KEYS: tuple[str, ...] = ("module", "monitor")
 #: Modules shipped with casewatch that `module.uses` finds by name when no file of that name
 #: lies next to the using file.
 PACKAGED_MODULES: dict[str, Path] = {
-    "traffic-rules": Path(str(resources.files("casewatch.safety_case").joinpath(
-        "libraries", "traffic-rules.gsn.yaml"))),
+    "traffic-rules": Path(
+        str(
+            resources.files("casewatch.safety_case").joinpath("libraries", "traffic-rules.gsn.yaml")
+        )
+    ),
 }
 RELATIONS: tuple[str, ...] = ("supportedBy", "inContextOf", "challenges")
 COUNTER_TYPES = frozenset({NodeType.COUNTER_GOAL, NodeType.COUNTER_SOLUTION})
@@ -270,11 +273,14 @@ class _Builder:
         module = self.module(entries.get("module"))
         monitor_entry = entries.get("monitor") or kept.get("monitor")
         if self.used_by and monitor_entry is not None:
-            self.add("CW060", "this module is used by another, and a case has one monitor: its "
-                     "own `monitor` block is ignored (the using case's channels, period and "
-                     "metrics apply; its contracts and ODDs are still checked against it)",
-                     monitor_entry.key_mark, "move what it sets into the using case's `monitor`, "
-                     "or delete the block here")  # fmt: skip
+            self.add(
+                "CW060",
+                "this module is used by another, and a case has one monitor: its "
+                "own `monitor` block is ignored (the using case's channels, period and "
+                "metrics apply; its contracts and ODDs are still checked against it)",
+                monitor_entry.key_mark,
+                "move what it sets into the using case's `monitor`, or delete the block here",
+            )
         monitor = None if self.used_by and monitor_entry is None else self.monitor(monitor_entry)
         self.monitor_config = monitor if monitor is not None else self.inherited
         self.monitor_given = monitor_entry is not None or self.inherited is not None
@@ -299,9 +305,13 @@ class _Builder:
         for node_id, kept_entries in self.bindings.items():
             if node_id not in nodes and kept_entries:
                 first = next(iter(kept_entries.values()))
-                self.add("CW030", f"module.additionalInformation.casewatch.bindings names "
-                         f"{node_id!r}, which is not a node of this file", first.key_mark,
-                         "bind the spi/hazard to an existing node, or drop it")  # fmt: skip
+                self.add(
+                    "CW030",
+                    f"module.additionalInformation.casewatch.bindings names "
+                    f"{node_id!r}, which is not a node of this file",
+                    first.key_mark,
+                    "bind the spi/hazard to an existing node, or drop it",
+                )
         digest = self.digest
         if module is not None and module.uses:
             digest = self.use_modules(module, nodes, skipped, entries["module"])
@@ -316,8 +326,9 @@ class _Builder:
         case = partial if (not errors and module is not None) else None
         return LoadResult(case, partial, self.findings, skipped, self.invalid)
 
-    def use_modules(self, module: Module, nodes: dict[str, Node], skipped: dict[str, Mark],
-                    entry: object) -> str:  # fmt: skip
+    def use_modules(
+        self, module: Module, nodes: dict[str, Node], skipped: dict[str, Mark], entry: object
+    ) -> str:
         """Load the modules `module` uses (gsn2x `uses:`, files relative to this one) into
         `nodes`; their findings name their own files. Returns the digest of the whole case:
         this file's and every used file's bytes."""
@@ -334,13 +345,21 @@ class _Builder:
                 target.resolve()
             except (OSError, ValueError) as exc:
                 shown = repr(name) if len(name) <= 60 else f"{name[:57]!r}... ({len(name)} chars)"
-                self.add("CW028", f"module `uses` {shown}: not a usable file name "
-                         f"({getattr(exc, 'strerror', None) or exc})", mark,
-                         "name a YAML file relative to this one, e.g. uses: [rules.gsn.yaml]")
+                self.add(
+                    "CW028",
+                    f"module `uses` {shown}: not a usable file name "
+                    f"({getattr(exc, 'strerror', None) or exc})",
+                    mark,
+                    "name a YAML file relative to this one, e.g. uses: [rules.gsn.yaml]",
+                )
                 continue
             if str(target.resolve()) in chain:
-                self.add("CW028", f"module `uses` {name}, which uses this module again (a cycle: "
-                         f"{' -> '.join(Path(c).name for c in chain)} -> {target.name})", mark)
+                self.add(
+                    "CW028",
+                    f"module `uses` {name}, which uses this module again (a cycle: "
+                    f"{' -> '.join(Path(c).name for c in chain)} -> {target.name})",
+                    mark,
+                )
                 continue
             if str(target.resolve()) in self.loaded:
                 continue  # used by another module too (a diamond): its nodes are in already
@@ -348,17 +367,31 @@ class _Builder:
             try:
                 data = target.read_bytes()
             except OSError as exc:
-                self.add("CW028", f"module `uses` {name}: cannot read {target}: "
-                         f"{exc.strerror or exc}", mark, "the path is relative to this file")
+                self.add(
+                    "CW028",
+                    f"module `uses` {name}: cannot read {target}: {exc.strerror or exc}",
+                    mark,
+                    "the path is relative to this file",
+                )
                 continue
             try:
                 text = data.decode("utf-8-sig")
             except UnicodeDecodeError as exc:
-                self.add("CW028", f"module `uses` {name}: {target} is not UTF-8 text (byte "
-                         f"offset {exc.start})", mark, "save it as UTF-8")  # fmt: skip
+                self.add(
+                    "CW028",
+                    f"module `uses` {name}: {target} is not UTF-8 text (byte offset {exc.start})",
+                    mark,
+                    "save it as UTF-8",
+                )
                 continue
-            used = load_text(text, str(target), hashlib.sha256(data).hexdigest(), chain,
-                             self.loaded, self.monitor_config)  # fmt: skip
+            used = load_text(
+                text,
+                str(target),
+                hashlib.sha256(data).hexdigest(),
+                chain,
+                self.loaded,
+                self.monitor_config,
+            )
             self.findings.extend(used.findings)
             if used.partial is None:
                 digest.update(hashlib.sha256(data).digest())
@@ -370,10 +403,15 @@ class _Builder:
                 if node_id in nodes:
                     first = nodes[node_id].mark
                     where = f"{first.path or self.path}:{first.line}"
-                    self.findings.append(finding(
-                        "CW029", f"node {node_id} is defined in {target.name} and already in "
-                        f"{where}", str(target), node.mark,
-                        "node ids are shared by every module of a case: rename one"))  # fmt: skip
+                    self.findings.append(
+                        finding(
+                            "CW029",
+                            f"node {node_id} is defined in {target.name} and already in {where}",
+                            str(target),
+                            node.mark,
+                            "node ids are shared by every module of a case: rename one",
+                        )
+                    )
                     continue
                 nodes[node_id] = node
         return digest.hexdigest()
@@ -394,8 +432,11 @@ class _Builder:
         raw = self.validate(RawModule, entry.value, entry.key_mark, "`module`", {(): MODULE_KEYS})
         if not isinstance(raw, RawModule):
             return None
-        gsn = {k: v for k in ("extends", "additionalInformation", "horizontalIndex",
-                              "rankIncrement") if (v := getattr(raw, k)) is not None}  # fmt: skip
+        gsn = {
+            k: v
+            for k in ("extends", "additionalInformation", "horizontalIndex", "rankIncrement")
+            if (v := getattr(raw, k)) is not None
+        }
         info = gsn.get("additionalInformation")
         if isinstance(info, dict) and "casewatch" in info:  # read as monitor and bindings
             rest = {k: v for k, v in info.items() if k != "casewatch"}
@@ -415,8 +456,11 @@ class _Builder:
                 "to monitor it, add e.g. `monitor: {channels: [lav, tfuse], period: 0.1s}`",
             )
             return None
-        levels = {(): MONITOR_KEYS, ("metrics",): METRIC_KEYS,
-                  ("scoring",): tuple(ScoringParams.model_fields)}
+        levels = {
+            (): MONITOR_KEYS,
+            ("metrics",): METRIC_KEYS,
+            ("scoring",): tuple(ScoringParams.model_fields),
+        }
         raw = self.validate(RawMonitor, entry.value, entry.key_mark, "`monitor`", levels)
         if not isinstance(raw, RawMonitor):
             return None
@@ -484,12 +528,19 @@ class _Builder:
                     )
                     del plain[key]
         if isinstance(plain, dict) and "spi" in plain and "contract" in plain:
-            self.add("CW018", f"{where} has both `spi` and `contract`: a solution is bound to "
-                     "one of them", entries["contract"].key_mark,
-                     "keep the contract (an assume-guarantee pair) or the SPI")  # fmt: skip
+            self.add(
+                "CW018",
+                f"{where} has both `spi` and `contract`: a solution is bound to one of them",
+                entries["contract"].key_mark,
+                "keep the contract (an assume-guarantee pair) or the SPI",
+            )
             del plain["contract"]
-        levels = {(): NODE_KEYS, ("spi",): SPI_KEYS, ("hazard",): HAZARD_KEYS,
-                  ("contract",): CONTRACT_KEYS}  # fmt: skip
+        levels = {
+            (): NODE_KEYS,
+            ("spi",): SPI_KEYS,
+            ("hazard",): HAZARD_KEYS,
+            ("contract",): CONTRACT_KEYS,
+        }
         raw = self.validate(RawNode, value, mark, where, levels, plain=plain)
         key_marks = {k: e.key_mark for k, e in entries.items()}
         ref_marks = {rel: _ref_marks(entries[rel].value) for rel in RELATIONS if rel in entries}
@@ -567,31 +618,44 @@ class _Builder:
         template, values, texts = found
         data = template.data
         return HazardBinding(
-            when=texts["when"], use=template.name, params=values, from_library=True,
+            when=texts["when"],
+            use=template.name,
+            params=values,
+            from_library=True,
             merge_gap=h.merge_gap if h.merge_gap is not None else data.get("merge_gap"),
-            min_duration=(h.min_duration if h.min_duration is not None
-                          else data.get("min_duration")),
-            warn=h.warn, mark=entries["hazard"].key_mark, formula_mark=use_mark,
-        )  # fmt: skip
+            min_duration=(
+                h.min_duration if h.min_duration is not None else data.get("min_duration")
+            ),
+            warn=h.warn,
+            mark=entries["hazard"].key_mark,
+            formula_mark=use_mark,
+        )
 
-    def _instantiate(self, node_id: str, use: str, params: dict, keyed: dict, use_mark: Mark,
-                     library: str) -> tuple[Template, dict, dict[str, str]] | None:  # fmt: skip
+    def _instantiate(
+        self, node_id: str, use: str, params: dict, keyed: dict, use_mark: Mark, library: str
+    ) -> tuple[Template, dict, dict[str, str]] | None:
         """A library entry (`use:`) expanded against this file's monitor (or the using
         case's); None after a CW008 (none when the monitor block is invalid: reported already)."""
         monitor = self.monitor_config
         what = "contract" if library == LIBRARY else "rule"
         if monitor is None:
             if not self.monitor_given:
-                self.add("CW008", f"node {node_id}: a library {what} needs the `monitor` block "
-                         "of its file (its channels, period and signals)", use_mark)  # fmt: skip
+                self.add(
+                    "CW008",
+                    f"node {node_id}: a library {what} needs the `monitor` block "
+                    "of its file (its channels, period and signals)",
+                    use_mark,
+                )
             self.invalid.add(node_id)
             return None
         try:
-            return instantiate(use, dict(params), list(monitor.channels), monitor.signals,
-                               monitor.period, library)  # fmt: skip
+            return instantiate(
+                use, dict(params), list(monitor.channels), monitor.signals, monitor.period, library
+            )
         except ContractError as exc:
-            self.add("CW008", f"node {node_id}: {exc}", self._param_mark(exc, keyed, use_mark),
-                     exc.hint)  # fmt: skip
+            self.add(
+                "CW008", f"node {node_id}: {exc}", self._param_mark(exc, keyed, use_mark), exc.hint
+            )
             self.invalid.add(node_id)
             return None
 
@@ -619,12 +683,20 @@ class _Builder:
         def at(key: str) -> Mark:
             return keyed[key].value.content_mark if key in keyed else mark
 
-        common = {"merge_gap": c.merge_gap, "min_duration": c.min_duration, "warn": c.warn,
-                  "mark": mark}  # fmt: skip
+        common = {
+            "merge_gap": c.merge_gap,
+            "min_duration": c.min_duration,
+            "warn": c.warn,
+            "mark": mark,
+        }
         if c.use is None:
-            return ContractBinding(guarantee=c.guarantee or "", assume=c.assume,
-                                   guarantee_mark=at("guarantee"), assume_mark=at("assume"),
-                                   **common)  # fmt: skip
+            return ContractBinding(
+                guarantee=c.guarantee or "",
+                assume=c.assume,
+                guarantee_mark=at("guarantee"),
+                assume_mark=at("assume"),
+                **common,
+            )
         use_mark = at("use")
         found = self._instantiate(node_id, c.use, c.params, keyed, use_mark, LIBRARY)
         if found is None:
@@ -635,13 +707,14 @@ class _Builder:
         return ContractBinding(
             guarantee=c.guarantee if own_guarantee else guarantee,
             assume=c.assume if own_assume else assume,
-            use=c.use, params=values,
+            use=c.use,
+            params=values,
             guarantee_mark=at("guarantee") if own_guarantee else use_mark,
             assume_mark=at("assume") if own_assume else use_mark,
             guarantee_from_library=not own_guarantee,
             assume_from_library=not own_assume and assume is not None,
             **common,
-        )  # fmt: skip
+        )
 
     def odd(self, node_id: str, raw: RawNode, entries: dict) -> OddSpec | None:
         """`odd:` on a context: a file (relative to this one) or an inline mapping; CW009 when
@@ -658,9 +731,13 @@ class _Builder:
                 return read_odd_file(Path(self.path).parent / raw.odd, signals)
             return parse_odd(raw.odd, "", signals)
         except OddError as exc:
-            self.add("CW009", f"node {node_id}: `odd`: {exc}", mark,
-                     "docs/odd.md: odd: {attributes: {environment.weather: [clear, rain]}} or "
-                     "odd: accepted-odd.yaml")  # fmt: skip
+            self.add(
+                "CW009",
+                f"node {node_id}: `odd`: {exc}",
+                mark,
+                "docs/odd.md: odd: {attributes: {environment.weather: [clear, rain]}} or "
+                "odd: accepted-odd.yaml",
+            )
             self.invalid.add(node_id)
             return None
 
@@ -816,10 +893,15 @@ def _casewatch_info(entry: object) -> dict:
         out["monitor"] = kept.entries()["monitor"]
     bindings = kept.entries().get("bindings")
     if bindings is not None and bindings.value.kind == "map":
-        out["bindings"] = {node_id: {k: e for k, e in b.value.entries().items()
-                                     if k in ("spi", "hazard", "contract", "odd")}
-                           for node_id, b in bindings.value.entries().items()
-                           if b.value.kind == "map"}  # fmt: skip
+        out["bindings"] = {
+            node_id: {
+                k: e
+                for k, e in b.value.entries().items()
+                if k in ("spi", "hazard", "contract", "odd")
+            }
+            for node_id, b in bindings.value.entries().items()
+            if b.value.kind == "map"
+        }
     return out
 
 

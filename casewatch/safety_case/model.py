@@ -72,38 +72,54 @@ class MetricParams(BaseModel):
         1.75, gt=0, le=10, description="half width [m] of the corridor of the leader and follower"
     )
     lone_horizon: float = Field(
-        2.0, gt=0, le=60,
+        2.0,
+        gt=0,
+        le=60,
         description="time [s] after which an unpaired object counts as a full disagreement",
     )
     plan_lat_horizon: float = Field(
         2.0, gt=0, le=60, description="plan time [s] over which plan_lat compares the plans"
     )
     ompv_lookback: float = Field(
-        0.1, gt=0, le=10,
+        0.1,
+        gt=0,
+        le=10,
         description="age [s] of the observation whose predictions ompv checks",
     )
     standing_motion: float = Field(
-        0.0, ge=0, le=100,
+        0.0,
+        ge=0,
+        le=100,
         description="objects moving less [m] over the compared time are left out of ots, ompv",
     )
     ols_range_scale: float = Field(
-        0.0, ge=0, le=10_000,
+        0.0,
+        ge=0,
+        le=10_000,
         description="ols divides a pair's distance by 1 + range / this [m] (0: off)",
     )
     ots_time_scale: float = Field(
-        0.0, ge=0, le=600,
+        0.0,
+        ge=0,
+        le=600,
         description="ots divides each point's distance by 1 + dt / this [s] (0: off)",
     )
     ets_relative: int = Field(
-        0, ge=0, le=1,
+        0,
+        ge=0,
+        le=1,
         description="1: ets compares each plan relative to its channel's ego position",
     )
     plan_smoothing: float = Field(
-        0.0, ge=0, le=10,
+        0.0,
+        ge=0,
+        le=10,
         description="span [s] of the quadratic fits that smooth a plan's sample noise (0: off)",
     )
     plan_standstill: float = Field(
-        0.0, ge=0, le=10,
+        0.0,
+        ge=0,
+        le=10,
         description="a plan within this distance [m] of its first point stands at that point",
     )
 
@@ -257,29 +273,69 @@ class ScoringParams(BaseModel):
     library's; these override them per rule (`collision` per party: `collision.pedestrian`)."""
 
     model_config = ConfigDict(extra="forbid", frozen=True)
-    d: float = Field(100.0, ge=0, le=1000, description="d: difficulty of the scenario, 0 to 1000 "
-                     "(eq. 6.1; a stream has no scenario file, so the case sets it)")
-    alpha: float = Field(0.2, ge=0, le=1, description="alpha: intensity of traffic, 0 (empty "
-                         "road) to 1 (gridlock) (eq. 6.3)")
-    gamma: float = Field(0.7, gt=0, le=1, description="gamma: discount factor of the penalties, "
-                         "(0, 1] (eq. 6.1)")
-    v_avg: float | None = Field(None, gt=0, le=100, description="v_avg: average speed limit "
-                                "over the route [m/s]; none: from the stream's speed limits")
-    route_length: float | None = Field(None, gt=0, le=1e7, description="s: length of the route "
-                                       "[m]; none: the stream's world.route.length")
-    stop_allowance: float = Field(12.0, ge=0, le=3600, description="t_avg: time [s] allowed at "
-                                  "each stop line passed (the thesis' evaluation: 12 s a junction)")
+    d: float = Field(
+        100.0,
+        ge=0,
+        le=1000,
+        description="d: difficulty of the scenario, 0 to 1000 "
+        "(eq. 6.1; a stream has no scenario file, so the case sets it)",
+    )
+    alpha: float = Field(
+        0.2,
+        ge=0,
+        le=1,
+        description="alpha: intensity of traffic, 0 (empty road) to 1 (gridlock) (eq. 6.3)",
+    )
+    gamma: float = Field(
+        0.7, gt=0, le=1, description="gamma: discount factor of the penalties, (0, 1] (eq. 6.1)"
+    )
+    v_avg: float | None = Field(
+        None,
+        gt=0,
+        le=100,
+        description="v_avg: average speed limit "
+        "over the route [m/s]; none: from the stream's speed limits",
+    )
+    route_length: float | None = Field(
+        None,
+        gt=0,
+        le=1e7,
+        description="s: length of the route [m]; none: the stream's world.route.length",
+    )
+    stop_allowance: float = Field(
+        12.0,
+        ge=0,
+        le=3600,
+        description="t_avg: time [s] allowed at "
+        "each stop line passed (the thesis' evaluation: 12 s a junction)",
+    )
     stops: list[Annotated[float, Field(ge=0, le=3600)]] | None = Field(
-        None, max_length=10000, description="t_avg of every stop of the route [s], instead of "
-        "stop_allowance per stop line passed")
-    timeliness_cap: bool = Field(False, description="casewatch's variant: cap t_o / t at 1 "
-                                 "(no points for beating the optimal time)")
-    neither: float = Field(50.0, ge=0, le=1e4, description="penalty for neither low beam at "
-                           "night nor fog lights in fog at once (instead of both penalties)")
+        None,
+        max_length=10000,
+        description="t_avg of every stop of the route [s], instead of "
+        "stop_allowance per stop line passed",
+    )
+    timeliness_cap: bool = Field(
+        False,
+        description="casewatch's variant: cap t_o / t at 1 "
+        "(no points for beating the optimal time)",
+    )
+    neither: float = Field(
+        50.0,
+        ge=0,
+        le=1e4,
+        description="penalty for neither low beam at "
+        "night nor fog lights in fog at once (instead of both penalties)",
+    )
     penalties: dict[str, tuple[float, float]] = {}  # rule -> (base, while speeding)
     carla: dict[str, float] = {}  # rule -> CARLA infraction coefficient in (0, 1]
-    min_speed_checkpoints: int = Field(4, ge=1, le=100, description="stretches of the route the "
-                                       "Leaderboard's minimum-speed test compares speeds over")
+    min_speed_checkpoints: int = Field(
+        4,
+        ge=1,
+        le=100,
+        description="stretches of the route the "
+        "Leaderboard's minimum-speed test compares speeds over",
+    )
 
 
 class MonitorConfig(BaseModel):

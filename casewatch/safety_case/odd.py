@@ -20,6 +20,7 @@ from typing import Any
 import yaml
 from pydantic import ValidationError
 
+from casewatch.errors import CasewatchError
 from casewatch.safety_case.model import OddRange, OddSpec, OddValue
 
 #: The layers of the condition model and what each holds. An attribute is `<layer>.<key>`.
@@ -33,7 +34,7 @@ LAYERS: dict[str, str] = {
 }
 
 
-class OddError(ValueError):
+class OddError(CasewatchError, ValueError):
     """A condition report or ODD specification that cannot be used; the message says where."""
 
 
@@ -49,16 +50,19 @@ def flatten_conditions(layered: object, where: str = "odd") -> dict[str, OddValu
     """`{"environment": {"weather": "rain"}}` -> `{"environment.weather": "rain"}`, checked:
     known layers, one level of keys, scalar values. Raises `OddError` naming the key."""
     if not isinstance(layered, dict):
-        raise OddError(f"{where}: expected a mapping of layers ({', '.join(LAYERS)}), "
-                       f"got {type(layered).__name__}")  # fmt: skip
+        raise OddError(
+            f"{where}: expected a mapping of layers ({', '.join(LAYERS)}), "
+            f"got {type(layered).__name__}"
+        )
     out: dict[str, OddValue] = {}
     for layer, attributes in layered.items():
         if layer not in LAYERS:
-            raise OddError(f"{where}.{layer}: unknown layer; the layers are "
-                           f"{', '.join(LAYERS)}")  # fmt: skip
+            raise OddError(f"{where}.{layer}: unknown layer; the layers are {', '.join(LAYERS)}")
         if not isinstance(attributes, dict):
-            raise OddError(f"{where}.{layer}: expected a mapping of attributes, e.g. "
-                           f'{{"weather": "rain"}}, got {attributes!r:.40}')  # fmt: skip
+            raise OddError(
+                f"{where}.{layer}: expected a mapping of attributes, e.g. "
+                f'{{"weather": "rain"}}, got {attributes!r:.40}'
+            )
         for key, value in attributes.items():
             out[f"{layer}.{key}"] = _scalar(value, f"{where}.{layer}.{key}")
     return out
@@ -75,8 +79,10 @@ def attribute_problem(name: str, signals: set[str] | None) -> str | None:
             return f"{name!r} names a layer but no attribute (e.g. {layer}.type)"
         return None
     if signals is not None and name not in signals:
-        return (f"{name!r} is neither a layered condition (`environment.weather`) nor a signal "
-                "of this case")  # fmt: skip
+        return (
+            f"{name!r} is neither a layered condition (`environment.weather`) nor a signal "
+            "of this case"
+        )
     return None
 
 
@@ -85,8 +91,10 @@ def parse_odd(data: object, source: str = "", signals: set[str] | None = None) -
     if isinstance(data, dict) and set(data) == {"odd"}:
         data = data["odd"]  # a file written by `casewatch odd`: one top-level `odd:` key
     if not isinstance(data, dict):
-        raise OddError(f"expected a mapping with `attributes` (and optionally `name`, "
-                       f"`combinations`), got {type(data).__name__}")  # fmt: skip
+        raise OddError(
+            f"expected a mapping with `attributes` (and optionally `name`, "
+            f"`combinations`), got {type(data).__name__}"
+        )
     try:
         spec = OddSpec.model_validate({**data, "source": source})
     except ValidationError as exc:
@@ -100,8 +108,10 @@ def parse_odd(data: object, source: str = "", signals: set[str] | None = None) -
         if problem:
             raise OddError(f"attributes.{name}: {problem}")
         if isinstance(accepted, list) and not accepted:
-            raise OddError(f"attributes.{name}: no accepted value (an empty list excludes "
-                           "every tick); list the values, or drop the attribute")  # fmt: skip
+            raise OddError(
+                f"attributes.{name}: no accepted value (an empty list excludes "
+                "every tick); list the values, or drop the attribute"
+            )
         if isinstance(accepted, OddRange):
             if accepted.min is None and accepted.max is None:
                 raise OddError(f"attributes.{name}: a range needs `min`, `max` or both")
@@ -110,9 +120,11 @@ def parse_odd(data: object, source: str = "", signals: set[str] | None = None) -
     for k, combo in enumerate(spec.combinations):
         for name in combo:
             if name not in spec.attributes or "." not in name:
-                raise OddError(f"combinations[{k}].{name}: a combination names layered "
-                               "conditions the ODD lists under `attributes` (signals are "
-                               "judged by their range alone)")  # fmt: skip
+                raise OddError(
+                    f"combinations[{k}].{name}: a combination names layered "
+                    "conditions the ODD lists under `attributes` (signals are "
+                    "judged by their range alone)"
+                )
     return spec
 
 
@@ -122,8 +134,9 @@ def read_odd_file(path: str | Path, signals: set[str] | None = None) -> OddSpec:
         text = Path(path).read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError, ValueError) as exc:
         shown = repr(str(path)) if len(str(path)) <= 80 else f"{str(path)[:77]!r}..."
-        raise OddError(f"{shown}: cannot read the ODD specification: "
-                       f"{getattr(exc, 'strerror', None) or exc}") from None  # fmt: skip
+        raise OddError(
+            f"{shown}: cannot read the ODD specification: {getattr(exc, 'strerror', None) or exc}"
+        ) from None
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as exc:
@@ -145,8 +158,9 @@ def odd_to_data(spec: OddSpec) -> dict[str, Any]:
     attributes: dict[str, Any] = {}
     for name, accepted in spec.attributes.items():
         if isinstance(accepted, OddRange):
-            attributes[name] = {k: v for k, v in (("min", accepted.min), ("max", accepted.max))
-                                if v is not None}  # fmt: skip
+            attributes[name] = {
+                k: v for k, v in (("min", accepted.min), ("max", accepted.max)) if v is not None
+            }
         else:  # whole numbers as written (3 lanes, not 3.0); they read back as floats
             attributes[name] = [_plain(v) for v in accepted]
     body: dict[str, Any] = {"name": spec.name, "attributes": attributes}

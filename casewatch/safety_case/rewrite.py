@@ -17,12 +17,13 @@ from ruamel.yaml.comments import CommentedMap
 from ruamel.yaml.error import CommentMark
 from ruamel.yaml.tokens import CommentToken
 
+from casewatch.errors import CasewatchError
 from casewatch.spec.emit import number_text
 
 _NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
 
 
-class RewriteError(ValueError):
+class RewriteError(CasewatchError, ValueError):
     """The case cannot be rewritten as asked (names the node and key)."""
 
 
@@ -62,8 +63,8 @@ def replace_number(text: str, signal: str, op: str, signal_left: bool, value: fl
         raise RewriteError(f"cannot find `{signal} {op} NUMBER` in the formula {text!r}")
     new = number_text(value)
     if signal_left:
-        return text[: match.start(2)] + new + text[match.end(2):]
-    return text[: match.start(1)] + new + text[match.start(2):]
+        return text[: match.start(2)] + new + text[match.end(2) :]
+    return text[: match.start(1)] + new + text[match.start(2) :]
 
 
 def _like(old: object, text: str) -> object:
@@ -132,8 +133,9 @@ def rewrite(yaml_text: str, changes: list[Change], notes: dict[str, str] | None 
         if ch.kind == "hazard" or ch.raw_stl:
             key = "when" if ch.kind == "hazard" else "stl"
             old = binding[key]
-            binding[key] = _like(old, replace_number(str(old), ch.signal, ch.op,
-                                                     ch.signal_left, ch.new))  # fmt: skip
+            binding[key] = _like(
+                old, replace_number(str(old), ch.signal, ch.op, ch.signal_left, ch.new)
+            )
         else:
             old = binding["threshold"]
             binding["threshold"] = _like(old, f"{ch.op} {number_text(ch.new)}")

@@ -140,7 +140,7 @@ def _short(value: object, limit: int = 40) -> str:
         text = repr(value)
     except ValueError:  # an int beyond Python's digit limit for conversion to text
         return "a number of more than 4300 digits"
-    return text if len(text) <= limit else f"{text[:limit - 3]}... ({len(text)} characters)"
+    return text if len(text) <= limit else f"{text[: limit - 3]}... ({len(text)} characters)"
 
 
 def _describe(value: object) -> str:
@@ -244,11 +244,14 @@ class RawHazard(BaseModel):
     def _shape(self) -> RawHazard:
         if self.use is None and self.params:
             raise PydanticCustomError(
-                "spi_shape", "`params` set the parameters of a library rule: add `use`")
+                "spi_shape", "`params` set the parameters of a library rule: add `use`"
+            )
         if (self.when is None) == (self.use is None):
             raise PydanticCustomError(
-                "spi_shape", "a hazard needs `when` (a condition) or `use` (a traffic rule of "
-                "the library, docs/traffic-rules.md), not both")
+                "spi_shape",
+                "a hazard needs `when` (a condition) or `use` (a traffic rule of "
+                "the library, docs/traffic-rules.md), not both",
+            )
         return self
 
 
@@ -273,8 +276,9 @@ class RawContract(BaseModel):
             )
         if self.use is None and self.guarantee is None:
             raise PydanticCustomError(
-                "spi_shape", "a contract needs `guarantee` (and optionally `assume`), or `use` "
-                "naming a library contract (docs/contracts.md)"
+                "spi_shape",
+                "a contract needs `guarantee` (and optionally `assume`), or `use` "
+                "naming a library contract (docs/contracts.md)",
             )
         return self
 
@@ -310,9 +314,11 @@ class RawNode(BaseModel):
         """`spi:` (or `hazard:`, `contract:`) written with nothing after it would leave the
         node silently unmonitored: a binding must say what to judge (CW018)."""
         if value is None:
-            example = {"spi": "spi: {signal: els, threshold: '>= 0.6'}",
-                       "hazard": "hazard: {when: 'lead_thw < 1.0'}",
-                       "contract": "contract: {use: lane_keeping}"}[info.field_name or "spi"]
+            example = {
+                "spi": "spi: {signal: els, threshold: '>= 0.6'}",
+                "hazard": "hazard: {when: 'lead_thw < 1.0'}",
+                "contract": "contract: {use: lane_keeping}",
+            }[info.field_name or "spi"]
             raise PydanticCustomError(
                 "spi_shape",
                 "`{binding}:` is empty (null), so nothing would be monitored; write the binding "
@@ -325,14 +331,28 @@ class RawNode(BaseModel):
 
 #: gsn2x's `nodeType` names -> our types (an id without a type prefix needs one).
 GSN_NODE_TYPES: dict[str, str] = {
-    "Goal": "G", "Strategy": "S", "Solution": "Sn", "Context": "C", "Assumption": "A",
-    "Justification": "J", "CounterGoal": "CG", "CounterSolution": "CSn",
-}  # fmt: skip
+    "Goal": "G",
+    "Strategy": "S",
+    "Solution": "Sn",
+    "Context": "C",
+    "Assumption": "A",
+    "Justification": "J",
+    "CounterGoal": "CG",
+    "CounterSolution": "CSn",
+}
 
 #: The gsn2x attributes of a node kept as written (`Node.gsn`).
-GSN_NODE_ATTRIBUTES: tuple[str, ...] = ("classes", "level", "horizontalIndex", "rankIncrement",
-                                        "nodeType", "acp", "additionalInformation", "defeated",
-                                        "defeatedRelation")  # fmt: skip
+GSN_NODE_ATTRIBUTES: tuple[str, ...] = (
+    "classes",
+    "level",
+    "horizontalIndex",
+    "rankIncrement",
+    "nodeType",
+    "acp",
+    "additionalInformation",
+    "defeated",
+    "defeatedRelation",
+)
 
 
 class RawModule(BaseModel):
@@ -443,21 +463,36 @@ def _check_scoring(scoring: ScoringParams) -> ScoringParams:
     from casewatch.safety_case.contracts import RULES, library
 
     rules = library(RULES)
-    names = {f"{r}.{party}" if by else r for r, t in rules.items()
-             for by in [t.data.get("penalty_by_party")] for party in (by or [None])}
+    names = {
+        f"{r}.{party}" if by else r
+        for r, t in rules.items()
+        for by in [t.data.get("penalty_by_party")]
+        for party in (by or [None])
+    }
     for table, what in ((scoring.penalties, "penalties"), (scoring.carla, "carla")):
         for name, value in table.items():
             if name not in names:
                 raise PydanticCustomError(
-                    "unknown_rule", "scoring.{what}: no rule {name} (the rules: {known})",
-                    {"what": what, "name": repr(name), "known": ", ".join(sorted(names))})
+                    "unknown_rule",
+                    "scoring.{what}: no rule {name} (the rules: {known})",
+                    {"what": what, "name": repr(name), "known": ", ".join(sorted(names))},
+                )
             values = value if isinstance(value, tuple) else (value,)
             if any(not math.isfinite(v) or v < 0 for v in values) or (
-                    what == "carla" and not 0 < value <= 1):  # fmt: skip
+                what == "carla" and not 0 < value <= 1
+            ):
                 raise PydanticCustomError(
-                    "unknown_rule", "scoring.{what}.{name}: {got} is no {expected}",
-                    {"what": what, "name": name, "got": repr(value), "expected":
-                     "coefficient in (0, 1]" if what == "carla" else "pair of penalties >= 0"})
+                    "unknown_rule",
+                    "scoring.{what}.{name}: {got} is no {expected}",
+                    {
+                        "what": what,
+                        "name": name,
+                        "got": repr(value),
+                        "expected": "coefficient in (0, 1]"
+                        if what == "carla"
+                        else "pair of penalties >= 0",
+                    },
+                )
     return scoring
 
 

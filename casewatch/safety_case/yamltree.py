@@ -134,8 +134,9 @@ class _Converter:
             for number in range(start.line + 1, len(self.lines) + 1):
                 line = self.lines[number - 1]
                 if line.strip():
-                    return Mark(line=number, col=len(line) - len(line.lstrip()) + 1,
-                                path=_mark_path)
+                    return Mark(
+                        line=number, col=len(line) - len(line.lstrip()) + 1, path=_mark_path
+                    )
         return start
 
     def scalar(self, node: yaml.ScalarNode) -> object:

@@ -30,8 +30,10 @@ def specs_text(spec: CompiledSpec) -> str:
         lines.append(f"# source: {' '.join(f.source.split())}")
         lines.append(f.rtamt)
         if f.assumption is not None:  # a contract: judged only where this one holds
-            lines.append(f"# {f.assumption.id} (the assumption of {f.node_id}): "
-                         f"{' '.join(f.assumption.source.split())}")
+            lines.append(
+                f"# {f.assumption.id} (the assumption of {f.node_id}): "
+                f"{' '.join(f.assumption.source.split())}"
+            )
             lines.append(f.assumption.rtamt)
     return "\n".join(lines) + "\n"
 

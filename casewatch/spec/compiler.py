@@ -117,15 +117,34 @@ def _sources(case: Case) -> tuple[list[_Source], list[Finding]]:
 def _contract_sources(node: Node, contract: ContractBinding) -> list[_Source]:
     """A contract's guarantee (the monitored formula, kind `spi`: it is evidence) and, when it
     has one, its assumption (compiled alone, then attached to the guarantee)."""
-    common = {"node": node, "kind": "spi", "formula": None, "binding_mark": contract.mark,
-              "merge_gap": contract.merge_gap, "min_duration": contract.min_duration}
-    out = [_Source(text=contract.guarantee, mark=contract.guarantee_mark, warn=contract.warn,
-                   fixed=contract.guarantee_from_library, role="guarantee",
-                   **common)]  # type: ignore[arg-type]
+    common = {
+        "node": node,
+        "kind": "spi",
+        "formula": None,
+        "binding_mark": contract.mark,
+        "merge_gap": contract.merge_gap,
+        "min_duration": contract.min_duration,
+    }
+    out = [
+        _Source(
+            text=contract.guarantee,
+            mark=contract.guarantee_mark,
+            warn=contract.warn,
+            fixed=contract.guarantee_from_library,
+            role="guarantee",
+            **common,
+        )
+    ]  # type: ignore[arg-type]
     if contract.assume is not None:
-        out.append(_Source(text=contract.assume, mark=contract.assume_mark,
-                           fixed=contract.assume_from_library, role="assumption",
-                           **common))  # type: ignore[arg-type]
+        out.append(
+            _Source(
+                text=contract.assume,
+                mark=contract.assume_mark,
+                fixed=contract.assume_from_library,
+                role="assumption",
+                **common,
+            )
+        )  # type: ignore[arg-type]
     return out
 
 
@@ -259,9 +278,10 @@ def _check(
         line, col = _at(case, src, node.col)
         own = (node.interval.hi - node.interval.lo) / period + 1
         detail = f"{float(node.interval.lo):g}s to {float(node.interval.hi):g}s ago at " + (
-            f"{float(period):g}s" if own == samples else
-            f"{float(period):g}s is {own}, times {samples // int(own)} of the sum inside it"
-        )  # fmt: skip
+            f"{float(period):g}s"
+            if own == samples
+            else f"{float(period):g}s is {own}, times {samples // int(own)} of the sum inside it"
+        )
         findings.append(
             formula_finding(
                 "CW049",
@@ -302,7 +322,7 @@ def _vacancy(case: Case, src: _Source, formula: Formula, period: Fraction) -> li
     if not ticks:
         return []
     shown = f"{float(ticks[-1] * period + period):g}s"
-    what = ("reads as present" if src.kind == "hazard" else "is violated")
+    what = "reads as present" if src.kind == "hazard" else "is violated"
     return [
         formula_finding(
             "CW050",
@@ -448,7 +468,7 @@ def _caret_hint(text: str, col: int, width: int = 160) -> str:
     """The formula with a caret under `col`; a long formula is cut to `width` characters
     around the caret, so one finding never prints kilobytes."""
     start = max(0, min(col - 1 - width // 2, len(text) - width))
-    shown = text[start:start + width]
+    shown = text[start : start + width]
     left = "..." if start > 0 else ""
     right = "..." if start + width < len(text) else ""
     return f"{left}{shown}{right}\n{' ' * (len(left) + col - 1 - start)}^"
@@ -501,8 +521,9 @@ def compile_case(case: Case, mode: Mode = "online") -> tuple[CompiledSpec | None
     return spec, findings
 
 
-def _with_assumption(guarantee: CompiledFormula, assumption: CompiledFormula,
-                     node: Node) -> CompiledFormula:  # fmt: skip
+def _with_assumption(
+    guarantee: CompiledFormula, assumption: CompiledFormula, node: Node
+) -> CompiledFormula:
     """The contract's monitored formula: its guarantee, carrying its assumption."""
     own = assumption.model_copy(update={"id": f"{guarantee.id}.assume", "warn": 0.0})
     use = node.contract.use if node.contract is not None else None

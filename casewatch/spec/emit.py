@@ -291,8 +291,7 @@ def _single_children(ast: Any) -> None:
         children = getattr(node, "children", None)
         if not isinstance(children, list):
             continue
-        if (len(children) == 4 and children[2] is children[0]
-                and children[3] is children[1]):  # fmt: skip
+        if len(children) == 4 and children[2] is children[0] and children[3] is children[1]:
             del children[2:]
         elif isinstance(node, UnaryNode) and len(children) == 2 and children[1] is children[0]:
             del children[1:]

@@ -18,6 +18,7 @@ from typing import cast
 from lark import Lark, Token, Tree
 from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
 
+from casewatch.errors import CasewatchError
 from casewatch.safety_case.model import Mark
 from casewatch.spec.ast import (
     FORMULA_TYPES,
@@ -75,7 +76,7 @@ _TERMINAL_WORDS: dict[str, str] = {
 
 
 @dataclass
-class FormulaError(Exception):
+class FormulaError(CasewatchError):
     """A formula that cannot be parsed or has the wrong sort; `col` is 1-based in the text."""
 
     message: str
@@ -113,8 +114,11 @@ def _check_nesting(tree: Tree, text: str, limit: int = MAX_NESTING) -> None:
                 f"the formula nests more than {limit} operators inside each other (a chain of "
                 "`and` nests one level per term, a `sum` as rtamt receives it two per sample); "
                 "split it over several nodes or shorten it",
-                1, text, 1, code="CW051",
-            )  # fmt: skip
+                1,
+                text,
+                1,
+                code="CW051",
+            )
         level = [c for node in level for c in node.children if isinstance(c, Tree)]
 
 

@@ -184,8 +184,9 @@ def delay(formula: Formula, ticks: int, period: Fraction) -> Formula | None:
     if isinstance(formula, Window):
         # the operand judged late by the least delay that has a past form: its depth, or
         # (a `since` whose lower bound credits a `next`, say) its reach
-        for h in sorted({future_depth(formula.operand, period),
-                         future_reach(formula.operand, period)}):  # fmt: skip
+        for h in sorted(
+            {future_depth(formula.operand, period), future_reach(formula.operand, period)}
+        ):
             shifted = delay(formula.operand, h, period)
             if shifted is not None:
                 break

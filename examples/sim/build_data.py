@@ -36,18 +36,27 @@ REALSTACK_FIGURE_NAME = "realstack-scenario.png"
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m examples.sim.build_data", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        prog="python -m examples.sim.build_data",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     ap.add_argument("--out", type=Path, default=DEFAULT_OUT)
     ap.add_argument("--only", nargs="*", default=None, help="scenario names (default: bundled)")
-    ap.add_argument("--seed", type=int, default=None,
-                    help="run with this seed instead of the scenarios' own (held-out data)")
+    ap.add_argument(
+        "--seed",
+        type=int,
+        default=None,
+        help="run with this seed instead of the scenarios' own (held-out data)",
+    )
     ap.add_argument("--figure", type=Path, default=DEFAULT_FIGURE)
     ap.add_argument("--no-figure", action="store_true")
     args = ap.parse_args(argv)
     if args.seed is not None and args.out.resolve() == DEFAULT_OUT.resolve():
-        print(f"error: --seed writes held-out data; give an --out other than {DEFAULT_OUT}",
-              file=sys.stderr)
+        print(
+            f"error: --seed writes held-out data; give an --out other than {DEFAULT_OUT}",
+            file=sys.stderr,
+        )
         return 2
     try:
         import libsumo  # noqa: F401
@@ -59,10 +68,14 @@ def main(argv: list[str] | None = None) -> int:
     if unknown:
         print(f"error: unknown scenario(s) {unknown}; known: {sorted(SCENARIOS)}", file=sys.stderr)
         return 2
-    figures = {} if args.no_figure or args.seed is not None else {
-        FIGURE_SCENARIO: args.figure,
-        REALSTACK_FIGURE_SCENARIO: args.figure.parent / REALSTACK_FIGURE_NAME,
-    }
+    figures = (
+        {}
+        if args.no_figure or args.seed is not None
+        else {
+            FIGURE_SCENARIO: args.figure,
+            REALSTACK_FIGURE_SCENARIO: args.figure.parent / REALSTACK_FIGURE_NAME,
+        }
+    )
     index = []
     with tempfile.TemporaryDirectory(prefix="cwsim-") as tmp:
         for name in names:
@@ -71,9 +84,15 @@ def main(argv: list[str] | None = None) -> int:
                 sc = replace(sc, seed=args.seed)
             g = generate(sc, args.out, Path(tmp) / name)
             entry = {
-                "scenario": name, "seed": sc.seed, "duration": sc.duration, "frames": g.frames,
-                "stream": g.stream.name, "labels": g.labels.name, "ssm_labels": g.ssm_labels.name,
-                "bytes": g.stream.stat().st_size, "label_counts": g.label_counts,
+                "scenario": name,
+                "seed": sc.seed,
+                "duration": sc.duration,
+                "frames": g.frames,
+                "stream": g.stream.name,
+                "labels": g.labels.name,
+                "ssm_labels": g.ssm_labels.name,
+                "bytes": g.stream.stat().st_size,
+                "label_counts": g.label_counts,
                 "ssm_label_counts": g.ssm_label_counts,
             }
             index.append(entry)

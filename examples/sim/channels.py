@@ -153,31 +153,83 @@ class ChannelParams:
 #: Parameters added with the stack sampler (`examples.sim.stacks`) and their defaults (the
 #: dataclass's), which keep the original models.
 SAMPLER_FIELDS: dict[str, Any] = {
-    f.name: f.default for f in fields(ChannelParams)
-    if f.name in ("pos_white_growth", "miss_edge", "plan_noise_lon", "plan_noise_lat",
-                  "pred_noise_lon", "pred_noise_lat", "plan_foresight")
+    f.name: f.default
+    for f in fields(ChannelParams)
+    if f.name
+    in (
+        "pos_white_growth",
+        "miss_edge",
+        "plan_noise_lon",
+        "plan_noise_lat",
+        "pred_noise_lon",
+        "pred_noise_lat",
+        "plan_foresight",
+    )
 }
 
 
 #: The all-round channel (the study's LAV stack: 360-degree LiDAR perception).
 LAV = ChannelParams(
-    name="lav", seed=101, range_m=60.0, fov_deg=360.0, pos_sigma=0.08, pos_range_growth=0.5,
-    pos_white=0.02, yaw_sigma=0.01, speed_sigma=0.08, lat_speed_sigma=0.03, size_sigma=0.04,
-    track_tau=1.0, p_miss=0.02, miss_len=3.0, ghost_rate=0.03, ghost_life=(0.3, 1.0),
-    p_id_switch=0.001, track_timeout=1.0, loc_sigma=0.02, loc_drift=0.06,
-    loc_drift_period=(20.0, 60.0), loc_yaw_sigma=0.004, ego_speed_sigma=0.05, plan_horizon=3.0,
-    plan_lateral=0.25, plan_longitudinal=0.30, plan_tau=5.0,
+    name="lav",
+    seed=101,
+    range_m=60.0,
+    fov_deg=360.0,
+    pos_sigma=0.08,
+    pos_range_growth=0.5,
+    pos_white=0.02,
+    yaw_sigma=0.01,
+    speed_sigma=0.08,
+    lat_speed_sigma=0.03,
+    size_sigma=0.04,
+    track_tau=1.0,
+    p_miss=0.02,
+    miss_len=3.0,
+    ghost_rate=0.03,
+    ghost_life=(0.3, 1.0),
+    p_id_switch=0.001,
+    track_timeout=1.0,
+    loc_sigma=0.02,
+    loc_drift=0.06,
+    loc_drift_period=(20.0, 60.0),
+    loc_yaw_sigma=0.004,
+    ego_speed_sigma=0.05,
+    plan_horizon=3.0,
+    plan_lateral=0.25,
+    plan_longitudinal=0.30,
+    plan_tau=5.0,
 )
 
 #: The forward-looking channel (the study's TransFuser stack: camera-based, blind behind, a
 #: shorter plan).
 TFUSE = ChannelParams(
-    name="tfuse", seed=202, range_m=50.0, fov_deg=200.0, pos_sigma=0.08, pos_range_growth=0.5,
-    pos_white=0.03, yaw_sigma=0.015, speed_sigma=0.10, lat_speed_sigma=0.05, size_sigma=0.07,
-    track_tau=0.8, p_miss=0.03, miss_len=3.0, ghost_rate=0.05, ghost_life=(0.2, 0.8),
-    p_id_switch=0.002, track_timeout=0.5, loc_sigma=0.03, loc_drift=0.08,
-    loc_drift_period=(15.0, 45.0), loc_yaw_sigma=0.006, ego_speed_sigma=0.08, plan_horizon=2.5,
-    plan_lateral=0.20, plan_longitudinal=0.30, plan_tau=4.0, loc_jitter_period=(3.0, 8.0),
+    name="tfuse",
+    seed=202,
+    range_m=50.0,
+    fov_deg=200.0,
+    pos_sigma=0.08,
+    pos_range_growth=0.5,
+    pos_white=0.03,
+    yaw_sigma=0.015,
+    speed_sigma=0.10,
+    lat_speed_sigma=0.05,
+    size_sigma=0.07,
+    track_tau=0.8,
+    p_miss=0.03,
+    miss_len=3.0,
+    ghost_rate=0.05,
+    ghost_life=(0.2, 0.8),
+    p_id_switch=0.002,
+    track_timeout=0.5,
+    loc_sigma=0.03,
+    loc_drift=0.08,
+    loc_drift_period=(15.0, 45.0),
+    loc_yaw_sigma=0.006,
+    ego_speed_sigma=0.08,
+    plan_horizon=2.5,
+    plan_lateral=0.20,
+    plan_longitudinal=0.30,
+    plan_tau=4.0,
+    loc_jitter_period=(3.0, 8.0),
 )
 
 
@@ -187,14 +239,41 @@ TFUSE = ChannelParams(
 #: 0.1 s, i.e. a correlation time of -0.1 / ln 0.7 = 0.28 s: scan matching at 10 Hz fused with
 #: odometry) and no slow drift.
 LIDAR_STACK = ChannelParams(
-    name="lav", seed=303, range_m=80.0, fov_deg=360.0, pos_sigma=0.06, pos_range_growth=0.8,
-    pos_white=0.02, yaw_sigma=0.01, speed_sigma=0.10, lat_speed_sigma=0.04, size_sigma=0.04,
-    track_tau=0.8, p_miss=0.02, miss_len=3.0, ghost_rate=0.03, ghost_life=(0.3, 1.0),
-    p_id_switch=0.001, track_timeout=1.0, loc_sigma=0.06, loc_drift=0.0,
-    loc_drift_period=(20.0, 60.0), loc_yaw_sigma=0.003, ego_speed_sigma=0.05, plan_horizon=5.0,
-    plan_lateral=0.30, plan_longitudinal=0.50, plan_tau=5.0, prediction_points=8,
-    prediction_step=0.5, profile="LIDAR_STACK", plan_sampling="distance", plan_spacing=1.0,
-    loc_noise="ar1", loc_phi=0.7, plan_beyond_prediction=True,
+    name="lav",
+    seed=303,
+    range_m=80.0,
+    fov_deg=360.0,
+    pos_sigma=0.06,
+    pos_range_growth=0.8,
+    pos_white=0.02,
+    yaw_sigma=0.01,
+    speed_sigma=0.10,
+    lat_speed_sigma=0.04,
+    size_sigma=0.04,
+    track_tau=0.8,
+    p_miss=0.02,
+    miss_len=3.0,
+    ghost_rate=0.03,
+    ghost_life=(0.3, 1.0),
+    p_id_switch=0.001,
+    track_timeout=1.0,
+    loc_sigma=0.06,
+    loc_drift=0.0,
+    loc_drift_period=(20.0, 60.0),
+    loc_yaw_sigma=0.003,
+    ego_speed_sigma=0.05,
+    plan_horizon=5.0,
+    plan_lateral=0.30,
+    plan_longitudinal=0.50,
+    plan_tau=5.0,
+    prediction_points=8,
+    prediction_step=0.5,
+    profile="LIDAR_STACK",
+    plan_sampling="distance",
+    plan_spacing=1.0,
+    loc_noise="ar1",
+    loc_phi=0.7,
+    plan_beyond_prediction=True,
 )
 
 #: Real-stack profile with forward camera perception (reported as channel `tfuse`): 120-degree
@@ -203,24 +282,58 @@ LIDAR_STACK = ChannelParams(
 #: error of 12 cm per axis (lag-1 correlation 0.6 at 0.1 s, correlation time 0.20 s: visual
 #: odometry and GNSS) and no slow drift.
 CAMERA_STACK = ChannelParams(
-    name="tfuse", seed=404, range_m=70.0, fov_deg=120.0, pos_sigma=0.08, pos_range_growth=1.5,
-    pos_white=0.04, yaw_sigma=0.02, speed_sigma=0.15, lat_speed_sigma=0.06, size_sigma=0.08,
-    track_tau=0.6, p_miss=0.03, miss_len=3.0, ghost_rate=0.05, ghost_life=(0.2, 0.8),
-    p_id_switch=0.002, track_timeout=0.5, loc_sigma=0.12, loc_drift=0.0,
-    loc_drift_period=(15.0, 45.0), loc_yaw_sigma=0.005, ego_speed_sigma=0.08, plan_horizon=3.0,
-    plan_lateral=0.20, plan_longitudinal=0.30, plan_tau=4.0, prediction_points=25,
-    prediction_step=0.1, profile="CAMERA_STACK", plan_sampling="time", plan_step=0.5,
-    loc_noise="ar1", loc_phi=0.6, plan_beyond_prediction=True,
+    name="tfuse",
+    seed=404,
+    range_m=70.0,
+    fov_deg=120.0,
+    pos_sigma=0.08,
+    pos_range_growth=1.5,
+    pos_white=0.04,
+    yaw_sigma=0.02,
+    speed_sigma=0.15,
+    lat_speed_sigma=0.06,
+    size_sigma=0.08,
+    track_tau=0.6,
+    p_miss=0.03,
+    miss_len=3.0,
+    ghost_rate=0.05,
+    ghost_life=(0.2, 0.8),
+    p_id_switch=0.002,
+    track_timeout=0.5,
+    loc_sigma=0.12,
+    loc_drift=0.0,
+    loc_drift_period=(15.0, 45.0),
+    loc_yaw_sigma=0.005,
+    ego_speed_sigma=0.08,
+    plan_horizon=3.0,
+    plan_lateral=0.20,
+    plan_longitudinal=0.30,
+    plan_tau=4.0,
+    prediction_points=25,
+    prediction_step=0.1,
+    profile="CAMERA_STACK",
+    plan_sampling="time",
+    plan_step=0.5,
+    loc_noise="ar1",
+    loc_phi=0.6,
+    plan_beyond_prediction=True,
 )
 
 #: Every named profile, by profile name.
 PROFILES: dict[str, ChannelParams] = {
-    "LAV": LAV, "TFUSE": TFUSE, "LIDAR_STACK": LIDAR_STACK, "CAMERA_STACK": CAMERA_STACK,
+    "LAV": LAV,
+    "TFUSE": TFUSE,
+    "LIDAR_STACK": LIDAR_STACK,
+    "CAMERA_STACK": CAMERA_STACK,
 }
 
 
 def ar1_noise(
-    rng: np.random.Generator, n: int, sigma: float, phi: float, shape: tuple[int, ...] = (),
+    rng: np.random.Generator,
+    n: int,
+    sigma: float,
+    phi: float,
+    shape: tuple[int, ...] = (),
 ) -> np.ndarray:
     """(n, *shape) zero-mean AR(1) noise x_k = phi x_(k-1) + sqrt(1 - phi^2) sigma w_k with
     white w, started in its stationary state (x_0 ~ N(0, sigma^2)): standard deviation `sigma`
@@ -237,7 +350,10 @@ def ar1_noise(
 
 
 def smooth_process(
-    rng: np.random.Generator, times: np.ndarray, std: float, period: tuple[float, float],
+    rng: np.random.Generator,
+    times: np.ndarray,
+    std: float,
+    period: tuple[float, float],
     components: int = 4,
 ) -> np.ndarray:
     """A smooth zero-mean signal with standard deviation about `std`: a sum of sinusoids with
@@ -249,7 +365,11 @@ def smooth_process(
 
 
 def lowpass_noise(
-    rng: np.random.Generator, n: int, dt: float, tau: float, shape: tuple[int, ...] = (),
+    rng: np.random.Generator,
+    n: int,
+    dt: float,
+    tau: float,
+    shape: tuple[int, ...] = (),
 ) -> np.ndarray:
     """(n, *shape) unit-variance zero-mean noise, low-passed by two first-order stages of time
     constant `tau` in series (a critically damped second-order filter: smooth, no overshoot).
@@ -294,7 +414,9 @@ def gaussian_smooth(values: np.ndarray, sigma_ticks: float) -> np.ndarray:
 
 
 def fault_offsets(
-    rng: np.random.Generator, times: np.ndarray, faults: tuple[LocalizationFault, ...],
+    rng: np.random.Generator,
+    times: np.ndarray,
+    faults: tuple[LocalizationFault, ...],
     channel: str,
 ) -> np.ndarray:
     """(T, 2) localisation offsets of the injected faults of `channel`.
@@ -352,7 +474,10 @@ class Localization:
 
 
 def localize(
-    gt: GroundTruth, params: ChannelParams, faults: tuple[LocalizationFault, ...], seed: int,
+    gt: GroundTruth,
+    params: ChannelParams,
+    faults: tuple[LocalizationFault, ...],
+    seed: int,
     motion: EgoMotion | None = None,
 ) -> Localization:
     """The channel's ego pose over the whole run: path + jitter + drift + faults. The jitter is
@@ -362,17 +487,23 @@ def localize(
     t = gt.times
     if params.loc_noise == "ar1":
         noise = ar1_noise(rng, len(t), params.loc_sigma, params.loc_phi, (2,))
-        drift = np.stack([smooth_process(rng, t, params.loc_drift, params.loc_drift_period)
-                          for _ in range(2)], axis=1)
+        drift = np.stack(
+            [smooth_process(rng, t, params.loc_drift, params.loc_drift_period) for _ in range(2)],
+            axis=1,
+        )
         offset = noise + drift + fault_offsets(rng, t, faults, params.name)
         yaw = m.yaw + ar1_noise(rng, len(t), params.loc_yaw_sigma, params.loc_phi)
         return Localization(m.x + offset[:, 0], m.y + offset[:, 1], yaw, offset)
-    drift = np.stack([smooth_process(rng, t, params.loc_drift, params.loc_drift_period)
-                      for _ in range(2)], axis=1)
+    drift = np.stack(
+        [smooth_process(rng, t, params.loc_drift, params.loc_drift_period) for _ in range(2)],
+        axis=1,
+    )
     # a fused localisation is smooth at 10 Hz: its error is correlated from tick to tick, not
     # white (white noise of a few cm would read as tens of m/s^3 of jerk in hcs)
-    noise = np.stack([smooth_process(rng, t, params.loc_sigma, params.loc_jitter_period, 6)
-                      for _ in range(2)], axis=1)
+    noise = np.stack(
+        [smooth_process(rng, t, params.loc_sigma, params.loc_jitter_period, 6) for _ in range(2)],
+        axis=1,
+    )
     offset = drift + noise + fault_offsets(rng, t, faults, params.name)
     yaw = m.yaw + smooth_process(rng, t, params.loc_yaw_sigma, params.loc_jitter_period, 6)
     yaw += smooth_process(rng, t, params.loc_yaw_sigma, params.loc_drift_period)
@@ -380,7 +511,11 @@ def localize(
 
 
 def true_plan_points(
-    gt: GroundTruth, tick: int, horizon: float, step: float, motion: EgoMotion | None = None,
+    gt: GroundTruth,
+    tick: int,
+    horizon: float,
+    step: float,
+    motion: EgoMotion | None = None,
 ) -> np.ndarray:
     """(N, 3) [dt, x, y] of the ego's physical centre path over the next `horizon` seconds
     (truncated at the end of the simulated run)."""
@@ -402,7 +537,11 @@ FORESIGHT_DECEL = 3.0
 
 
 def limit_foresight(
-    gt: GroundTruth, tick: int, pts: np.ndarray, motion: EgoMotion, foresight: float,
+    gt: GroundTruth,
+    tick: int,
+    pts: np.ndarray,
+    motion: EgoMotion,
+    foresight: float,
 ) -> tuple[np.ndarray, np.ndarray]:
     """`pts` ([dt, x, y] on the 0.1 s grid, the ego's true future) and the headings along it,
     the progress beyond `foresight` seconds following the true progress with its speed
@@ -420,8 +559,7 @@ def limit_foresight(
     for k in range(max(f, 0) + 1, len(s)):
         h = dt[k] - dt[k - 1]
         wanted = (s[k] - s_new[k - 1]) / h
-        speed = max(0.0, min(max(wanted, speed - FORESIGHT_DECEL * h),
-                             speed + FORESIGHT_ACCEL * h))
+        speed = max(0.0, min(max(wanted, speed - FORESIGHT_DECEL * h), speed + FORESIGHT_ACCEL * h))
         s_new[k] = s_new[k - 1] + speed * h
     x = np.interp(s_new, s_ahead, ahead[:, 1])
     y = np.interp(s_new, s_ahead, ahead[:, 2])
@@ -491,7 +629,11 @@ def accel_limited(progress: np.ndarray, dt: np.ndarray, speed: float) -> np.ndar
 
 
 def _project(
-    vx: np.ndarray, vy: np.ndarray, sv: np.ndarray, qx: np.ndarray, qy: np.ndarray,
+    vx: np.ndarray,
+    vy: np.ndarray,
+    sv: np.ndarray,
+    qx: np.ndarray,
+    qy: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Project points (qx, qy) onto the polyline (vx, vy) with arc length sv at its vertices:
     distance to it, arc length of the foot point, heading of the nearest segment."""
@@ -508,7 +650,11 @@ def _project(
 
 
 def retime_plan(
-    pts: np.ndarray, ego_length: float, tracks: np.ndarray, gap: float, corridor: float,
+    pts: np.ndarray,
+    ego_length: float,
+    tracks: np.ndarray,
+    gap: float,
+    corridor: float,
     yaw: tuple[float, float] | None = None,
 ) -> np.ndarray:
     """Limit a plan's progress along its own path so that it never runs into the channel's own
@@ -580,7 +726,8 @@ def retime_plan(
     li = np.flatnonzero(lead)
     ux, uy = np.cos(tracks[li, 4]), np.sin(tracks[li, 4])
     along = (qx[li, :, None] - pts[None, None, :, 1]) * ux[:, None, None] + (
-        qy[li, :, None] - pts[None, None, :, 2]) * uy[:, None, None]
+        qy[li, :, None] - pts[None, None, :, 2]
+    ) * uy[:, None, None]
     margin = along - 0.5 * (tracks[li, 5, None, None] + ego_length) - gap
     neg = margin < 0.0
     j = neg.argmax(axis=2)
@@ -605,7 +752,10 @@ def retime_plan(
 
 
 def markov_misses(
-    rng: np.random.Generator, shape: tuple[int, int], share: float, mean_len: float,
+    rng: np.random.Generator,
+    shape: tuple[int, int],
+    share: float,
+    mean_len: float,
 ) -> np.ndarray:
     """(T, V) booleans: runs of missed ticks with mean length `mean_len` covering about
     `share` of the ticks (a two-state Markov chain started in its stationary state)."""
@@ -626,7 +776,10 @@ class ChannelModel:
     """Turns ground truth into one channel's per-frame report (stateful only in its track ids)."""
 
     def __init__(
-        self, gt: GroundTruth, params: ChannelParams, faults: tuple[LocalizationFault, ...],
+        self,
+        gt: GroundTruth,
+        params: ChannelParams,
+        faults: tuple[LocalizationFault, ...],
         seed: int,
     ) -> None:
         p = params
@@ -640,7 +793,8 @@ class ChannelModel:
         sim_step = float(gt.times[1] - gt.times[0]) if len(gt.times) > 1 else 0.1
         self.plan_every = round(p.plan_step / sim_step)
         if p.plan_sampling == "time" and (
-            self.plan_every < 1 or abs(self.plan_every * sim_step - p.plan_step) > 1e-9
+            self.plan_every < 1
+            or abs(self.plan_every * sim_step - p.plan_step) > 1e-9
             or abs(p.plan_horizon / p.plan_step - round(p.plan_horizon / p.plan_step)) > 1e-9
         ):
             raise ValueError(
@@ -692,9 +846,13 @@ class ChannelModel:
         speed = self.motion.speed[tick] + self.rng.normal(0.0, p.ego_speed_sigma)
         yaw = self.loc.yaw[tick]
         return {
-            "x": self.loc.x[tick], "y": self.loc.y[tick], "yaw": yaw,
-            "vx": speed * np.cos(yaw), "vy": speed * np.sin(yaw),
-            "length": gt.length[e], "width": gt.width[e],
+            "x": self.loc.x[tick],
+            "y": self.loc.y[tick],
+            "yaw": yaw,
+            "vx": speed * np.cos(yaw),
+            "vy": speed * np.sin(yaw),
+            "length": gt.length[e],
+            "width": gt.width[e],
         }
 
     def plan(self, tick: int, tracks: np.ndarray | None = None) -> np.ndarray:
@@ -714,16 +872,22 @@ class ChannelModel:
         lon = scale * self.plan_lon[tick] * frac
         # never backwards: where the true path stops, a shrinking along-path offset would fold
         # the plan back on itself; the plan holds its position instead
-        s_true = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(pts[:, 1]),
-                                                           np.diff(pts[:, 2])))])
+        s_true = np.concatenate(
+            [[0.0], np.cumsum(np.hypot(np.diff(pts[:, 1]), np.diff(pts[:, 2])))]
+        )
         lon = np.maximum.accumulate(s_true + lon) - s_true
         lat = scale * self.plan_lat[tick] * frac
         pts[:, 1] += lon * np.cos(yaw) - lat * np.sin(yaw) + self.loc.offset[tick, 0]
         pts[:, 2] += lon * np.sin(yaw) + lat * np.cos(yaw) + self.loc.offset[tick, 1]
         if tracks is not None:
-            pts = retime_plan(pts, float(self.gt.length[self.gt.ego_index]), tracks,
-                              self.p.plan_standstill_gap, self.p.plan_corridor,
-                              yaw=(float(yaw[0]), float(yaw[-1])))
+            pts = retime_plan(
+                pts,
+                float(self.gt.length[self.gt.ego_index]),
+                tracks,
+                self.p.plan_standstill_gap,
+                self.p.plan_corridor,
+                yaw=(float(yaw[0]), float(yaw[-1])),
+            )
         if self.p.plan_sampling == "distance":
             out = resample_by_distance(pts, self.p.plan_spacing)
         elif self.plan_every > 1:
@@ -758,8 +922,11 @@ class ChannelModel:
         dist = np.hypot(dx, dy)
         bearing = (np.arctan2(dy, dx) - eyaw + np.pi) % (2.0 * np.pi) - np.pi
         with np.errstate(invalid="ignore"):
-            visible = (self.others & (dist <= p.range_m)
-                       & (np.abs(bearing) <= np.radians(p.fov_deg) / 2.0 + 1e-9))
+            visible = (
+                self.others
+                & (dist <= p.range_m)
+                & (np.abs(bearing) <= np.radians(p.fov_deg) / 2.0 + 1e-9)
+            )
         visible &= ~self.missed[tick]
         if p.miss_edge > 0.0:
             # misses grow towards the edge of the sensing range (weak returns, small images)
@@ -769,8 +936,9 @@ class ChannelModel:
         sigma = p.pos_sigma * (1.0 + p.pos_range_growth * dist[idx] / p.range_m)
         off = self.loc.offset[tick]
         white = p.pos_white * (1.0 + p.pos_white_growth * dist[idx] / p.range_m)
-        err = (self.err_pos[tick, idx] * sigma[:, None]
-               + rng.normal(0.0, 1.0, (n, 2)) * white[:, None])
+        err = (
+            self.err_pos[tick, idx] * sigma[:, None] + rng.normal(0.0, 1.0, (n, 2)) * white[:, None]
+        )
         x = gt.x[tick, idx] + off[0] + err[:, 0]
         y = gt.y[tick, idx] + off[1] + err[:, 1]
         true_yaw = gt.yaw[tick, idx]
@@ -800,12 +968,17 @@ class ChannelModel:
         # ego (same velocity) for a fraction of a second
         if rng.random() < p.ghost_rate * 0.1:
             half = np.radians(p.fov_deg) / 2.0
-            self.ghosts.append({
-                "id": self._new_id(), "until": t + rng.uniform(*p.ghost_life),
-                "r": rng.uniform(5.0, p.range_m * 0.8), "b": rng.uniform(-half, half),
-                "dyaw": rng.normal(0.0, 0.1), "length": rng.uniform(0.8, 4.5),
-                "width": rng.uniform(0.6, 2.0),
-            })
+            self.ghosts.append(
+                {
+                    "id": self._new_id(),
+                    "until": t + rng.uniform(*p.ghost_life),
+                    "r": rng.uniform(5.0, p.range_m * 0.8),
+                    "b": rng.uniform(-half, half),
+                    "dyaw": rng.normal(0.0, 0.1),
+                    "length": rng.uniform(0.8, 4.5),
+                    "width": rng.uniform(0.6, 2.0),
+                }
+            )
         self.ghosts = [g for g in self.ghosts if g["until"] >= t]
         if self.ghosts:
             g_r = np.array([g["r"] for g in self.ghosts])
@@ -836,12 +1009,23 @@ class ChannelModel:
             px = px + lon_n * cy - lat_n * sy
             py = py + lon_n * sy + lat_n * cy
         pred = np.stack([np.broadcast_to(dts, px.shape), px, py], axis=2)
-        state = np.round(np.column_stack([x, y, yaw, vx, vy, length, width]),
-                         OBJECT_DECIMALS).tolist()
+        state = np.round(
+            np.column_stack([x, y, yaw, vx, vy, length, width]), OBJECT_DECIMALS
+        ).tolist()
         pred_l = np.round(pred, PREDICTION_DECIMALS).tolist()
         return [
-            {"id": ids[i], "cls": cls[i], "x": s[0], "y": s[1], "yaw": s[2], "vx": s[3],
-             "vy": s[4], "length": s[5], "width": s[6], "prediction": pred_l[i]}
+            {
+                "id": ids[i],
+                "cls": cls[i],
+                "x": s[0],
+                "y": s[1],
+                "yaw": s[2],
+                "vx": s[3],
+                "vy": s[4],
+                "length": s[5],
+                "width": s[6],
+                "prediction": pred_l[i],
+            }
             for i, s in enumerate(state)
         ]
 

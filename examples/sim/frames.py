@@ -40,21 +40,31 @@ def header(sc: Scenario) -> dict[str, Any]:
     (per channel: field of view centred on the ego heading and range, from its profile) and the
     generator parameters."""
     head: dict[str, Any] = {
-        "format": FORMAT, "version": VERSION, "channels": [c.name for c in sc.channels],
-        "period": STEP, "coverage": {c.name: c.coverage() for c in sc.channels},
+        "format": FORMAT,
+        "version": VERSION,
+        "channels": [c.name for c in sc.channels],
+        "period": STEP,
+        "coverage": {c.name: c.coverage() for c in sc.channels},
     }
     head["meta"] = {
-        "scenario": sc.name, "seed": sc.seed, "description": sc.description,
-        "generator": "examples.sim (Eclipse SUMO via libsumo)", "network": sc.network,
+        "scenario": sc.name,
+        "seed": sc.seed,
+        "description": sc.description,
+        "generator": "examples.sim (Eclipse SUMO via libsumo)",
+        "network": sc.network,
         "duration": sc.duration,
         "channel_params": {c.name: c.meta() for c in sc.channels},
         "faults": [asdict(f) for f in sc.faults],
         # the channels see SUMO's ego path through this Gaussian low-pass (s); SUMO's lane
         # changes take this long (s)
-        "ego_smoothing": EGO_SMOOTHING, "lane_change_duration": LANE_CHANGE_DURATION,
-        "labels": {"time_gap_threshold": lab.TIME_GAP_THRESHOLD,
-                   "min_speed": lab.MIN_SPEED, "min_duration": lab.MIN_DURATION,
-                   "merge_gap": lab.MERGE_GAP},
+        "ego_smoothing": EGO_SMOOTHING,
+        "lane_change_duration": LANE_CHANGE_DURATION,
+        "labels": {
+            "time_gap_threshold": lab.TIME_GAP_THRESHOLD,
+            "min_speed": lab.MIN_SPEED,
+            "min_duration": lab.MIN_DURATION,
+            "merge_gap": lab.MERGE_GAP,
+        },
     }
     return {"header": head}
 
@@ -78,7 +88,8 @@ def truth_signals(gt: GroundTruth, fol: lab.Following, k: int) -> dict[str, floa
 
 
 def drive_labels(
-    sc: Scenario, gt: GroundTruth,
+    sc: Scenario,
+    gt: GroundTruth,
 ) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
     """The hazard labels (geometry and injected localisation faults, by start) and the SSM
     conflict labels of a simulated drive."""
@@ -107,20 +118,22 @@ def _dump(obj: dict[str, Any]) -> str:
 def print_bundle(index: list[dict[str, Any]], seconds: float, out: Path) -> None:
     """The last line of a generator: how many drives, how many bytes, how long, where."""
     total = sum(e["bytes"] for e in index)
-    print(f"{len(index)} drives, {total / 1e6:.1f} MB, {seconds:.0f} s -> {out}",
-          file=sys.stderr)  # fmt: skip
+    print(f"{len(index)} drives, {total / 1e6:.1f} MB, {seconds:.0f} s -> {out}", file=sys.stderr)
 
 
 def write_stream(
-    path: Path, head: dict[str, Any], rows: Iterable[dict[str, Any]],
+    path: Path,
+    head: dict[str, Any],
+    rows: Iterable[dict[str, Any]],
 ) -> int:
     """Write a gzipped frame stream: the header line `head`, then one line per frame of `rows`
     (compact JSON, no NaN). Returns the number of frames written."""
     count = 0
     # mtime=0 keeps the gzip bytes reproducible for the same content
-    with open(path, "wb") as raw, gzip.GzipFile(
-        filename="", mode="wb", fileobj=raw, mtime=0, compresslevel=9
-    ) as gz:
+    with (
+        open(path, "wb") as raw,
+        gzip.GzipFile(filename="", mode="wb", fileobj=raw, mtime=0, compresslevel=9) as gz,
+    ):
         gz.write((_dump(head) + "\n").encode())
         for frame in rows:
             gz.write((_dump(frame) + "\n").encode())

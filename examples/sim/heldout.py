@@ -43,15 +43,20 @@ def generate(seed: int, out: Path) -> int:
         names = {e["scenario"] for e in json.loads(index.read_text(encoding="utf-8"))}
         if names >= set(KINDS):
             return 0
-    print(f"heldout: generating {len(KINDS)} drives with seed {seed} into {out} (SUMO) ...",
-          flush=True)
+    print(
+        f"heldout: generating {len(KINDS)} drives with seed {seed} into {out} (SUMO) ...",
+        flush=True,
+    )
     with open(os.devnull, "w") as quiet, contextlib.redirect_stdout(quiet):
         return build(["--only", *KINDS, "--seed", str(seed), "--out", str(out)])
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m examples.sim.heldout", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        prog="python -m examples.sim.heldout",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     ap.add_argument("--seeds", type=int, nargs="+", default=list(SEEDS))
     ap.add_argument("--out", type=Path, default=Path("out") / "heldout")
     args = ap.parse_args(argv)
@@ -61,8 +66,22 @@ def main(argv: list[str] | None = None) -> int:
             print(f"heldout: seed {seed}: the drives could not be generated", file=sys.stderr)
             return 2
         judged = args.out / f"run{seed}"
-        code = cli(["run", str(CASE), str(drives), "--labels", "auto", "--jobs", "2",
-                    "--format", "none", "--quiet", "-o", str(judged)])  # fmt: skip
+        code = cli(
+            [
+                "run",
+                str(CASE),
+                str(drives),
+                "--labels",
+                "auto",
+                "--jobs",
+                "2",
+                "--format",
+                "none",
+                "--quiet",
+                "-o",
+                str(judged),
+            ]
+        )
         if code not in (0, 1):
             return code
         truth = json.loads((judged / "summary.json").read_text(encoding="utf-8"))["ground_truth"]

@@ -35,7 +35,11 @@ from examples.sim.stacks import min_coverage
 
 #: Families in the order they are placed.
 FAMILIES = (
-    "object_drop", "phantom", "plan_lateral", "prediction_reversed", "localisation_drift",
+    "object_drop",
+    "phantom",
+    "plan_lateral",
+    "prediction_reversed",
+    "localisation_drift",
     "frozen_channel",
 )
 #: Seconds kept clear before a fault's start and after its end (of other faults, of labels).
@@ -57,9 +61,13 @@ class InjectedFault:
 
     def label(self, times: np.ndarray) -> dict[str, Any]:
         """Its line of the fault-labels file (`evaluator.faults`)."""
-        out = {"fault": self.fault, "start": round(float(times[self.first]), 3),
-               "end": round(float(times[self.last]), 3), "channel": self.channel,
-               "source": "injected"}
+        out = {
+            "fault": self.fault,
+            "start": round(float(times[self.first]), 3),
+            "end": round(float(times[self.last]), 3),
+            "channel": self.channel,
+            "source": "injected",
+        }
         out.update({k: v for k, v in self.info.items() if not k.startswith("_")})
         return out
 
@@ -88,8 +96,12 @@ def _free(busy: np.ndarray, first: int, last: int, pad: int) -> bool:
 
 
 def plan_faults(
-    gt: GroundTruth, n_ticks: int, channels: tuple[Any, Any], rng: np.random.Generator,
-    labels: list[dict[str, Any]], per_family: int = 1,
+    gt: GroundTruth,
+    n_ticks: int,
+    channels: tuple[Any, Any],
+    rng: np.random.Generator,
+    labels: list[dict[str, Any]],
+    per_family: int = 1,
 ) -> list[InjectedFault]:
     """Place up to `per_family` faults of every family in the first `n_ticks` ticks (a family
     with no place that fits is left out, never forced)."""
@@ -117,12 +129,22 @@ def plan_faults(
 
 
 def _place(
-    family: str, gt: GroundTruth, times: np.ndarray, busy: np.ndarray, pad: int,
-    inside: np.ndarray, speed: np.ndarray, rng: np.random.Generator, names: list[str],
+    family: str,
+    gt: GroundTruth,
+    times: np.ndarray,
+    busy: np.ndarray,
+    pad: int,
+    inside: np.ndarray,
+    speed: np.ndarray,
+    rng: np.random.Generator,
+    names: list[str],
 ) -> InjectedFault | None:
     step = float(times[1] - times[0])
-    duration = {"object_drop": rng.uniform(2.0, 5.0), "localisation_drift": rng.uniform(2.0, 4.0),
-                "frozen_channel": rng.uniform(2.0, 3.0)}.get(family, 2.0)
+    duration = {
+        "object_drop": rng.uniform(2.0, 5.0),
+        "localisation_drift": rng.uniform(2.0, 4.0),
+        "frozen_channel": rng.uniform(2.0, 3.0),
+    }.get(family, 2.0)
     n = round(duration / step)
     channel = str(rng.choice(names))
     e = gt.ego_index
@@ -148,9 +170,11 @@ def _place(
         elif family == "plan_lateral":
             if speed[span].min() < 3.0:
                 continue
-            info = {"offset_m": round(float(rng.uniform(1.0, 2.0)), 2),
-                    "side": str(rng.choice(["left", "right"])),
-                    "ramp_s": round(float(rng.choice([0.0, rng.uniform(1.0, 2.0)])), 2)}
+            info = {
+                "offset_m": round(float(rng.uniform(1.0, 2.0)), 2),
+                "side": str(rng.choice(["left", "right"])),
+                "ramp_s": round(float(rng.choice([0.0, rng.uniform(1.0, 2.0)])), 2),
+            }
         elif family == "prediction_reversed":
             moving = inside[span] & (gt.speed[span] > 3.0)
             if not moving.any(axis=1).all():
@@ -158,8 +182,10 @@ def _place(
         elif family == "localisation_drift":
             if speed[span].min() < 1.0:
                 continue
-            info = {"rate_m_s": round(float(rng.uniform(0.5, 1.0)), 2),
-                    "heading_deg": round(float(rng.uniform(0.0, 360.0)), 1)}
+            info = {
+                "rate_m_s": round(float(rng.uniform(0.5, 1.0)), 2),
+                "heading_deg": round(float(rng.uniform(0.0, 360.0)), 1),
+            }
         elif family == "frozen_channel" and speed[span].min() < 5.0:
             continue
         return InjectedFault(family, channel, first, last, info)
@@ -181,8 +207,9 @@ class Injector:
         self.faults = faults
         self._frozen: dict[str, dict[str, Any]] = {}
 
-    def apply(self, tick: int, channel: str, report: dict[str, Any],
-              reported: np.ndarray) -> dict[str, Any]:
+    def apply(
+        self, tick: int, channel: str, report: dict[str, Any], reported: np.ndarray
+    ) -> dict[str, Any]:
         """The channel's report at `tick` with the faults active there; `reported` holds the
         true vehicle index of each reported object (-1 for ghosts). Returns `report` itself
         when no fault is active, else a changed copy."""
@@ -197,8 +224,11 @@ class Injector:
                 out = copy.deepcopy(frozen)
             elif fault.fault == "object_drop":
                 vehicle = fault.info["_vehicle"]
-                keep = [o for o, v in zip(out["objects"], reported.tolist(), strict=True)
-                        if v != vehicle]
+                keep = [
+                    o
+                    for o, v in zip(out["objects"], reported.tolist(), strict=True)
+                    if v != vehicle
+                ]
                 out["objects"] = keep
             elif fault.fault == "phantom":
                 out["objects"].append(_phantom(out["ego"], fault))
@@ -207,9 +237,10 @@ class Injector:
             elif fault.fault == "prediction_reversed":
                 for obj in out["objects"]:
                     if math.hypot(obj["vx"], obj["vy"]) > 1.0:
-                        obj["prediction"] = [[dt, round(2 * obj["x"] - x, 2),
-                                              round(2 * obj["y"] - y, 2)]
-                                             for dt, x, y in obj["prediction"]]
+                        obj["prediction"] = [
+                            [dt, round(2 * obj["x"] - x, 2), round(2 * obj["y"] - y, 2)]
+                            for dt, x, y in obj["prediction"]
+                        ]
             elif fault.fault == "localisation_drift":
                 _drift(out, fault, (k + 1) * 0.1)
         return out
@@ -220,11 +251,22 @@ def _phantom(ego: dict[str, Any], fault: InjectedFault) -> dict[str, Any]:
     c, s = math.cos(ego["yaw"]), math.sin(ego["yaw"])
     x, y = ego["x"] + 15.0 * c, ego["y"] + 15.0 * s
     vx, vy = ego["vx"], ego["vy"]
-    pred = [[round(0.1 * i, 3), round(x + vx * 0.1 * i, 2), round(y + vy * 0.1 * i, 2)]
-            for i in range(1, 31)]
-    return {"id": f"phantom-{fault.first}", "cls": "car", "x": round(x, 3), "y": round(y, 3),
-            "yaw": round(ego["yaw"], 3), "vx": round(vx, 3), "vy": round(vy, 3),
-            "length": 4.5, "width": 1.8, "prediction": pred}
+    pred = [
+        [round(0.1 * i, 3), round(x + vx * 0.1 * i, 2), round(y + vy * 0.1 * i, 2)]
+        for i in range(1, 31)
+    ]
+    return {
+        "id": f"phantom-{fault.first}",
+        "cls": "car",
+        "x": round(x, 3),
+        "y": round(y, 3),
+        "yaw": round(ego["yaw"], 3),
+        "vx": round(vx, 3),
+        "vy": round(vy, 3),
+        "length": 4.5,
+        "width": 1.8,
+        "prediction": pred,
+    }
 
 
 def _shift_plan(report: dict[str, Any], fault: InjectedFault) -> None:
@@ -253,5 +295,6 @@ def _drift(report: dict[str, Any], fault: InjectedFault, elapsed: float) -> None
     for obj in report["objects"]:
         obj["x"] = round(obj["x"] + ox, 3)
         obj["y"] = round(obj["y"] + oy, 3)
-        obj["prediction"] = [[dt, round(x + ox, 2), round(y + oy, 2)]
-                             for dt, x, y in obj["prediction"]]
+        obj["prediction"] = [
+            [dt, round(x + ox, 2), round(y + oy, 2)] for dt, x, y in obj["prediction"]
+        ]

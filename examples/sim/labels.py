@@ -109,16 +109,17 @@ def _continuation(gt: GroundTruth) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
     run_lane = ego_lane[starts]
     run_of = np.repeat(np.arange(len(starts)), ends - starts + 1)
     # a lane change within an edge breaks the continuation between two runs
-    broken = np.array([edges[a] == edges[b] for a, b in pairwise(run_lane.tolist())],
-                      dtype=bool)
+    broken = np.array([edges[a] == edges[b] for a, b in pairwise(run_lane.tolist())], dtype=bool)
     others = np.ones(len(gt.ids), dtype=bool)
     others[e] = False
     for k in range(n_t):
         r0 = run_of[k]
         here = edges[ego_lane[k]]
-        near = np.flatnonzero(others & (gt.lane[k] >= 0)
-                              & (np.hypot(gt.x[k] - gt.x[k, e], gt.y[k] - gt.y[k, e])
-                                 <= CONTINUATION_RANGE + 20.0))
+        near = np.flatnonzero(
+            others
+            & (gt.lane[k] >= 0)
+            & (np.hypot(gt.x[k] - gt.x[k, e], gt.y[k] - gt.y[k, e]) <= CONTINUATION_RANGE + 20.0)
+        )
         for j in near.tolist():
             lane_j = gt.lane[k, j]
             if edges[lane_j] == here:
@@ -139,8 +140,10 @@ def _continuation(gt: GroundTruth) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
                     # metre or end before its last: reach out by the step into (out of) it
                     before = odo[a] - odo[a - 1] if a > 0 else 0.0
                     after = odo[b + 1] - odo[b] if b + 1 < n_t else 0.0
-                    if (np.any(np.diff(lp) < 0)
-                            or not lp[0] - before - 1e-6 <= pos <= lp[-1] + after + 1e-6):
+                    if (
+                        np.any(np.diff(lp) < 0)
+                        or not lp[0] - before - 1e-6 <= pos <= lp[-1] + after + 1e-6
+                    ):
                         break
                     if pos < lp[0]:
                         at = odo[a] - (lp[0] - pos)
@@ -212,7 +215,9 @@ def following(gt: GroundTruth) -> Following:
 
 
 def intervals(
-    times: np.ndarray, mask: np.ndarray, merge_gap: float = MERGE_GAP,
+    times: np.ndarray,
+    mask: np.ndarray,
+    merge_gap: float = MERGE_GAP,
     min_duration: float = MIN_DURATION,
 ) -> list[tuple[float, float]]:
     """[first, last] times of runs of True in `mask`; runs closer than `merge_gap` merge, merged
@@ -241,8 +246,11 @@ def tailgating_mask(fol: Following, ego_speed: np.ndarray) -> np.ndarray:
 def tailgated_mask(fol: Following) -> np.ndarray:
     """Ticks where the ego's same-lane follower is closer than the threshold."""
     with np.errstate(invalid="ignore"):
-        return ((fol.follower >= 0) & (fol.follower_speed > MIN_SPEED)
-                & (fol.follower_time_gap < TIME_GAP_THRESHOLD))
+        return (
+            (fol.follower >= 0)
+            & (fol.follower_speed > MIN_SPEED)
+            & (fol.follower_time_gap < TIME_GAP_THRESHOLD)
+        )
 
 
 def _who(gt: GroundTruth, idx: np.ndarray, times: np.ndarray, a: float, b: float) -> list[str]:
@@ -264,11 +272,16 @@ def geometry_labels(gt: GroundTruth, duration: float) -> list[dict[str, Any]]:
     ):
         for a, b in intervals(t, mask):
             sel = (t >= a) & (t <= b) & mask
-            out.append({
-                "hazard": hazard, "start": round(a, 3), "end": round(b, 3), "source": "geometry",
-                "vehicles": _who(gt, np.where(mask, idx, -1), t, a, b),
-                "min_time_gap": round(float(np.nanmin(tg[sel])), 3),
-            })
+            out.append(
+                {
+                    "hazard": hazard,
+                    "start": round(a, 3),
+                    "end": round(b, 3),
+                    "source": "geometry",
+                    "vehicles": _who(gt, np.where(mask, idx, -1), t, a, b),
+                    "min_time_gap": round(float(np.nanmin(tg[sel])), 3),
+                }
+            )
     return out
 
 
@@ -279,11 +292,16 @@ def fault_labels(sc: Scenario, times: np.ndarray) -> list[dict[str, Any]]:
         inside = times[(times >= f.start - 1e-9) & (times < f.end - 1e-9)]
         if len(inside) == 0:
             continue
-        out.append({
-            "hazard": HAZARD_LOCALIZATION, "start": round(float(inside[0]), 3),
-            "end": round(float(inside[-1]), 3), "source": "injected", "channel": f.channel,
-            "amplitude": f.amplitude,
-        })
+        out.append(
+            {
+                "hazard": HAZARD_LOCALIZATION,
+                "start": round(float(inside[0]), 3),
+                "end": round(float(inside[-1]), 3),
+                "source": "injected",
+                "channel": f.channel,
+                "amplitude": f.amplitude,
+            }
+        )
     return out
 
 
@@ -334,12 +352,18 @@ def read_ssm(path: Path) -> SsmLog:
         if pet_el is not None and pet_el.get("value") not in (None, "NA"):
             pet = (float(pet_el.get("time", "nan")), float(pet_el.get("value", "nan")))
         ttc, drac = span("TTCSpan"), span("DRACSpan")
-        log.conflicts.append(SsmConflict(
-            foe=c.get("foe", ""), begin=float(c.get("begin", "nan")),
-            end=float(c.get("end", "nan")), times=times, types=span("typeSpan"),
-            ttc=ttc if len(ttc) else np.full(len(times), np.nan),
-            drac=drac if len(drac) else np.full(len(times), np.nan), pet=pet,
-        ))
+        log.conflicts.append(
+            SsmConflict(
+                foe=c.get("foe", ""),
+                begin=float(c.get("begin", "nan")),
+                end=float(c.get("end", "nan")),
+                times=times,
+                types=span("typeSpan"),
+                ttc=ttc if len(ttc) else np.full(len(times), np.nan),
+                drac=drac if len(drac) else np.full(len(times), np.nan),
+                pet=pet,
+            )
+        )
     g = root.find("globalMeasures")
     if g is not None:
         for tag, attr in (("timeSpan", "times"), ("SGAPSpan", "sgap"), ("TGAPSpan", "tgap")):
@@ -362,8 +386,12 @@ def ssm_labels(log: SsmLog, duration: float) -> list[dict[str, Any]]:
             kind = int(np.bincount(kinds).argmax()) if len(kinds) else -1
             hazard = {2: HAZARD_TAILGATING, 3: HAZARD_TAILGATED}.get(kind, HAZARD_SSM_OTHER)
             label: dict[str, Any] = {
-                "hazard": hazard, "start": round(a, 3), "end": round(b, 3), "source": "ssm",
-                "foe": c.foe, "encounter_type": kind,
+                "hazard": hazard,
+                "start": round(a, 3),
+                "end": round(b, 3),
+                "source": "ssm",
+                "foe": c.foe,
+                "encounter_type": kind,
             }
             if np.isfinite(c.ttc[sel]).any():
                 label["min_ttc"] = round(float(np.nanmin(c.ttc[sel])), 3)
@@ -371,9 +399,15 @@ def ssm_labels(log: SsmLog, duration: float) -> list[dict[str, Any]]:
                 label["max_drac"] = round(float(np.nanmax(c.drac[sel])), 3)
             out.append(label)
         if c.pet is not None and c.pet[1] < SSM_PET_THRESHOLD and c.pet[0] <= duration:
-            out.append({
-                "hazard": HAZARD_SSM_OTHER, "start": round(c.pet[0], 3),
-                "end": round(c.pet[0], 3), "source": "ssm", "foe": c.foe, "pet": c.pet[1],
-            })
+            out.append(
+                {
+                    "hazard": HAZARD_SSM_OTHER,
+                    "start": round(c.pet[0], 3),
+                    "end": round(c.pet[0], 3),
+                    "source": "ssm",
+                    "foe": c.foe,
+                    "pet": c.pet[1],
+                }
+            )
     out.sort(key=lambda d: (d["start"], d["hazard"]))
     return out

@@ -96,18 +96,29 @@ def build_highway(spec: HighwaySpec, out_dir: Path) -> Path:
     edges = out_dir / "highway.edg.xml"
     net = out_dir / "highway.net.xml"
     nodes.write_text(
-        '<nodes>\n'
+        "<nodes>\n"
         '  <node id="west" x="0" y="0" type="priority"/>\n'
         f'  <node id="east" x="{spec.length:.1f}" y="0" type="priority"/>\n'
-        '</nodes>\n'
+        "</nodes>\n"
     )
     edges.write_text(
-        '<edges>\n'
+        "<edges>\n"
         f'  <edge id="hw" from="west" to="east" numLanes="{spec.lanes}" speed="{spec.speed}"/>\n'
-        '</edges>\n'
+        "</edges>\n"
     )
-    _run([sumo_tool("netconvert"), "-n", str(nodes), "-e", str(edges), "-o", str(net),
-          "--no-turnarounds", "true"])
+    _run(
+        [
+            sumo_tool("netconvert"),
+            "-n",
+            str(nodes),
+            "-e",
+            str(edges),
+            "-o",
+            str(net),
+            "--no-turnarounds",
+            "true",
+        ]
+    )
     return net
 
 
@@ -115,19 +126,32 @@ def build_grid(spec: GridSpec, out_dir: Path) -> Path:
     """Write `grid.net.xml` with traffic lights at every junction and return its path."""
     out_dir.mkdir(parents=True, exist_ok=True)
     net = out_dir / "grid.net.xml"
-    _run([
-        sumo_tool("netgenerate"), "--grid",
-        "--grid.number", str(spec.junctions),
-        "--grid.length", f"{spec.block}",
-        "--default.lanenumber", str(spec.lanes),
-        "--default.speed", f"{spec.speed}",
-        "--default-junction-type", "traffic_light",
-        "--tls.default-type", "static",
-        "--tls.cycle.time", str(spec.tls_cycle),
-        "--no-turnarounds", "true",
-        "--junctions.limit-turn-speed", f"{spec.turn_lateral_acceleration}",
-        "-o", str(net),
-    ])
+    _run(
+        [
+            sumo_tool("netgenerate"),
+            "--grid",
+            "--grid.number",
+            str(spec.junctions),
+            "--grid.length",
+            f"{spec.block}",
+            "--default.lanenumber",
+            str(spec.lanes),
+            "--default.speed",
+            f"{spec.speed}",
+            "--default-junction-type",
+            "traffic_light",
+            "--tls.default-type",
+            "static",
+            "--tls.cycle.time",
+            str(spec.tls_cycle),
+            "--no-turnarounds",
+            "true",
+            "--junctions.limit-turn-speed",
+            f"{spec.turn_lateral_acceleration}",
+            "-o",
+            str(net),
+        ]
+    )
     return net
 
 
@@ -140,31 +164,46 @@ def build_merge(spec: MergeSpec, out_dir: Path) -> Path:
     net = out_dir / "merge.net.xml"
     m1, m2 = spec.merge_x, spec.merge_x + spec.acc_length
     nodes.write_text(
-        '<nodes>\n'
+        "<nodes>\n"
         '  <node id="west" x="0" y="0" type="priority"/>\n'
         f'  <node id="ramp_start" x="{m1 - spec.ramp_length:.1f}" y="{-spec.ramp_offset:.1f}" '
         'type="priority"/>\n'
         f'  <node id="merge" x="{m1:.1f}" y="0" type="priority"/>\n'
         f'  <node id="lane_drop" x="{m2:.1f}" y="0" type="priority"/>\n'
         f'  <node id="east" x="{spec.length:.1f}" y="0" type="priority"/>\n'
-        '</nodes>\n'
+        "</nodes>\n"
     )
     n = spec.lanes
     edges.write_text(
-        '<edges>\n'
+        "<edges>\n"
         f'  <edge id="main" from="west" to="merge" numLanes="{n}" speed="{spec.speed}"/>\n'
         f'  <edge id="ramp" from="ramp_start" to="merge" numLanes="1" '
         f'speed="{spec.ramp_speed}"/>\n'
         f'  <edge id="acc" from="merge" to="lane_drop" numLanes="{n + 1}" speed="{spec.speed}"/>\n'
         f'  <edge id="out" from="lane_drop" to="east" numLanes="{n}" speed="{spec.speed}"/>\n'
-        '</edges>\n'
+        "</edges>\n"
     )
     lines = ['  <connection from="ramp" to="acc" fromLane="0" toLane="0"/>\n']
-    lines += [f'  <connection from="main" to="acc" fromLane="{i}" toLane="{i + 1}"/>\n'
-              for i in range(n)]
-    lines += [f'  <connection from="acc" to="out" fromLane="{i + 1}" toLane="{i}"/>\n'
-              for i in range(n)]
+    lines += [
+        f'  <connection from="main" to="acc" fromLane="{i}" toLane="{i + 1}"/>\n' for i in range(n)
+    ]
+    lines += [
+        f'  <connection from="acc" to="out" fromLane="{i + 1}" toLane="{i}"/>\n' for i in range(n)
+    ]
     cons.write_text("<connections>\n" + "".join(lines) + "</connections>\n")
-    _run([sumo_tool("netconvert"), "-n", str(nodes), "-e", str(edges), "-x", str(cons),
-          "-o", str(net), "--no-turnarounds", "true"])
+    _run(
+        [
+            sumo_tool("netconvert"),
+            "-n",
+            str(nodes),
+            "-e",
+            str(edges),
+            "-x",
+            str(cons),
+            "-o",
+            str(net),
+            "--no-turnarounds",
+            "true",
+        ]
+    )
     return net

@@ -81,8 +81,11 @@ LIGHTS = ("day", "sunset", "night")
 #: simulator's weather presets would set it (a drive at 30.5 would be "medium" by the bins and
 #: "light" by any eye).
 BIN_EDGES = (0.0, 30.0, 70.0, 100.0)
-LEVEL_DRAW: dict[str, tuple[float, float]] = {"light": (5.0, 25.0), "medium": (40.0, 60.0),
-                                              "heavy": (80.0, 100.0)}  # fmt: skip
+LEVEL_DRAW: dict[str, tuple[float, float]] = {
+    "light": (5.0, 25.0),
+    "medium": (40.0, 60.0),
+    "heavy": (80.0, 100.0),
+}
 
 #: A drive is degraded (its camera too poor for a detection-accuracy contract) when the camera's
 #: noise factor is at least this, or its range cap at most DEGRADED_RANGE_M.
@@ -110,8 +113,16 @@ GAP_CAP = 200.0
 
 #: All-round lidar, 80 m.
 GRID_LIDAR = replace(
-    LIDAR_STACK, name="lidar", seed=505, profile="GRID_LIDAR", p_miss=0.0005, miss_len=2.0,
-    ghost_rate=0.01, prediction_points=6, prediction_step=0.5, plan_spacing=4.0,
+    LIDAR_STACK,
+    name="lidar",
+    seed=505,
+    profile="GRID_LIDAR",
+    p_miss=0.0005,
+    miss_len=2.0,
+    ghost_rate=0.01,
+    prediction_points=6,
+    prediction_step=0.5,
+    plan_spacing=4.0,
     plan_lateral=0.05,
 )
 #: Forward camera, 120 degrees, 70 m; its position error grows less with range than
@@ -121,10 +132,20 @@ GRID_LIDAR = replace(
 #: 0.06 rad (3 sigma at 0.02) tilts that line by 1.5 m at 50 m and drops a leader that is in
 #: the lane.
 GRID_CAMERA = replace(
-    CAMERA_STACK, name="camera", seed=606, profile="GRID_CAMERA", pos_range_growth=0.5,
+    CAMERA_STACK,
+    name="camera",
+    seed=606,
+    profile="GRID_CAMERA",
+    pos_range_growth=0.5,
     yaw_sigma=0.01,
-    p_miss=0.0005, miss_len=2.0, ghost_rate=0.02, prediction_points=6, prediction_step=0.5,
-    plan_sampling="distance", plan_spacing=3.0, plan_lateral=0.05,
+    p_miss=0.0005,
+    miss_len=2.0,
+    ghost_rate=0.02,
+    prediction_points=6,
+    prediction_step=0.5,
+    plan_sampling="distance",
+    plan_spacing=3.0,
+    plan_lateral=0.05,
 )
 CHANNELS: tuple[ChannelParams, ...] = (GRID_LIDAR, GRID_CAMERA)
 
@@ -142,8 +163,11 @@ class ChannelEffect:
     def then(self, other: ChannelEffect) -> ChannelEffect:
         """Both effects at once: factors multiply, the shorter range cap wins."""
         caps = [r for r in (self.range_m, other.range_m) if r is not None]
-        return ChannelEffect(round(self.noise * other.noise, 4), round(self.miss * other.miss, 4),
-                             min(caps) if caps else None)
+        return ChannelEffect(
+            round(self.noise * other.noise, 4),
+            round(self.miss * other.miss, 4),
+            min(caps) if caps else None,
+        )
 
 
 NONE = ChannelEffect()
@@ -164,8 +188,9 @@ class EffectRamp:
             xs, ys = zip(*ramp, strict=True)
             return round(float(np.interp(intensity, xs, ys)), 3)
 
-        return ChannelEffect(f(self.noise), f(self.miss),
-                             None if self.range_m is None else f(self.range_m))
+        return ChannelEffect(
+            f(self.noise), f(self.miss), None if self.range_m is None else f(self.range_m)
+        )
 
 
 #: The documented condition -> channel effect table (docs/odd-grid.md). Keys are condition
@@ -179,31 +204,47 @@ CONDITION_EFFECTS: dict[str, dict[str, EffectRamp]] = {
     "cloudy": {"camera": EffectRamp(noise=((0.0, 1.0), (100.0, 1.3)))},
     # droplets on the lens and spray: a noisier camera that misses more, steeply so in heavy
     # rain; lidar returns a little noisier
-    "rain": {"camera": EffectRamp(noise=((0.0, 1.0), (25.0, 1.6), (40.0, 2.0), (60.0, 2.5),
-                                         (80.0, 9.0), (100.0, 12.0)),
-                                  miss=((0.0, 1.0), (100.0, 3.0))),
-             "lidar": EffectRamp(noise=((0.0, 1.0), (100.0, 1.3)),
-                                 miss=((0.0, 1.0), (100.0, 1.5)))},
+    "rain": {
+        "camera": EffectRamp(
+            noise=((0.0, 1.0), (25.0, 1.6), (40.0, 2.0), (60.0, 2.5), (80.0, 9.0), (100.0, 12.0)),
+            miss=((0.0, 1.0), (100.0, 3.0)),
+        ),
+        "lidar": EffectRamp(noise=((0.0, 1.0), (100.0, 1.3)), miss=((0.0, 1.0), (100.0, 1.5))),
+    },
     # visibility shrinks with the density: the camera sees nothing beyond its cap (70 m, its
     # own range, in light fog; 40-35 m medium; 25-20 m heavy), and what it sees is noisier;
     # the lidar loses a little precision and at most 10 m of range
-    "fog": {"camera": EffectRamp(noise=((0.0, 1.0), (25.0, 2.0), (40.0, 8.0), (60.0, 10.0),
-                                        (80.0, 14.0), (100.0, 18.0)),
-                                 miss=((0.0, 1.0), (25.0, 1.5), (40.0, 4.0), (100.0, 6.0)),
-                                 range_m=((0.0, 200.0), (25.0, 70.0), (40.0, 40.0),
-                                          (60.0, 35.0), (80.0, 25.0), (100.0, 20.0))),
-            "lidar": EffectRamp(noise=((0.0, 1.0), (100.0, 1.6)),
-                                miss=((0.0, 1.0), (100.0, 1.5)),
-                                range_m=((0.0, 200.0), (100.0, 70.0)))},
+    "fog": {
+        "camera": EffectRamp(
+            noise=((0.0, 1.0), (25.0, 2.0), (40.0, 8.0), (60.0, 10.0), (80.0, 14.0), (100.0, 18.0)),
+            miss=((0.0, 1.0), (25.0, 1.5), (40.0, 4.0), (100.0, 6.0)),
+            range_m=(
+                (0.0, 200.0),
+                (25.0, 70.0),
+                (40.0, 40.0),
+                (60.0, 35.0),
+                (80.0, 25.0),
+                (100.0, 20.0),
+            ),
+        ),
+        "lidar": EffectRamp(
+            noise=((0.0, 1.0), (100.0, 1.6)),
+            miss=((0.0, 1.0), (100.0, 1.5)),
+            range_m=((0.0, 200.0), (100.0, 70.0)),
+        ),
+    },
     # low sun into the lens: a slightly noisier camera
     "sunset": {"camera": EffectRamp(noise=((0.0, 1.4),), miss=((0.0, 1.2),))},
     # headlights only: a moderately noisier camera; the lidar does not care
     "night": {"camera": EffectRamp(noise=((0.0, 1.8),), miss=((0.0, 1.5),))},
     # wet road at night: headlight glare and reflections on top of rain and night, once the
     # road is more than damp
-    "rain+night": {"camera": EffectRamp(noise=((0.0, 1.0), (25.0, 1.2), (40.0, 2.8),
-                                               (100.0, 3.0)),
-                                        miss=((0.0, 1.0), (40.0, 4.0)))},
+    "rain+night": {
+        "camera": EffectRamp(
+            noise=((0.0, 1.0), (25.0, 1.2), (40.0, 2.8), (100.0, 3.0)),
+            miss=((0.0, 1.0), (40.0, 4.0)),
+        )
+    },
 }
 
 
@@ -211,8 +252,13 @@ def level_of(intensity: float) -> str:
     """The study's bin of an intensity: light [0, 30], medium (30, 70], heavy (70, 100]."""
     if not BIN_EDGES[0] <= intensity <= BIN_EDGES[-1]:
         raise ValueError(f"intensity {intensity!r} outside [0, 100]")
-    return LEVELS[0] if intensity <= BIN_EDGES[1] else \
-        LEVELS[1] if intensity <= BIN_EDGES[2] else LEVELS[2]
+    return (
+        LEVELS[0]
+        if intensity <= BIN_EDGES[1]
+        else LEVELS[1]
+        if intensity <= BIN_EDGES[2]
+        else LEVELS[2]
+    )
 
 
 def effects(weather: str, intensity: float, light: str) -> dict[str, ChannelEffect]:
@@ -220,8 +266,9 @@ def effects(weather: str, intensity: float, light: str) -> dict[str, ChannelEffe
     `intensity` (0-100) and `light`: their own entries of CONDITION_EFFECTS and their
     interaction entry, if any."""
     if weather not in WEATHERS or light not in LIGHTS:
-        raise ValueError(f"unknown condition {weather!r}/{light!r}; "
-                         f"weather: {WEATHERS}, light: {LIGHTS}")
+        raise ValueError(
+            f"unknown condition {weather!r}/{light!r}; weather: {WEATHERS}, light: {LIGHTS}"
+        )
     level_of(intensity)  # validates the intensity
     out = {c.name: NONE for c in CHANNELS}
     for key in (weather, light, f"{weather}+{light}"):
@@ -234,8 +281,11 @@ def apply_effect(params: ChannelParams, eff: ChannelEffect) -> ChannelParams:
     """The channel's parameters under `eff` (a miss share stays below 0.5)."""
     rng = params.range_m if eff.range_m is None else min(params.range_m, eff.range_m)
     return replace(
-        params, pos_sigma=params.pos_sigma * eff.noise, pos_white=params.pos_white * eff.noise,
-        p_miss=min(0.5, params.p_miss * eff.miss), range_m=rng,
+        params,
+        pos_sigma=params.pos_sigma * eff.noise,
+        pos_white=params.pos_white * eff.noise,
+        p_miss=min(0.5, params.p_miss * eff.miss),
+        range_m=rng,
     )
 
 
@@ -243,8 +293,9 @@ def is_degraded(weather: str, intensity: float, light: str) -> bool:
     """The camera's noise factor at least DEGRADED_NOISE, or its range cap at most
     DEGRADED_RANGE_M."""
     cam = effects(weather, intensity, light)["camera"]
-    return cam.noise >= DEGRADED_NOISE or (cam.range_m is not None
-                                           and cam.range_m <= DEGRADED_RANGE_M)
+    return cam.noise >= DEGRADED_NOISE or (
+        cam.range_m is not None and cam.range_m <= DEGRADED_RANGE_M
+    )
 
 
 def cell_name(weather: str, level: str, light: str) -> str:
@@ -302,7 +353,11 @@ ATTEMPTS = 3
 
 
 def cell_scenario(
-    weather: str, level: str, light: str, seed: int, duration: float = DEFAULT_DURATION,
+    weather: str,
+    level: str,
+    light: str,
+    seed: int,
+    duration: float = DEFAULT_DURATION,
 ) -> tuple[Scenario, float]:
     """One drive of a cell with its own `seed`, and its intensity: the intensity, the scripted
     vehicles' gaps, headways and speeds are drawn from the seed, SUMO and the channel noise are
@@ -325,17 +380,23 @@ def cell_scenario(
             "speeds up again, background traffic; channels lidar (all-round) and camera "
             "(forward)."
         ),
-        network="highway", seed=seed, duration=duration,
+        network="highway",
+        seed=seed,
+        duration=duration,
         ego=VehicleSpec("ego", "ego", HW, 400.0, 1, lead_speed, lc_mode=512, max_speed=30.0),
-        vehicles=(VehicleSpec("lead", "lead", HW, lead_pos, 1, lead_speed, lc_mode=512,
-                              max_speed=lead_speed),),
+        vehicles=(
+            VehicleSpec(
+                "lead", "lead", HW, lead_pos, 1, lead_speed, lc_mode=512, max_speed=lead_speed
+            ),
+        ),
         actions=(
             Action(0.5, "ego", "tau", tau),
             Action(brake_at, "lead", "slow_down", brake_to, 3.0),
             Action(brake_at + 5.0, "lead", "slow_down", lead_speed, 5.0),
         ),
         background=Background(initial=40, flow_per_hour=900.0),
-        faults=(), channels=channels,
+        faults=(),
+        channels=channels,
     )
     return sc, intensity
 
@@ -366,15 +427,20 @@ def signals(gt: Any) -> dict[str, np.ndarray]:
     }
 
 
-def odd_header(sc: Scenario, weather: str, intensity: float, light: str,
-               run: int) -> dict[str, Any]:
+def odd_header(
+    sc: Scenario, weather: str, intensity: float, light: str, run: int
+) -> dict[str, Any]:
     """frames.header plus the ODD keys of `meta`."""
     head = header(sc)
     meta = head["header"]["meta"]
-    meta.update({
-        "agent": AGENT, "run": run, "odd": odd_meta(weather, intensity, light),
-        "odd_truth": odd_truth(weather, intensity, light),
-    })
+    meta.update(
+        {
+            "agent": AGENT,
+            "run": run,
+            "odd": odd_meta(weather, intensity, light),
+            "odd_truth": odd_truth(weather, intensity, light),
+        }
+    )
     return head
 
 
@@ -392,7 +458,13 @@ def odd_frames(sc: Scenario, gt: Any) -> Iterator[dict[str, Any]]:
 
 
 def write_drive(
-    weather: str, level: str, light: str, run: int, seed: int, duration: float, out: Path,
+    weather: str,
+    level: str,
+    light: str,
+    run: int,
+    seed: int,
+    duration: float,
+    out: Path,
     work: Path,
 ) -> dict[str, Any]:
     """Simulate one drive of a cell and write its stream; the index entry."""
@@ -401,20 +473,32 @@ def write_drive(
     sc, intensity = cell_scenario(weather, level, light, seed, duration)
     gt = simulate(sc, work)
     path = out / f"{sc.name}-r{run}.jsonl.gz"
-    count = write_stream(path, odd_header(sc, weather, intensity, light, run),
-                         odd_frames(sc, gt))  # fmt: skip
+    count = write_stream(path, odd_header(sc, weather, intensity, light, run), odd_frames(sc, gt))
     return {
-        "stream": path.name, "scenario": sc.name, "run": run, "seed": seed,
-        "odd": {"road.type": ROAD, "environment.weather": weather,
-                "environment.intensity": intensity, "environment.light": light},
-        "level": level, "degraded": is_degraded(weather, intensity, light),
-        "duration": duration, "frames": count, "bytes": path.stat().st_size,
+        "stream": path.name,
+        "scenario": sc.name,
+        "run": run,
+        "seed": seed,
+        "odd": {
+            "road.type": ROAD,
+            "environment.weather": weather,
+            "environment.intensity": intensity,
+            "environment.light": light,
+        },
+        "level": level,
+        "degraded": is_degraded(weather, intensity, light),
+        "duration": duration,
+        "frames": count,
+        "bytes": path.stat().st_size,
     }
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m examples.sim.odd_grid", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        prog="python -m examples.sim.odd_grid",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     ap.add_argument("--seed", type=int, default=DEFAULT_SEED)
     ap.add_argument("--runs", type=int, default=DEFAULT_RUNS, help="drives per cell")
     ap.add_argument("--duration", type=float, default=DEFAULT_DURATION, help="seconds")
@@ -439,8 +523,16 @@ def main(argv: list[str] | None = None) -> int:
                 for attempt in range(ATTEMPTS):
                     seed = run_seed(args.seed, ci, r, attempt)
                     try:
-                        entry = write_drive(weather, level, light, r, seed, args.duration,
-                                            args.out, Path(tmp) / f"c{ci}r{r}a{attempt}")
+                        entry = write_drive(
+                            weather,
+                            level,
+                            light,
+                            r,
+                            seed,
+                            args.duration,
+                            args.out,
+                            Path(tmp) / f"c{ci}r{r}a{attempt}",
+                        )
                         break
                     except SimulationError as exc:
                         if attempt + 1 == ATTEMPTS:
@@ -448,8 +540,14 @@ def main(argv: list[str] | None = None) -> int:
                         print(f"{exc}; trying the next seed", file=sys.stderr)
                 index.append(entry)
                 print(json.dumps(entry), flush=True)
-    doc = {"generator": "python -m examples.sim.odd_grid", "seed": args.seed,
-           "runs": args.runs, "duration": args.duration, "agent": AGENT, "drives": index}
+    doc = {
+        "generator": "python -m examples.sim.odd_grid",
+        "seed": args.seed,
+        "runs": args.runs,
+        "duration": args.duration,
+        "agent": AGENT,
+        "drives": index,
+    }
     (args.out / "index.json").write_text(json.dumps(doc, indent=1) + "\n")
     print_bundle(index, time.perf_counter() - start, args.out)
     return 0

@@ -53,9 +53,20 @@ BROKEN_NO_INDICATOR = "CSn_broken_no_indicator"
 BROKEN_WRONG_INDICATOR = "CSn_broken_wrong_indicator"
 NO_HEADLIGHTS = "CSn_no_headlights"
 NO_FOG_LIGHTS = "CSn_no_fog_lights"
-RULES = (SPEEDING_LIGHT, SPEEDING_HEAVY, COLLISION, COLLISION_VICTIM, RED_LIGHT, STOP_SIGN,
-         SOLID_LINE, DOUBLE_SOLID, BROKEN_NO_INDICATOR, BROKEN_WRONG_INDICATOR, NO_HEADLIGHTS,
-         NO_FOG_LIGHTS)
+RULES = (
+    SPEEDING_LIGHT,
+    SPEEDING_HEAVY,
+    COLLISION,
+    COLLISION_VICTIM,
+    RED_LIGHT,
+    STOP_SIGN,
+    SOLID_LINE,
+    DOUBLE_SOLID,
+    BROKEN_NO_INDICATOR,
+    BROKEN_WRONG_INDICATOR,
+    NO_HEADLIGHTS,
+    NO_FOG_LIGHTS,
+)
 
 HEAVY_FACTOR = 1.2  # speeding above limit * 1.2 is heavy
 SPEEDING_MIN_DURATION = 0.5  # s, a speeding label's duration (its ticks times the period)
@@ -107,19 +118,53 @@ class Agent:
 
 
 AGENTS: tuple[Agent, ...] = (
-    Agent("careful", 0.92, 2.0, 3.0, 1.5, None, None, False, True, False,
-          "8 % below every limit, stops at yellow when it can, full stop at stop signs, legal "
-          "lane changes with the indicator, lights on before driving off at night, fog lights "
-          "in fog"),
-    Agent("hurried", 1.3, 2.6, 4.5, 1.0, 3.5, 3.0, True, True, True,
-          "30 % above the limit, runs a light that turns yellow less than 3.5 s ahead, rolls "
-          "over stop lines at 3 m/s, overtakes across solid and double solid lines (indicator "
-          "on; left when changing back to the right), drives into a stopped car when "
-          "inattentive, fog lights only from 15 s", wrong_way_right=True),
-    Agent("sloppy", 1.1, 2.0, 3.5, 1.2, None, 1.2, True, False, True,
-          "10 % above the limit, creeps over stop lines at 1.2 m/s, changes lanes without "
-          "the indicator (also across solid lines), drives into a stopped car when inattentive, "
-          "forgets the low beam at night (0-8 s, 24-30 s) and never uses fog lights"),
+    Agent(
+        "careful",
+        0.92,
+        2.0,
+        3.0,
+        1.5,
+        None,
+        None,
+        False,
+        True,
+        False,
+        "8 % below every limit, stops at yellow when it can, full stop at stop signs, legal "
+        "lane changes with the indicator, lights on before driving off at night, fog lights "
+        "in fog",
+    ),
+    Agent(
+        "hurried",
+        1.3,
+        2.6,
+        4.5,
+        1.0,
+        3.5,
+        3.0,
+        True,
+        True,
+        True,
+        "30 % above the limit, runs a light that turns yellow less than 3.5 s ahead, rolls "
+        "over stop lines at 3 m/s, overtakes across solid and double solid lines (indicator "
+        "on; left when changing back to the right), drives into a stopped car when "
+        "inattentive, fog lights only from 15 s",
+        wrong_way_right=True,
+    ),
+    Agent(
+        "sloppy",
+        1.1,
+        2.0,
+        3.5,
+        1.2,
+        None,
+        1.2,
+        True,
+        False,
+        True,
+        "10 % above the limit, creeps over stop lines at 1.2 m/s, changes lanes without "
+        "the indicator (also across solid lines), drives into a stopped car when inattentive, "
+        "forgets the low beam at night (0-8 s, 24-30 s) and never uses fog lights",
+    ),
 )
 AGENT_BY_NAME = {a.name: a for a in AGENTS}
 
@@ -172,7 +217,10 @@ SCENARIOS: tuple[RulesScenario, ...] = (
         "Signals and speed limits: 50 km/h, a 30 km/h stretch, 50 km/h. J1 turns yellow 1 s "
         "before the ego reaches it and red just after it crossed; J2 turns yellow 3 s before, "
         "red 2.5 s later.",
-        "m1", 40.0, 8.0, 50.0,
+        "m1",
+        40.0,
+        8.0,
+        50.0,
         lights=(LightScript("J1", 1.0, near_miss=True), LightScript("J2", 3.0)),
     ),
     RulesScenario(
@@ -180,17 +228,29 @@ SCENARIOS: tuple[RulesScenario, ...] = (
         "The all-way stop J3, then the three-lane 70 km/h road: a lane change across a broken "
         "line and back, an overtaking manoeuvre across the solid line and back, and one "
         "across the double solid line after J4.",
-        "m3", 40.0, 8.0, 45.0,
-        changes=(LaneChange("m4", 40.0, 1), LaneChange("m4", 110.0, 2, illegal=True),
-                 LaneChange("m4", 230.0, 1), LaneChange("m4", 300.0, 0),
-                 LaneChange("m5", 40.0, 1, illegal=True), LaneChange("m5", 200.0, 0,
-                                                                     illegal=True)),
+        "m3",
+        40.0,
+        8.0,
+        45.0,
+        changes=(
+            LaneChange("m4", 40.0, 1),
+            LaneChange("m4", 110.0, 2, illegal=True),
+            LaneChange("m4", 230.0, 1),
+            LaneChange("m4", 300.0, 0),
+            LaneChange("m5", 40.0, 1, illegal=True),
+            LaneChange("m5", 200.0, 0, illegal=True),
+        ),
     ),
     RulesScenario(
         "night-fog",
         "The urban stretch at night in fog: the ego starts at standstill (held 2 s); J1 turns "
         "red just after the ego crossed, J2 yellow 3 s before it.",
-        "m1", 20.0, 0.0, 40.0, weather="fog", light="night",
+        "m1",
+        20.0,
+        0.0,
+        40.0,
+        weather="fog",
+        light="night",
         lights=(LightScript("J1", 1.0, near_miss=True), LightScript("J2", 3.0)),
         hold_start=2.0,
     ),
@@ -199,7 +259,10 @@ SCENARIOS: tuple[RulesScenario, ...] = (
         "J1 turns red well ahead of the ego, which stops; a follower runs into it while it "
         "waits (the ego is the victim). After J1 a car stops on the 30 km/h stretch; an "
         "inattentive ego drives into it.",
-        "m1", 60.0, 8.0, 45.0,
+        "m1",
+        60.0,
+        8.0,
+        45.0,
         lights=(LightScript("J1", 6.0, yellow_time=3.0, red_time=9.0),),
         rear_end=True,
     ),
@@ -215,38 +278,66 @@ VTYPES = """
 
 
 def _ego_vtype(a: Agent) -> str:
-    return (f'  <vType id="ego" vClass="passenger" length="4.6" width="1.9" accel="{a.accel}" '
-            f'decel="{a.decel}" emergencyDecel="9.0" sigma="0" tau="{a.tau}" minGap="2.5" '
-            f'speedFactor="{a.speed_factor}" speedDev="0"/>\n')
+    return (
+        f'  <vType id="ego" vClass="passenger" length="4.6" width="1.9" accel="{a.accel}" '
+        f'decel="{a.decel}" emergencyDecel="9.0" sigma="0" tau="{a.tau}" minGap="2.5" '
+        f'speedFactor="{a.speed_factor}" speedDev="0"/>\n'
+    )
 
 
 def write_routes(sc: RulesScenario, agent: Agent, seed: int, work: Path) -> Path:
     rng = np.random.default_rng([seed, 11])
     i0 = MAIN.index(sc.depart_edge)
     route = " ".join(MAIN[i0:])
-    lines = ["<routes>\n", VTYPES, _ego_vtype(agent),
-             f'  <route id="ego_route" edges="{route}"/>\n',
-             '  <route id="back" edges="w5 w4 w3 w2 w1"/>\n',
-             '  <route id="back_mid" edges="w3 w2 w1"/>\n']
+    lines = [
+        "<routes>\n",
+        VTYPES,
+        _ego_vtype(agent),
+        f'  <route id="ego_route" edges="{route}"/>\n',
+        '  <route id="back" edges="w5 w4 w3 w2 w1"/>\n',
+        '  <route id="back_mid" edges="w3 w2 w1"/>\n',
+    ]
     vehicles = []
     if sc.rear_end:
         # the blocker stops on m2; the tailer follows the ego into J1's queue
-        vehicles.append((0.0, f'  <vehicle id="blocker" type="scripted" route="ego_route" '
-                              f'depart="0" departPos="{sc.depart_pos + 70:.1f}" departLane="0" '
-                              'departSpeed="8"/>\n'))
-        vehicles.append((0.0, f'  <vehicle id="tailer" type="scripted" route="ego_route" '
-                              f'depart="0" departPos="{sc.depart_pos - 35:.1f}" '
-                              'departLane="0" departSpeed="8"/>\n'))
+        vehicles.append(
+            (
+                0.0,
+                f'  <vehicle id="blocker" type="scripted" route="ego_route" '
+                f'depart="0" departPos="{sc.depart_pos + 70:.1f}" departLane="0" '
+                'departSpeed="8"/>\n',
+            )
+        )
+        vehicles.append(
+            (
+                0.0,
+                f'  <vehicle id="tailer" type="scripted" route="ego_route" '
+                f'depart="0" departPos="{sc.depart_pos - 35:.1f}" '
+                'departLane="0" departSpeed="8"/>\n',
+            )
+        )
     # oncoming traffic already on the road and a flow, seeded
     for k, pos in enumerate(sorted(rng.uniform(20.0, 180.0, 3))):
-        vehicles.append((0.0, f'  <vehicle id="on{k}" type="car" route="back_mid" depart="0" '
-                              f'departPos="{pos:.1f}" departSpeed="8"/>\n'))
-    vehicles.append((0.0, f'  <vehicle id="ego" type="ego" route="ego_route" depart="0" '
-                          f'departPos="{sc.depart_pos}" departLane="0" '
-                          f'departSpeed="{sc.depart_speed}"/>\n'))
-    flow = (f'  <flow id="oncoming" type="car" route="back" begin="0" '
-            f'end="{sc.duration + EXTRA_TIME}" vehsPerHour="{sc.oncoming_per_hour:g}" '
-            'departSpeed="desired"/>\n')
+        vehicles.append(
+            (
+                0.0,
+                f'  <vehicle id="on{k}" type="car" route="back_mid" depart="0" '
+                f'departPos="{pos:.1f}" departSpeed="8"/>\n',
+            )
+        )
+    vehicles.append(
+        (
+            0.0,
+            f'  <vehicle id="ego" type="ego" route="ego_route" depart="0" '
+            f'departPos="{sc.depart_pos}" departLane="0" '
+            f'departSpeed="{sc.depart_speed}"/>\n',
+        )
+    )
+    flow = (
+        f'  <flow id="oncoming" type="car" route="back" begin="0" '
+        f'end="{sc.duration + EXTRA_TIME}" vehsPerHour="{sc.oncoming_per_hour:g}" '
+        'departSpeed="desired"/>\n'
+    )
     rou = work / "rules.rou.xml"
     rou.write_text("".join(lines) + "".join(v for _, v in vehicles) + flow + "</routes>\n")
     return rou
@@ -306,12 +397,35 @@ def simulate(sc: RulesScenario, agent: Agent, seed: int, work: Path) -> tuple[Gr
 
     net = build_rules_net(work)
     rou = write_routes(sc, agent, seed, work)
-    ls.start(["sumo", "-n", str(net), "-r", str(rou), "--step-length", f"{STEP}",
-              "--seed", str(seed), "--no-step-log", "true", "--no-warnings", "true",
-              "--collision.action", "warn", "--collision.check-junctions", "true",
-              "--collision.mingap-factor", "0", "--time-to-teleport", "-1",
-              "--default.action-step-length", f"{STEP}",
-              "--lanechange.duration", f"{LANE_CHANGE_DURATION}"])
+    ls.start(
+        [
+            "sumo",
+            "-n",
+            str(net),
+            "-r",
+            str(rou),
+            "--step-length",
+            f"{STEP}",
+            "--seed",
+            str(seed),
+            "--no-step-log",
+            "true",
+            "--no-warnings",
+            "true",
+            "--collision.action",
+            "warn",
+            "--collision.check-junctions",
+            "true",
+            "--collision.mingap-factor",
+            "0",
+            "--time-to-teleport",
+            "-1",
+            "--default.action-step-length",
+            f"{STEP}",
+            "--lanechange.duration",
+            f"{LANE_CHANGE_DURATION}",
+        ]
+    )
     night, fog = sc.light == "night", sc.weather == "fog"
     steps = round((sc.duration + EXTRA_TIME) / STEP) + 1
     tr = Trace()
@@ -361,9 +475,11 @@ def simulate(sc: RulesScenario, agent: Agent, seed: int, work: Path) -> tuple[Gr
                         kind = "stop" if j == "J3" else "traffic_light"
                         controls.append(Control(kind, j, e, lane_len))
                 last = route[-1]
-                route_length = (sc.depart_pos + ls.vehicle.getDistance("ego")
-                                + ls.vehicle.getDrivingDistance("ego", last,
-                                                                ls.lane.getLength(f"{last}_0")))
+                route_length = (
+                    sc.depart_pos
+                    + ls.vehicle.getDistance("ego")
+                    + ls.vehicle.getDrivingDistance("ego", last, ls.lane.getLength(f"{last}_0"))
+                )
                 if sc.hold_start > 0:
                     ls.vehicle.setSpeed("ego", 0.0)
             if sc.hold_start > 0 and abs(t - sc.hold_start) < 1e-6:
@@ -383,15 +499,19 @@ def simulate(sc: RulesScenario, agent: Agent, seed: int, work: Path) -> tuple[Gr
                 if c.kind == "traffic_light" and c.junction in tls_next:
                     c.link = tls_next[c.junction][1]
                 past = edge.startswith(f":{c.junction}_") or (
-                    edge in MAIN and MAIN.index(edge) > MAIN.index(c.edge))
+                    edge in MAIN and MAIN.index(edge) > MAIN.index(c.edge)
+                )
                 if d <= 0.0 or past:
                     c.crossed_at = (c.prev[0] + c.prev[1]) if c.prev else odo
                 else:
                     c.prev = (odo, d)
             world: dict[str, Any] = {"speed_limit": round(ls.lane.getMaxSpeed(lane), 3)}
             for c in controls:
-                dist = (ls.vehicle.getDrivingDistance("ego", c.edge, c.length)
-                        if c.crossed_at is None else c.crossed_at - odo)
+                dist = (
+                    ls.vehicle.getDrivingDistance("ego", c.edge, c.length)
+                    if c.crossed_at is None
+                    else c.crossed_at - odo
+                )
                 if not (-PAST_RANGE <= dist <= LOOKAHEAD):
                     continue
                 if c.kind == "traffic_light" and "traffic_light" not in world:
@@ -438,8 +558,7 @@ def simulate(sc: RulesScenario, agent: Agent, seed: int, work: Path) -> tuple[Gr
             elif k == 0 or ls.vehicle.getSignals("ego") & (LOW_BEAM | FOG) != want:
                 ls.vehicle.setSignals("ego", want)
             sig = ls.vehicle.getSignals("ego")
-            indicator = ("left" if sig & BLINK_LEFT else "right" if sig & BLINK_RIGHT
-                         else "off")
+            indicator = "left" if sig & BLINK_LEFT else "right" if sig & BLINK_RIGHT else "off"
             world["indicator"] = indicator
             world["lights"] = {"low_beam": bool(sig & LOW_BEAM), "fog": bool(sig & FOG)}
 
@@ -452,8 +571,9 @@ def simulate(sc: RulesScenario, agent: Agent, seed: int, work: Path) -> tuple[Gr
                 vclass = col.victimType if col.collider == "ego" else col.colliderType
                 if other in live:  # the vehicle's class, not its vType id
                     vclass = ls.vehicle.getVehicleClass(other)
-                contacts.append({"id": other, "with": _party(vclass),
-                                 "ego_at_fault": col.collider == "ego"})
+                contacts.append(
+                    {"id": other, "with": _party(vclass), "ego_at_fault": col.collider == "ego"}
+                )
             world["collisions"] = contacts
             world["route"] = {"progress": round(odo, 2), "length": round(route_length, 2)}
 
@@ -479,22 +599,35 @@ def simulate(sc: RulesScenario, agent: Agent, seed: int, work: Path) -> tuple[Gr
                 c = next(c for c in controls if c.junction == j)
                 state, since = light_phase[j]
                 n = len(ls.trafficlight.getRedYellowGreenState(j))
-                eta = (ls.vehicle.getDrivingDistance("ego", c.edge, c.length) / max(speed, 1.0)
-                       if c.crossed_at is None else -1.0)
+                eta = (
+                    ls.vehicle.getDrivingDistance("ego", c.edge, c.length) / max(speed, 1.0)
+                    if c.crossed_at is None
+                    else -1.0
+                )
                 new = state
-                if state == "G" and c.crossed_at is None and 0 <= eta <= s.yellow_eta \
-                        and since == 0.0:
+                if (
+                    state == "G"
+                    and c.crossed_at is None
+                    and 0 <= eta <= s.yellow_eta
+                    and since == 0.0
+                ):
                     new = "y"
                     if agent.runs_late_yellow is not None and eta <= agent.runs_late_yellow:
                         running.add(j)
                         ls.vehicle.setSpeedMode("ego", SPEED_MODE_IGNORE_JUNCTION)
-                elif state == "y" and ((s.near_miss and c.crossed_at is not None)
-                                       or (not s.near_miss and t - since >= s.yellow_time)):
+                elif state == "y" and (
+                    (s.near_miss and c.crossed_at is not None)
+                    or (not s.near_miss and t - since >= s.yellow_time)
+                ):
                     new = "r"
-                elif state == "r" and t - since >= s.red_time and not (
+                elif (
+                    state == "r"
+                    and t - since >= s.red_time
+                    and not (
                         # the rear-end light stays red until the follower has hit the ego
-                        sc.rear_end and tail_state in ("follow", "hitting")
-                        and t - since < 20.0):
+                        sc.rear_end and tail_state in ("follow", "hitting") and t - since < 20.0
+                    )
+                ):
                     new = "g!"
                 if new != state:
                     char = {"y": "y", "r": "r"}.get(new, "G")
@@ -505,22 +638,31 @@ def simulate(sc: RulesScenario, agent: Agent, seed: int, work: Path) -> tuple[Gr
                     running.discard(c.junction)
                     ls.vehicle.setSpeedMode("ego", SPEED_MODE_DEFAULT)
                     ls.vehicle.setSpeed("ego", -1)
-                if (c.kind == "stop" and agent.stop_roll is not None and c.crossed_at is None
-                        and c.junction not in running):
+                if (
+                    c.kind == "stop"
+                    and agent.stop_roll is not None
+                    and c.crossed_at is None
+                    and c.junction not in running
+                ):
                     d = ls.vehicle.getDrivingDistance("ego", c.edge, c.length)
                     if 0 < d <= 25.0:
                         running.add(c.junction)
                         ls.vehicle.setSpeedMode("ego", SPEED_MODE_IGNORE_JUNCTION)
-                        ls.vehicle.slowDown("ego", agent.stop_roll,
-                                            max(0.5, (speed - agent.stop_roll) / 2.5))
+                        ls.vehicle.slowDown(
+                            "ego", agent.stop_roll, max(0.5, (speed - agent.stop_roll) / 2.5)
+                        )
                 if c.kind == "stop" and c.junction in running and c.crossed_at is None:
                     d = ls.vehicle.getDrivingDistance("ego", c.edge, c.length)
                     if d <= 8.0:
                         ls.vehicle.setSpeed("ego", agent.stop_roll)
 
             # lane changes
-            if pending_change is None and changes and edge == changes[0].edge \
-                    and lpos >= changes[0].pos:
+            if (
+                pending_change is None
+                and changes
+                and edge == changes[0].edge
+                and lpos >= changes[0].pos
+            ):
                 pending_change = changes.pop(0)
                 li = int(lane.rsplit("_", 1)[1])
                 if pending_change.to == li:
@@ -540,12 +682,19 @@ def simulate(sc: RulesScenario, agent: Agent, seed: int, work: Path) -> tuple[Gr
 
             # rear-end scenario
             if sc.rear_end:
-                stopped_since = (stopped_since if stopped_since is not None else t) \
-                    if speed < STANDSTILL else None
+                stopped_since = (
+                    (stopped_since if stopped_since is not None else t)
+                    if speed < STANDSTILL
+                    else None
+                )
                 ego_contact = any(not c_["ego_at_fault"] for c_ in contacts)
                 if "tailer" in live:
-                    if tail_state == "follow" and edge == "m1" and stopped_since is not None \
-                            and t - stopped_since >= 2.0:
+                    if (
+                        tail_state == "follow"
+                        and edge == "m1"
+                        and stopped_since is not None
+                        and t - stopped_since >= 2.0
+                    ):
                         ls.vehicle.setSpeedMode("tailer", SPEED_MODE_NONE)
                         ls.vehicle.setSpeed("tailer", 3.0)
                         tail_state = "hitting"
@@ -603,18 +752,34 @@ def simulate(sc: RulesScenario, agent: Agent, seed: int, work: Path) -> tuple[Gr
     length = np.array(lengths)
     cx, cy, yaw = sumo_to_centre(grid(2), grid(3), grid(4), length[None, :])
     gt = GroundTruth(
-        scenario=sc.name, times=times, ids=ids, cls=cls, length=length, width=np.array(widths),
-        min_gap=np.full((n_t, len(ids)), 2.5), x=cx, y=cy, yaw=yaw, speed=grid(5),
-        lane=np.full((n_t, len(ids)), -1), lane_pos=np.full((n_t, len(ids)), np.nan),
-        lane_ids=[], speed_limit=np.full(n_t, np.nan), sumo_leader=[None] * n_t,
-        sumo_leader_gap=np.full(n_t, np.nan), ego_min_gap=np.full(n_t, 2.5),
-        ssm_file=work / "none.xml", ego_index=index["ego"], work_dir=work,
+        scenario=sc.name,
+        times=times,
+        ids=ids,
+        cls=cls,
+        length=length,
+        width=np.array(widths),
+        min_gap=np.full((n_t, len(ids)), 2.5),
+        x=cx,
+        y=cy,
+        yaw=yaw,
+        speed=grid(5),
+        lane=np.full((n_t, len(ids)), -1),
+        lane_pos=np.full((n_t, len(ids)), np.nan),
+        lane_ids=[],
+        speed_limit=np.full(n_t, np.nan),
+        sumo_leader=[None] * n_t,
+        sumo_leader_gap=np.full(n_t, np.nan),
+        ego_min_gap=np.full(n_t, 2.5),
+        ssm_file=work / "none.xml",
+        ego_index=index["ego"],
+        work_dir=work,
     )
     return gt, tr
 
 
 def _marking(ls: Any, edge: str, a: int, b: int) -> str:
     """The marking crossed from lane a to lane b of `edge` (see rules_net)."""
+
     def allowed(x: int, y: int) -> bool:
         direction = 1 if y > x else -1  # TraCI: 1 = to the left, -1 = to the right
         return "passenger" in ls.lane.getChangePermissions(f"{edge}_{x}", direction)
@@ -628,8 +793,9 @@ def _marking(ls: Any, edge: str, a: int, b: int) -> str:
 # --- labels -----------------------------------------------------------------------------------
 
 
-def _runs(mask: list[bool], times: list[float], min_duration: float = 0.0
-          ) -> list[tuple[float, float]]:
+def _runs(
+    mask: list[bool], times: list[float], min_duration: float = 0.0
+) -> list[tuple[float, float]]:
     out = []
     k = 0
     n = len(mask)
@@ -655,17 +821,32 @@ def labels(tr: Trace, sc: RulesScenario) -> list[dict[str, Any]]:
     def add(rule: str, spans: list[tuple[float, float]]) -> None:
         out.extend({"hazard": rule, "start": a, "end": b} for a, b in spans)
 
-    add(SPEEDING_LIGHT, _runs([lim[k] < v[k] <= HEAVY_FACTOR * lim[k] for k in range(len(t))],
-                              t, SPEEDING_MIN_DURATION))
-    add(SPEEDING_HEAVY, _runs([v[k] > HEAVY_FACTOR * lim[k] for k in range(len(t))], t,
-                              SPEEDING_MIN_DURATION))
+    add(
+        SPEEDING_LIGHT,
+        _runs(
+            [lim[k] < v[k] <= HEAVY_FACTOR * lim[k] for k in range(len(t))],
+            t,
+            SPEEDING_MIN_DURATION,
+        ),
+    )
+    add(
+        SPEEDING_HEAVY,
+        _runs([v[k] > HEAVY_FACTOR * lim[k] for k in range(len(t))], t, SPEEDING_MIN_DURATION),
+    )
     # contacts: one label per other party and uninterrupted run of ticks in contact
     for fault, rule in ((True, COLLISION), (False, COLLISION_VICTIM)):
-        others = sorted({c["id"] for x in w for c in x["collisions"]
-                         if c["ego_at_fault"] is fault})
+        others = sorted({c["id"] for x in w for c in x["collisions"] if c["ego_at_fault"] is fault})
         for o in others:
-            add(rule, _runs([any(c["id"] == o and c["ego_at_fault"] is fault
-                                 for c in x["collisions"]) for x in w], t))
+            add(
+                rule,
+                _runs(
+                    [
+                        any(c["id"] == o and c["ego_at_fault"] is fault for c in x["collisions"])
+                        for x in w
+                    ],
+                    t,
+                ),
+            )
     # signals and stop lines: the first tick whose distance is <= 0 is the crossing
     for key, rule in (("traffic_light", RED_LIGHT), ("stop_sign", STOP_SIGN)):
         prev = None
@@ -676,24 +857,48 @@ def labels(tr: Trace, sc: RulesScenario) -> list[dict[str, Any]]:
                 if rule == RED_LIGHT and cur["state"] == "red":
                     add(rule, [(t[k], t[k])])
                 if rule == STOP_SIGN:
-                    zone = [v[j] for j in range(k) if w[j].get(key)
-                            and 0 < w[j][key]["distance"] <= STOP_ZONE]
+                    zone = [
+                        v[j]
+                        for j in range(k)
+                        if w[j].get(key) and 0 < w[j][key]["distance"] <= STOP_ZONE
+                    ]
                     if not zone or min(zone) >= STANDSTILL:
                         add(rule, [(t[k], t[k])])
             prev = d
     add(SOLID_LINE, _runs([x.get("marking") == "solid" for x in w], t))
     add(DOUBLE_SOLID, _runs([x.get("marking") == "double_solid" for x in w], t))
-    add(BROKEN_NO_INDICATOR, _runs([x.get("marking") == "broken" and x["indicator"] == "off"
-                                    for x in w], t))
-    add(BROKEN_WRONG_INDICATOR, _runs([x.get("marking") == "broken"
-                                       and x["indicator"] not in ("off", x["crossing"])
-                                       for x in w], t))
+    add(
+        BROKEN_NO_INDICATOR,
+        _runs([x.get("marking") == "broken" and x["indicator"] == "off" for x in w], t),
+    )
+    add(
+        BROKEN_WRONG_INDICATOR,
+        _runs(
+            [
+                x.get("marking") == "broken" and x["indicator"] not in ("off", x["crossing"])
+                for x in w
+            ],
+            t,
+        ),
+    )
     if sc.light == "night":
-        add(NO_HEADLIGHTS, _runs([v[k] > MOVING and not w[k]["lights"]["low_beam"]
-                                  for k in range(len(t))], t, LIGHTS_MIN_DURATION))
+        add(
+            NO_HEADLIGHTS,
+            _runs(
+                [v[k] > MOVING and not w[k]["lights"]["low_beam"] for k in range(len(t))],
+                t,
+                LIGHTS_MIN_DURATION,
+            ),
+        )
     if sc.weather == "fog":
-        add(NO_FOG_LIGHTS, _runs([v[k] > MOVING and not w[k]["lights"]["fog"]
-                                  for k in range(len(t))], t, LIGHTS_MIN_DURATION))
+        add(
+            NO_FOG_LIGHTS,
+            _runs(
+                [v[k] > MOVING and not w[k]["lights"]["fog"] for k in range(len(t))],
+                t,
+                LIGHTS_MIN_DURATION,
+            ),
+        )
     out.sort(key=lambda d: (d["start"], d["hazard"]))
     return out
 
@@ -710,26 +915,37 @@ def drive_seed(seed: int, si: int, ai: int) -> int:
 
 
 def header(sc: RulesScenario, agent: Agent, seed: int, channels: tuple) -> dict[str, Any]:
-    return {"header": {
-        "format": "casewatch-frames", "version": 1, "channels": [c.name for c in channels],
-        "period": STEP, "coverage": {c.name: c.coverage() for c in channels},
-        "meta": {
-            "scenario": sc.name, "agent": agent.name, "seed": seed,
-            "description": sc.description, "agent_description": agent.description,
-            "generator": "examples.sim.rules_drives (Eclipse SUMO via libsumo)",
-            "network": "rules", "duration": sc.duration,
-            "odd": {"environment": {"weather": sc.weather, "light": sc.light}},
-            "channel_params": {c.name: c.meta() for c in channels},
-        },
-    }}
+    return {
+        "header": {
+            "format": "casewatch-frames",
+            "version": 1,
+            "channels": [c.name for c in channels],
+            "period": STEP,
+            "coverage": {c.name: c.coverage() for c in channels},
+            "meta": {
+                "scenario": sc.name,
+                "agent": agent.name,
+                "seed": seed,
+                "description": sc.description,
+                "agent_description": agent.description,
+                "generator": "examples.sim.rules_drives (Eclipse SUMO via libsumo)",
+                "network": "rules",
+                "duration": sc.duration,
+                "odd": {"environment": {"weather": sc.weather, "light": sc.light}},
+                "channel_params": {c.name: c.meta() for c in channels},
+            },
+        }
+    }
 
 
 #: What the rule drives' conditions do to the channels: fog a noisy camera that sees 35 m and
 #: a lidar that sees 70 m, night a noisier camera (the ODD grid's effects before it had
 #: intensities, kept so the drives' channels do not change with the grid).
 CONDITION_EFFECTS: dict[str, dict[str, ChannelEffect]] = {
-    "fog": {"camera": ChannelEffect(noise=10.0, miss=5.0, range_m=35.0),
-            "lidar": ChannelEffect(noise=1.5, miss=1.5, range_m=70.0)},
+    "fog": {
+        "camera": ChannelEffect(noise=10.0, miss=5.0, range_m=35.0),
+        "lidar": ChannelEffect(noise=1.5, miss=1.5, range_m=70.0),
+    },
     "night": {"camera": ChannelEffect(noise=1.8, miss=1.5)},
 }
 
@@ -744,8 +960,9 @@ def channel_effects(weather: str, light: str) -> dict[str, ChannelEffect]:
     return out
 
 
-def write_drive(sc: RulesScenario, agent: Agent, seed: int, out: Path, work: Path
-                ) -> dict[str, Any]:
+def write_drive(
+    sc: RulesScenario, agent: Agent, seed: int, out: Path, work: Path
+) -> dict[str, Any]:
     from examples.sim.channels import ChannelModel
 
     gt, tr = simulate(sc, agent, seed, work)
@@ -755,8 +972,11 @@ def write_drive(sc: RulesScenario, agent: Agent, seed: int, out: Path, work: Pat
 
     def rows():
         for k, tk in enumerate(tr.times):
-            yield {"t": tk, "channels": {m.p.name: m.frame(k) for m in models},
-                   "world": {"speed": tr.speed[k], **tr.world[k]}}
+            yield {
+                "t": tk,
+                "channels": {m.p.name: m.frame(k) for m in models},
+                "world": {"speed": tr.speed[k], **tr.world[k]},
+            }
 
     name = drive_name(sc, agent)
     path = out / f"{name}.jsonl.gz"
@@ -764,15 +984,26 @@ def write_drive(sc: RulesScenario, agent: Agent, seed: int, out: Path, work: Pat
     lab = labels(tr, sc)
     write_jsonl(out / f"{name}.labels.jsonl", lab)
     counts = {r: sum(1 for x in lab if x["hazard"] == r) for r in RULES}
-    return {"stream": path.name, "labels": f"{name}.labels.jsonl", "agent": agent.name,
-            "scenario": sc.name, "seed": seed, "duration": sc.duration, "frames": count,
-            "bytes": path.stat().st_size, "label_counts": counts,
-            "odd": {"environment.weather": sc.weather, "environment.light": sc.light}}
+    return {
+        "stream": path.name,
+        "labels": f"{name}.labels.jsonl",
+        "agent": agent.name,
+        "scenario": sc.name,
+        "seed": seed,
+        "duration": sc.duration,
+        "frames": count,
+        "bytes": path.stat().st_size,
+        "label_counts": counts,
+        "odd": {"environment.weather": sc.weather, "environment.light": sc.light},
+    }
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m examples.sim.rules_drives", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        prog="python -m examples.sim.rules_drives",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     ap.add_argument("--seed", type=int, default=DEFAULT_SEED)
     ap.add_argument("--out", type=Path, default=DEFAULT_OUT)
     ap.add_argument("--only", default=None, help="one drive, <scenario>-<agent>")
@@ -790,17 +1021,27 @@ def main(argv: list[str] | None = None) -> int:
             for ai, agent in enumerate(AGENTS):
                 if args.only and args.only != drive_name(sc, agent):
                     continue
-                entry = write_drive(sc, agent, drive_seed(args.seed, si, ai), args.out,
-                                    Path(tmp) / f"s{si}a{ai}")
+                entry = write_drive(
+                    sc, agent, drive_seed(args.seed, si, ai), args.out, Path(tmp) / f"s{si}a{ai}"
+                )
                 index.append(entry)
-                print(json.dumps({k: entry[k] for k in ("stream", "frames", "bytes")}
-                                 | {"labels": {r: n for r, n in entry["label_counts"].items()
-                                               if n}}), flush=True)
+                print(
+                    json.dumps(
+                        {k: entry[k] for k in ("stream", "frames", "bytes")}
+                        | {"labels": {r: n for r, n in entry["label_counts"].items() if n}}
+                    ),
+                    flush=True,
+                )
     totals = {r: sum(e["label_counts"][r] for e in index) for r in RULES}
     if not args.only:
-        doc = {"generator": "python -m examples.sim.rules_drives", "seed": args.seed,
-               "agents": [a.name for a in AGENTS], "scenarios": [s.name for s in SCENARIOS],
-               "label_totals": totals, "drives": index}
+        doc = {
+            "generator": "python -m examples.sim.rules_drives",
+            "seed": args.seed,
+            "agents": [a.name for a in AGENTS],
+            "scenarios": [s.name for s in SCENARIOS],
+            "label_totals": totals,
+            "drives": index,
+        }
         (args.out / "index.json").write_text(json.dumps(doc, indent=1) + "\n")
         # the road network, for the violation map of casewatch compare (--net)
         shutil.copy(build_rules_net(args.out / ".net-build"), args.out / "rules.net.xml")

@@ -57,42 +57,76 @@ def build_rules_net(out_dir: Path) -> Path:
     out_dir.mkdir(parents=True, exist_ok=True)
     nod, edg, con = (out_dir / f"rules.{k}.xml" for k in ("nod", "edg", "con"))
     net = out_dir / "rules.net.xml"
-    kinds = {"W": "priority", "J1": "traffic_light", "J2": "traffic_light",
-             "J3": "allway_stop", "J4": "priority", "E": "priority"}
-    nodes = [f'  <node id="{n}" x="{x:.1f}" y="0" type="{kinds[n]}"/>\n'
-             for n, x in NODES_X.items()]
+    kinds = {
+        "W": "priority",
+        "J1": "traffic_light",
+        "J2": "traffic_light",
+        "J3": "allway_stop",
+        "J4": "priority",
+        "E": "priority",
+    }
+    nodes = [
+        f'  <node id="{n}" x="{x:.1f}" y="0" type="{kinds[n]}"/>\n' for n, x in NODES_X.items()
+    ]
     cross = []
     for j in ("J1", "J2", "J3"):
         x = NODES_X[j]
         nodes.append(f'  <node id="N{j[1]}" x="{x:.1f}" y="120" type="priority"/>\n')
         nodes.append(f'  <node id="S{j[1]}" x="{x:.1f}" y="-120" type="priority"/>\n')
         for a, b in ((f"N{j[1]}", j), (j, f"N{j[1]}"), (f"S{j[1]}", j), (j, f"S{j[1]}")):
-            cross.append(f'  <edge id="{a}_{b}" from="{a}" to="{b}" numLanes="1" '
-                         'speed="13.89"/>\n')
+            cross.append(f'  <edge id="{a}_{b}" from="{a}" to="{b}" numLanes="1" speed="13.89"/>\n')
     nod.write_text("<nodes>\n" + "".join(nodes) + "</nodes>\n")
     order = list(NODES_X)
     edges = []
     for i, e in enumerate(MAIN):
-        lanes = "".join(f'\n    <lane index="{li}" {_LANE_ATTRS[(e, li)]}/>'
-                        for li in range(_LANES[e]) if (e, li) in _LANE_ATTRS)
-        edges.append(f'  <edge id="{e}" from="{order[i]}" to="{order[i + 1]}" '
-                     f'numLanes="{_LANES[e]}" speed="{_SPEED[e]}">{lanes}\n  </edge>\n')
+        lanes = "".join(
+            f'\n    <lane index="{li}" {_LANE_ATTRS[(e, li)]}/>'
+            for li in range(_LANES[e])
+            if (e, li) in _LANE_ATTRS
+        )
+        edges.append(
+            f'  <edge id="{e}" from="{order[i]}" to="{order[i + 1]}" '
+            f'numLanes="{_LANES[e]}" speed="{_SPEED[e]}">{lanes}\n  </edge>\n'
+        )
     for i, w in enumerate(BACK):
         a, b = order[len(order) - 1 - i], order[len(order) - 2 - i]
-        edges.append(f'  <edge id="{w}" from="{a}" to="{b}" numLanes="1" '
-                     f'speed="{_SPEED[MAIN[len(MAIN) - 1 - i]]}"/>\n')
+        edges.append(
+            f'  <edge id="{w}" from="{a}" to="{b}" numLanes="1" '
+            f'speed="{_SPEED[MAIN[len(MAIN) - 1 - i]]}"/>\n'
+        )
     edg.write_text("<edges>\n" + "".join(edges) + "".join(cross) + "</edges>\n")
-    cons = [f'  <connection from="{a}" to="{b}" fromLane="{i}" toLane="{i}"/>\n'
-            for a, b in pairwise(MAIN) if a != "m3" and a != "m4"
-            for i in range(2)]
+    cons = [
+        f'  <connection from="{a}" to="{b}" fromLane="{i}" toLane="{i}"/>\n'
+        for a, b in pairwise(MAIN)
+        if a != "m3" and a != "m4"
+        for i in range(2)
+    ]
     cons += [f'  <connection from="m3" to="m4" fromLane="{i}" toLane="{i}"/>\n' for i in range(2)]
-    cons += ['  <connection from="m4" to="m5" fromLane="0" toLane="0"/>\n',
-             '  <connection from="m4" to="m5" fromLane="1" toLane="1"/>\n',
-             '  <connection from="m4" to="m5" fromLane="2" toLane="1"/>\n']
+    cons += [
+        '  <connection from="m4" to="m5" fromLane="0" toLane="0"/>\n',
+        '  <connection from="m4" to="m5" fromLane="1" toLane="1"/>\n',
+        '  <connection from="m4" to="m5" fromLane="2" toLane="1"/>\n',
+    ]
     con.write_text("<connections>\n" + "".join(cons) + "</connections>\n")
-    _run([sumo_tool("netconvert"), "-n", str(nod), "-e", str(edg), "-x", str(con),
-          "-o", str(net), "--no-turnarounds", "true", "--tls.default-type", "static",
-          "--offset.disable-normalization", "true"])
+    _run(
+        [
+            sumo_tool("netconvert"),
+            "-n",
+            str(nod),
+            "-e",
+            str(edg),
+            "-x",
+            str(con),
+            "-o",
+            str(net),
+            "--no-turnarounds",
+            "true",
+            "--tls.default-type",
+            "static",
+            "--offset.disable-normalization",
+            "true",
+        ]
+    )
     return net
 
 

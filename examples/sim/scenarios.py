@@ -107,16 +107,20 @@ HIGHWAY_TAILGATING = Scenario(
     ego=VehicleSpec("ego", "ego", HW, 400.0, 1, 24.0, lc_mode=512, max_speed=30.0),
     vehicles=(VehicleSpec("lead", "lead", HW, 445.0, 1, 24.0, lc_mode=512, max_speed=25.0),),
     actions=(
-        Action(8.0, "ego", "tau", 0.3), Action(8.0, "ego", "min_gap", 1.0),
+        Action(8.0, "ego", "tau", 0.3),
+        Action(8.0, "ego", "min_gap", 1.0),
         Action(8.0, "ego", "max_speed", 33.0),
         Action(28.0, "lead", "slow_down", 10.0, 2.0),
-        Action(40.0, "lead", "max_speed", 26.0), Action(40.0, "lead", "slow_down", 26.0, 8.0),
-        Action(50.0, "ego", "tau", 1.6), Action(50.0, "ego", "min_gap", 2.5),
+        Action(40.0, "lead", "max_speed", 26.0),
+        Action(40.0, "lead", "slow_down", 26.0, 8.0),
+        Action(50.0, "ego", "tau", 1.6),
+        Action(50.0, "ego", "min_gap", 2.5),
         Action(58.0, "ego", "max_speed", 22.0),
         Action(60.0, "lead", "lane", 2, 16.0),
         Action(76.0, "lead", "lane", 1, 44.0),
         Action(80.0, "ego", "max_speed", 33.0),
-        Action(86.0, "ego", "tau", 0.3), Action(86.0, "ego", "min_gap", 1.0),
+        Action(86.0, "ego", "tau", 0.3),
+        Action(86.0, "ego", "min_gap", 1.0),
         Action(110.0, "lead", "slow_down", 8.0, 2.2),
         Action(114.0, "lead", "slow_down", 24.0, 6.0),
     ),
@@ -144,12 +148,17 @@ HIGHWAY_TAILGATED = Scenario(
         VehicleSpec("cruiser", "lead", HW, 435.0, 0, 22.0, lc_mode=512, max_speed=22.0),
     ),
     actions=(
-        Action(10.0, "tailgater", "tau", 0.35), Action(10.0, "tailgater", "min_gap", 1.0),
-        Action(42.0, "tailgater", "tau", 1.8), Action(42.0, "tailgater", "min_gap", 3.0),
-        Action(60.0, "tailgater", "tau", 0.35), Action(60.0, "tailgater", "min_gap", 1.0),
+        Action(10.0, "tailgater", "tau", 0.35),
+        Action(10.0, "tailgater", "min_gap", 1.0),
+        Action(42.0, "tailgater", "tau", 1.8),
+        Action(42.0, "tailgater", "min_gap", 3.0),
+        Action(60.0, "tailgater", "tau", 0.35),
+        Action(60.0, "tailgater", "min_gap", 1.0),
         Action(95.0, "tailgater", "lane", 2, 25.0),
-        Action(95.0, "tailgater", "tau", 1.2), Action(95.0, "tailgater", "min_gap", 2.5),
-        Action(104.0, "ego", "lane", 0, 16.0), Action(104.0, "ego", "max_speed", 30.0),
+        Action(95.0, "tailgater", "tau", 1.2),
+        Action(95.0, "tailgater", "min_gap", 2.5),
+        Action(104.0, "ego", "lane", 0, 16.0),
+        Action(104.0, "ego", "max_speed", 30.0),
     ),
     background=Background(initial=100, flow_per_hour=1400.0),
     faults=(LocalizationFault("lav", 88.0, 89.8, 4.0),),
@@ -167,12 +176,12 @@ URBAN_GRID = Scenario(
     seed=37,
     duration=150.0,
     ego=VehicleSpec("ego", "ego", URBAN_ROUTE, 15.0, 1, 8.0, lc_mode=513, max_speed=13.89),
-    vehicles=(
-        VehicleSpec("lead", "lead", URBAN_ROUTE, 45.0, 1, 8.0, lc_mode=513, max_speed=11.5),
-    ),
+    vehicles=(VehicleSpec("lead", "lead", URBAN_ROUTE, 45.0, 1, 8.0, lc_mode=513, max_speed=11.5),),
     actions=(
-        Action(5.0, "ego", "tau", 0.3), Action(5.0, "ego", "min_gap", 1.0),
-        Action(110.0, "ego", "tau", 1.5), Action(110.0, "ego", "min_gap", 2.5),
+        Action(5.0, "ego", "tau", 0.3),
+        Action(5.0, "ego", "min_gap", 1.0),
+        Action(110.0, "ego", "tau", 1.5),
+        Action(110.0, "ego", "min_gap", 2.5),
     ),
     background=Background(initial=160),
     faults=(LocalizationFault("tfuse", 100.0, 101.5, 3.0),),
@@ -188,7 +197,8 @@ HIGHWAY_SHORT = Scenario(
     ego=VehicleSpec("ego", "ego", HW, 380.0, 1, 24.0, lc_mode=512, max_speed=30.0),
     vehicles=(VehicleSpec("lead", "lead", HW, 425.0, 1, 24.0, lc_mode=512, max_speed=25.0),),
     actions=(
-        Action(3.0, "ego", "tau", 0.3), Action(3.0, "ego", "min_gap", 1.0),
+        Action(3.0, "ego", "tau", 0.3),
+        Action(3.0, "ego", "min_gap", 1.0),
         Action(3.0, "ego", "max_speed", 33.0),
         Action(12.0, "lead", "slow_down", 15.0, 4.0),
     ),
@@ -222,9 +232,11 @@ HIGHWAY_REALSTACK = Scenario(
         Action(30.0, "ego", "lane", 2, 20.0),
         Action(50.0, "ego", "lane", 1, 100.0),
         Action(70.0, "ego", "max_speed", 27.0),
-        Action(95.0, "ego", "tau", 0.3), Action(95.0, "ego", "min_gap", 1.0),
+        Action(95.0, "ego", "tau", 0.3),
+        Action(95.0, "ego", "min_gap", 1.0),
         Action(95.0, "ego", "max_speed", 33.0),
-        Action(122.0, "ego", "tau", 1.5), Action(122.0, "ego", "min_gap", 2.5),
+        Action(122.0, "ego", "tau", 1.5),
+        Action(122.0, "ego", "min_gap", 2.5),
         Action(122.0, "ego", "max_speed", 27.0),
     ),
     background=Background(initial=150, flow_per_hour=1600.0),
@@ -277,12 +289,22 @@ HIGHWAY_MERGE_REALSTACK = Scenario(
     network="merge",
     seed=67,
     duration=150.0,
-    ego=VehicleSpec("ego", "ego", ("main", "acc", "out"), 300.0, 0, 24.0, lc_mode=512,
-                    max_speed=27.0),
+    ego=VehicleSpec(
+        "ego", "ego", ("main", "acc", "out"), 300.0, 0, 24.0, lc_mode=512, max_speed=27.0
+    ),
     vehicles=(
         # times its merge to just ahead of the ego (the ego reaches the ramp at about 70 s)
-        VehicleSpec("merger", "lead", ("ramp", "acc", "out"), 10.0, 0, 18.0, lc_mode=513,
-                    max_speed=25.0, depart=51.0),
+        VehicleSpec(
+            "merger",
+            "lead",
+            ("ramp", "acc", "out"),
+            10.0,
+            0,
+            18.0,
+            lc_mode=513,
+            max_speed=25.0,
+            depart=51.0,
+        ),
     ),
     actions=(),
     background=Background(initial=70, flow_per_hour=1200.0),
@@ -309,7 +331,8 @@ HIGHWAY_CLOSE_REALSTACK = Scenario(
         VehicleSpec("cutter", "lead", HW, 430.0, 2, 24.0, lc_mode=512, max_speed=25.5),
     ),
     actions=(
-        Action(1.0, "ego", "tau", 0.8), Action(1.0, "ego", "min_gap", 2.0),
+        Action(1.0, "ego", "tau", 0.8),
+        Action(1.0, "ego", "min_gap", 2.0),
         Action(1.0, "ego", "max_speed", 33.0),
         Action(60.0, "cutter", "lane", 1, 80.0),
         Action(100.0, "cutter", "slow_down", 18.0, 4.0),
@@ -322,7 +345,11 @@ HIGHWAY_CLOSE_REALSTACK = Scenario(
 
 #: The bundled set written by `python -m examples.sim.build_data`.
 BUNDLED: tuple[Scenario, ...] = (
-    HIGHWAY_TAILGATING, HIGHWAY_TAILGATED, URBAN_GRID, HIGHWAY_REALSTACK, URBAN_REALSTACK,
+    HIGHWAY_TAILGATING,
+    HIGHWAY_TAILGATED,
+    URBAN_GRID,
+    HIGHWAY_REALSTACK,
+    URBAN_REALSTACK,
     HIGHWAY_CLOSE_REALSTACK,
 )
 
@@ -332,9 +359,10 @@ SCENARIOS: dict[str, Scenario] = {
 
 #: The 20-second test run with the real-stack profiles (tests/sim/test_realstack.py).
 HIGHWAY_SHORT_REALSTACK = replace(
-    HIGHWAY_SHORT, name="highway-short-realstack",
+    HIGHWAY_SHORT,
+    name="highway-short-realstack",
     description="20 s highway run used by the tests, real-stack channel profiles (lav: "
-                "LIDAR_STACK, tfuse: CAMERA_STACK): ego tailgates a lead car from 3 s.",
+    "LIDAR_STACK, tfuse: CAMERA_STACK): ego tailgates a lead car from 3 s.",
     channels=REALSTACK,
 )
 SCENARIOS[HIGHWAY_SHORT_REALSTACK.name] = HIGHWAY_SHORT_REALSTACK

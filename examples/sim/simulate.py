@@ -165,8 +165,9 @@ def _background_highway(sc: Scenario, rng: np.random.Generator, length: float) -
 def _background_merge(sc: Scenario, rng: np.random.Generator, spec: MergeSpec) -> str:
     """Cars spread along the main road and the road after the merge at t=0 (as on the
     highway), a flow entering the main road at its western end and a flow on the ramp."""
-    scripted = [(v.depart_pos, v.depart_lane) for v in (sc.ego, *sc.vehicles)
-                if v.route[0] == "main"]
+    scripted = [
+        (v.depart_pos, v.depart_lane) for v in (sc.ego, *sc.vehicles) if v.route[0] == "main"
+    ]
     placed: list[tuple[str, float, int]] = []
     n = 0
     out_length = spec.length - spec.merge_x - spec.acc_length
@@ -175,8 +176,7 @@ def _background_merge(sc: Scenario, rng: np.random.Generator, spec: MergeSpec) -
         edge = "main" if on_main else "out"
         pos = float(rng.uniform(20.0, (spec.merge_x if on_main else out_length) - 50.0))
         lane = int(rng.integers(0, spec.lanes))
-        near_scripted = on_main and any(abs(pos - p) < 120.0 and lane == ln
-                                        for p, ln in scripted)
+        near_scripted = on_main and any(abs(pos - p) < 120.0 and lane == ln for p, ln in scripted)
         crowded = any(e == edge and abs(pos - p) < 25.0 and lane == ln for e, p, ln in placed)
         if near_scripted or crowded:
             continue
@@ -237,8 +237,9 @@ def write_inputs(sc: Scenario, work_dir: Path) -> tuple[Path, Path, Path]:
         net = build_grid(GridSpec(), work_dir)
         background = _background_grid(sc, rng, net)
     ssm_file = work_dir / f"ssm_{sc.name}.xml"
-    routes = [f'  <route id="r_{v.id}" edges="{" ".join(v.route)}"/>\n'
-              for v in (sc.ego, *sc.vehicles)]
+    routes = [
+        f'  <route id="r_{v.id}" edges="{" ".join(v.route)}"/>\n' for v in (sc.ego, *sc.vehicles)
+    ]
     if sc.network == "highway":
         routes.append('  <route id="hw" edges="hw"/>\n')
     elif sc.network == "merge":
@@ -252,14 +253,23 @@ def write_inputs(sc: Scenario, work_dir: Path) -> tuple[Path, Path, Path]:
     # SUMO reads a route file in depart order: scripted vehicles departing later go after the
     # background (which departs at 0 on the highways)
     if sc.ego.depart != 0.0 or (sc.network == "grid" and any(v.depart for v in sc.vehicles)):
-        raise SimulationError(f"scenario {sc.name}: only non-ego highway vehicles may depart "
-                              "after t=0")
-    late = [_vehicle_xml(v, f"r_{v.id}", None)
-            for v in sorted(sc.vehicles, key=lambda v: v.depart) if v.depart > 0.0]
+        raise SimulationError(
+            f"scenario {sc.name}: only non-ego highway vehicles may depart after t=0"
+        )
+    late = [
+        _vehicle_xml(v, f"r_{v.id}", None)
+        for v in sorted(sc.vehicles, key=lambda v: v.depart)
+        if v.depart > 0.0
+    ]
     rou = work_dir / f"{sc.name}.rou.xml"
     rou.write_text(
-        "<routes>\n" + VTYPES + "".join(routes) + "".join(vehicles) + background
-        + "".join(late) + "</routes>\n"
+        "<routes>\n"
+        + VTYPES
+        + "".join(routes)
+        + "".join(vehicles)
+        + background
+        + "".join(late)
+        + "</routes>\n"
     )
     return net, rou, ssm_file
 
@@ -292,13 +302,31 @@ def run(sc: Scenario, work_dir: Path | None = None, extra_time: float = 5.5) -> 
     work = Path(work_dir) if work_dir is not None else Path(tempfile.mkdtemp(prefix="cwsim-"))
     work.mkdir(parents=True, exist_ok=True)
     net, rou, ssm_file = write_inputs(sc, work)
-    ls.start([
-        "sumo", "-n", str(net), "-r", str(rou), "--step-length", f"{STEP}",
-        "--seed", str(sc.seed), "--no-step-log", "true", "--no-warnings", "true",
-        "--collision.action", "warn", "--time-to-teleport", "-1",
-        "--default.action-step-length", f"{STEP}",
-        "--lanechange.duration", f"{LANE_CHANGE_DURATION}",
-    ])
+    ls.start(
+        [
+            "sumo",
+            "-n",
+            str(net),
+            "-r",
+            str(rou),
+            "--step-length",
+            f"{STEP}",
+            "--seed",
+            str(sc.seed),
+            "--no-step-log",
+            "true",
+            "--no-warnings",
+            "true",
+            "--collision.action",
+            "warn",
+            "--time-to-teleport",
+            "-1",
+            "--default.action-step-length",
+            f"{STEP}",
+            "--lanechange.duration",
+            f"{LANE_CHANGE_DURATION}",
+        ]
+    )
     ego = sc.ego.id
     steps = round((sc.duration + extra_time) / STEP) + 1
     index: dict[str, int] = {}
@@ -338,11 +366,14 @@ def run(sc: Scenario, work_dir: Path | None = None, extra_time: float = 5.5) -> 
                 next_action += 1
             if ego not in live:
                 if t <= sc.duration:
-                    why = ("SUMO refused to insert it (too close to the vehicle ahead for "
-                           "its depart speed?)" if t == 0.0 else "it left the network early")
+                    why = (
+                        "SUMO refused to insert it (too close to the vehicle ahead for "
+                        "its depart speed?)"
+                        if t == 0.0
+                        else "it left the network early"
+                    )
                     raise SimulationError(
-                        f"scenario {sc.name}: ego '{ego}' not on the network at t={t:.1f} s: "
-                        f"{why}"
+                        f"scenario {sc.name}: ego '{ego}' not on the network at t={t:.1f} s: {why}"
                     )
                 times = times[:k]
                 break
@@ -358,8 +389,19 @@ def run(sc: Scenario, work_dir: Path | None = None, extra_time: float = 5.5) -> 
                 fx, fy = ls.vehicle.getPosition(vid)
                 lane = ls.vehicle.getLaneID(vid)
                 li = lane_index.setdefault(lane, len(lane_index))
-                rows.append((k, j, fx, fy, ls.vehicle.getAngle(vid), ls.vehicle.getSpeed(vid),
-                             ls.vehicle.getMinGap(vid), li, ls.vehicle.getLanePosition(vid)))
+                rows.append(
+                    (
+                        k,
+                        j,
+                        fx,
+                        fy,
+                        ls.vehicle.getAngle(vid),
+                        ls.vehicle.getSpeed(vid),
+                        ls.vehicle.getMinGap(vid),
+                        li,
+                        ls.vehicle.getLanePosition(vid),
+                    )
+                )
             lane = ls.vehicle.getLaneID(ego)
             limit[k] = ls.lane.getMaxSpeed(lane)
             lead = ls.vehicle.getLeader(ego, 100.0)
@@ -390,12 +432,29 @@ def run(sc: Scenario, work_dir: Path | None = None, extra_time: float = 5.5) -> 
     for name, i in lane_index.items():
         lane_ids[i] = name
     return GroundTruth(
-        scenario=sc.name, times=times, ids=ids, cls=cls, length=length, width=np.array(widths),
-        min_gap=grid(6), x=cx, y=cy, yaw=yaw, speed=grid(5),
-        lane=grid(7, -1).astype(int), lane_pos=grid(8), lane_ids=lane_ids,
-        speed_limit=limit[:n_t], sumo_leader=leaders[:n_t], sumo_leader_gap=leader_gap[:n_t],
-        ego_min_gap=ego_min_gap[:n_t], ssm_file=ssm_file, ego_index=index[ego], work_dir=work,
-        ego_lateral=ego_lateral[:n_t], ego_lane_width=ego_lane_width[:n_t],
+        scenario=sc.name,
+        times=times,
+        ids=ids,
+        cls=cls,
+        length=length,
+        width=np.array(widths),
+        min_gap=grid(6),
+        x=cx,
+        y=cy,
+        yaw=yaw,
+        speed=grid(5),
+        lane=grid(7, -1).astype(int),
+        lane_pos=grid(8),
+        lane_ids=lane_ids,
+        speed_limit=limit[:n_t],
+        sumo_leader=leaders[:n_t],
+        sumo_leader_gap=leader_gap[:n_t],
+        ego_min_gap=ego_min_gap[:n_t],
+        ssm_file=ssm_file,
+        ego_index=index[ego],
+        work_dir=work,
+        ego_lateral=ego_lateral[:n_t],
+        ego_lane_width=ego_lane_width[:n_t],
     )
 
 

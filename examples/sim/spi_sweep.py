@@ -74,7 +74,10 @@ class Drive:
 
 
 def _dropouts(
-    rng: np.random.Generator, times: np.ndarray, busy: np.ndarray, names: list[str],
+    rng: np.random.Generator,
+    times: np.ndarray,
+    busy: np.ndarray,
+    names: list[str],
 ) -> list[tuple[str, int, int]]:
     """One to three channel dropouts of 0.2-1.5 s, away from faults (channel, first, last)."""
     out = []
@@ -128,21 +131,35 @@ def write_pair(sc: Scenario, gt: GroundTruth, profile: str, out: Path) -> Drive:
         write_jsonl(out / f"{stem}.ssm-labels.jsonl", ssm)
     fault_labels = [f.label(times) for f in faults]
     write_jsonl(out / f"{sc.name}-faults.fault-labels.jsonl", fault_labels)
-    return Drive(sc.seed, profile, sc.name, clean_path, fault_path, fault_labels,
-                 [(c, float(times[a]), float(times[b])) for c, a, b in drops])
+    return Drive(
+        sc.seed,
+        profile,
+        sc.name,
+        clean_path,
+        fault_path,
+        fault_labels,
+        [(c, float(times[a]), float(times[b])) for c, a, b in drops],
+    )
 
 
-def generate(seeds: list[int], profiles: list[str], scenarios: list[str], out: Path,
-             log: Any = sys.stderr) -> list[Drive]:
+def generate(
+    seeds: list[int], profiles: list[str], scenarios: list[str], out: Path, log: Any = sys.stderr
+) -> list[Drive]:
     """Every drive pair of the sweep (reused when its index exists)."""
     index = out / "drives.json"
     wanted = {(s, p, c) for s in seeds for p in profiles for c in scenarios}
     known: dict[tuple[int, str, str], Drive] = {}
     if index.is_file():
         for row in json.loads(index.read_text(encoding="utf-8")):
-            d = Drive(row["seed"], row["profile"], row["scenario"], Path(row["clean"]),
-                      Path(row["faulted"]), row["faults"],
-                      [tuple(x) for x in row["dropouts"]])  # type: ignore[misc]
+            d = Drive(
+                row["seed"],
+                row["profile"],
+                row["scenario"],
+                Path(row["clean"]),
+                Path(row["faulted"]),
+                row["faults"],
+                [tuple(x) for x in row["dropouts"]],
+            )  # type: ignore[misc]
             if d.clean.is_file() and d.faulted.is_file():
                 known[(d.seed, d.profile, d.scenario)] = d
     with tempfile.TemporaryDirectory(prefix="cwsweep-") as tmp:
@@ -158,10 +175,13 @@ def generate(seeds: list[int], profiles: list[str], scenarios: list[str], out: P
                 for profile in todo:
                     d = write_pair(sc, gt, profile, out / f"s{seed}" / profile)
                     known[(seed, profile, name)] = d
-                print(f"spi-sweep: seed {seed} {name}: {len(todo)} profile(s) in "
-                      f"{time.perf_counter() - start:.0f} s", file=log, flush=True)
-    rows = [{**asdict(d), "clean": str(d.clean), "faulted": str(d.faulted)}
-            for d in known.values()]
+                print(
+                    f"spi-sweep: seed {seed} {name}: {len(todo)} profile(s) in "
+                    f"{time.perf_counter() - start:.0f} s",
+                    file=log,
+                    flush=True,
+                )
+    rows = [{**asdict(d), "clean": str(d.clean), "faulted": str(d.faulted)} for d in known.values()]
     index.parent.mkdir(parents=True, exist_ok=True)
     index.write_text(json.dumps(rows, indent=1), encoding="utf-8")
     return [known[k] for k in sorted(wanted)]
@@ -170,13 +190,18 @@ def generate(seeds: list[int], profiles: list[str], scenarios: list[str], out: P
 def main(argv: list[str] | None = None) -> int:
     from examples.sim.sweep_report import judge_and_report
 
-    ap = argparse.ArgumentParser(prog="python -m examples.sim.spi_sweep", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        prog="python -m examples.sim.spi_sweep",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     ap.add_argument("--seeds", type=int, nargs="+", default=list(REPORT_SEEDS))
-    ap.add_argument("--profiles", nargs="+", default=list(PROFILE_LEVELS),
-                    choices=list(PROFILE_LEVELS))
-    ap.add_argument("--scenarios", nargs="+", default=list(DEFAULT_SCENARIOS),
-                    choices=sorted(SCENARIOS))
+    ap.add_argument(
+        "--profiles", nargs="+", default=list(PROFILE_LEVELS), choices=list(PROFILE_LEVELS)
+    )
+    ap.add_argument(
+        "--scenarios", nargs="+", default=list(DEFAULT_SCENARIOS), choices=sorted(SCENARIOS)
+    )
     ap.add_argument("--case", type=Path, default=CASE)
     ap.add_argument("--out", type=Path, default=Path("out") / "spi-sweep")
     ap.add_argument("--json", type=Path, default=None, help="also write the figures here")
@@ -192,4 +217,3 @@ def main(argv: list[str] | None = None) -> int:
 
 if __name__ == "__main__":
     sys.exit(main())
-

@@ -64,16 +64,24 @@ def record(stream: Path, out: Path, seed: int, at_tick: bool = True) -> Path:
     phase = int(rng.uniform(5, 95) * MS)
     skew = {c: rng.uniform(-10, 10) for c in channels}
     # per channel and role: (stamp offset from the tick, recording delay range in ms)
-    timing = {(c, role): (phase + int((skew[c] + rng.uniform(-5, 5)) * MS),
-                          (20, 250) if role == "objects" else (1, 20))
-              for c in channels for role in ("odometry", "objects", "plan")}  # fmt: skip
+    timing = {
+        (c, role): (
+            phase + int((skew[c] + rng.uniform(-5, 5)) * MS),
+            (20, 250) if role == "objects" else (1, 20),
+        )
+        for c in channels
+        for role in ("odometry", "objects", "plan")
+    }
     messages: list[tuple[int, str, str, bytes]] = []
     for frame in frames:
         tick = DEFAULT_T0_NS + round(frame.t * 1e9)
         for c, state in frame.channels.items():
             topics = plain["channels"][c]
-            for role, msgtype in (("odometry", ODOMETRY), ("objects", OBJECTS),
-                                  ("plan", TRAJECTORY)):  # fmt: skip
+            for role, msgtype in (
+                ("odometry", ODOMETRY),
+                ("objects", OBJECTS),
+                ("plan", TRAJECTORY),
+            ):
                 if role == "plan" and not len(state.plan):
                     continue
                 offset, (lo, hi) = timing[(c, role)]
@@ -81,15 +89,18 @@ def record(stream: Path, out: Path, seed: int, at_tick: bool = True) -> Path:
                 stamp = tick + offset
                 log = stamp + int(rng.uniform(lo, hi) * MS)
                 moved = at_instant(state, offset / 1e9)
-                msg = (build.odometry(stamp, moved) if role == "odometry"
-                       else build.objects(stamp, moved.objects) if role == "objects"
-                       else build.trajectory(stamp, moved.plan))  # fmt: skip
+                msg = (
+                    build.odometry(stamp, moved)
+                    if role == "odometry"
+                    else build.objects(stamp, moved.objects)
+                    if role == "objects"
+                    else build.trajectory(stamp, moved.plan)
+                )
                 messages.append((log, topics[role], msgtype, store.serialize_cdr(msg, msgtype)))
         for name, value in frame.signals.items():
             if value is not None:
                 raw = store.serialize_cdr(build.scalar(value), "std_msgs/msg/Float64")
-                messages.append((tick + phase, plain["signals"][name], "std_msgs/msg/Float64",
-                                 raw))
+                messages.append((tick + phase, plain["signals"][name], "std_msgs/msg/Float64", raw))
     messages.sort(key=lambda m: m[0])  # the recorder writes in arrival order
     shutil.rmtree(out, ignore_errors=True)
     writer = Writer(out, version=9, storage_plugin=StoragePlugin.MCAP)
@@ -131,22 +142,34 @@ def at_instant(state: ChannelState, dt: float) -> ChannelState:
 
 def _overlap(a, others, shift: float, slack: float = 0.1 + 1e-9) -> bool:
     """An episode of `others` (times + `shift`) of the same node within a tick of `a`."""
-    return any(b.node_id == a.node_id and b.start + shift <= a.end + slack
-               and a.start <= b.end + shift + slack for b in others)  # fmt: skip
+    return any(
+        b.node_id == a.node_id
+        and b.start + shift <= a.end + slack
+        and a.start <= b.end + shift + slack
+        for b in others
+    )
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m examples.sim.stack_timing", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        prog="python -m examples.sim.stack_timing",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     ap.add_argument("streams", nargs="+", type=Path)
     ap.add_argument("--out", type=Path, default=Path("out") / "stack-timing")
     ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--as-stamped", action="store_true",
-                    help="judge with poses_at_tick: false (to see what moving them buys)")
+    ap.add_argument(
+        "--as-stamped",
+        action="store_true",
+        help="judge with poses_at_tick: false (to see what moving them buys)",
+    )
     args = ap.parse_args(argv)
     case, spec = api.prepare(CASE)
-    print(f"{'drive':<34}{'frames':>7}{'dropouts':>9}{'defects':>8}  episodes: stream in bag, "
-          "bag in stream")  # fmt: skip
+    print(
+        f"{'drive':<34}{'frames':>7}{'dropouts':>9}{'defects':>8}  episodes: stream in bag, "
+        "bag in stream"
+    )
     for k, stream in enumerate(args.streams):
         name = stream.name.removesuffix(".gz").removesuffix(".jsonl")
         bag = args.out / name
@@ -158,9 +181,11 @@ def main(argv: list[str] | None = None) -> int:
         found = sum(_overlap(e, ours.episodes, shift) for e in theirs.episodes)
         back = sum(_overlap(e, theirs.episodes, -shift) for e in ours.episodes)
         drops = sum(ours.stream.dropouts.values()) - sum(theirs.stream.dropouts.values())
-        print(f"{stream.parent.name + '/' + name:<34}{ours.stream.frames_read:>7}{drops:>9}"
-              f"{ours.stream.defect_count:>8}  {found}/{len(theirs.episodes)}, "
-              f"{back}/{len(ours.episodes)}")  # fmt: skip
+        print(
+            f"{stream.parent.name + '/' + name:<34}{ours.stream.frames_read:>7}{drops:>9}"
+            f"{ours.stream.defect_count:>8}  {found}/{len(theirs.episodes)}, "
+            f"{back}/{len(ours.episodes)}"
+        )
     return 0
 
 

@@ -50,7 +50,11 @@ def _between(rng: np.random.Generator, lo: float, hi: float, level: float | None
 
 
 def sample_stack(
-    rng: np.random.Generator, name: str, seed: int, level: float | None, profile: str = "",
+    rng: np.random.Generator,
+    name: str,
+    seed: int,
+    level: float | None,
+    profile: str = "",
 ) -> ChannelParams:
     """One channel model (reported as channel `name`) drawn from the table above."""
     lv = level
@@ -65,27 +69,50 @@ def sample_stack(
     switch_period = rng.uniform(60.0, 120.0)  # s between id switches of one track
     ghost_lo = _between(rng, 0.2, 0.6, lv)
     return ChannelParams(
-        name=name, seed=seed, range_m=range_m, fov_deg=fov,
-        pos_sigma=_between(rng, 0.05, 0.25, lv), pos_range_growth=_between(rng, 0.3, 1.5, lv),
-        pos_white=_between(rng, 0.02, 0.10, lv), pos_white_growth=_between(rng, 0.0, 2.0, lv),
-        yaw_sigma=_between(rng, 0.01, 0.05, lv), speed_sigma=_between(rng, 0.05, 0.3, lv),
-        lat_speed_sigma=_between(rng, 0.02, 0.12, lv), size_sigma=_between(rng, 0.03, 0.10, lv),
-        track_tau=_between(rng, 2.0, 8.0, None), p_miss=_between(rng, 0.01, 0.05, lv),
-        miss_len=_between(rng, 1.5, 4.0, lv), miss_edge=_between(rng, 0.02, 0.10, lv),
-        ghost_rate=_between(rng, 0.02, 0.10, lv), ghost_life=(ghost_lo, max(ghost_lo, 1.0)),
-        p_id_switch=0.1 / switch_period, track_timeout=_between(rng, 0.5, 1.0, None),
-        loc_sigma=_between(rng, 0.03, 0.15, lv), loc_drift=_between(rng, 0.0, 0.10, lv),
-        loc_drift_period=(20.0, 60.0), loc_yaw_sigma=_between(rng, 0.002, 0.008, lv),
-        ego_speed_sigma=_between(rng, 0.03, 0.10, lv), plan_horizon=round(plan_horizon, 6),
-        plan_lateral=_between(rng, 0.1, 0.3, lv), plan_longitudinal=_between(rng, 0.2, 0.5, lv),
-        plan_tau=_between(rng, 3.0, 6.0, None), prediction_points=int(prediction_points),
-        prediction_step=prediction_step, profile=profile, plan_sampling=sampling,
-        plan_step=plan_step, plan_spacing=float(rng.choice((1.0, 2.0))), loc_noise="ar1",
-        loc_phi=_between(rng, 0.5, 0.9, None), plan_beyond_prediction=True,
-        plan_noise_lon=_between(rng, 0.1, 0.2, lv), plan_noise_lat=_between(rng, 0.02, 0.05, lv),
-        pred_noise_lon=_between(rng, 0.1, 0.2, lv), pred_noise_lat=_between(rng, 0.02, 0.05, lv),
+        name=name,
+        seed=seed,
+        range_m=range_m,
+        fov_deg=fov,
+        pos_sigma=_between(rng, 0.05, 0.25, lv),
+        pos_range_growth=_between(rng, 0.3, 1.5, lv),
+        pos_white=_between(rng, 0.02, 0.10, lv),
+        pos_white_growth=_between(rng, 0.0, 2.0, lv),
+        yaw_sigma=_between(rng, 0.01, 0.05, lv),
+        speed_sigma=_between(rng, 0.05, 0.3, lv),
+        lat_speed_sigma=_between(rng, 0.02, 0.12, lv),
+        size_sigma=_between(rng, 0.03, 0.10, lv),
+        track_tau=_between(rng, 2.0, 8.0, None),
+        p_miss=_between(rng, 0.01, 0.05, lv),
+        miss_len=_between(rng, 1.5, 4.0, lv),
+        miss_edge=_between(rng, 0.02, 0.10, lv),
+        ghost_rate=_between(rng, 0.02, 0.10, lv),
+        ghost_life=(ghost_lo, max(ghost_lo, 1.0)),
+        p_id_switch=0.1 / switch_period,
+        track_timeout=_between(rng, 0.5, 1.0, None),
+        loc_sigma=_between(rng, 0.03, 0.15, lv),
+        loc_drift=_between(rng, 0.0, 0.10, lv),
+        loc_drift_period=(20.0, 60.0),
+        loc_yaw_sigma=_between(rng, 0.002, 0.008, lv),
+        ego_speed_sigma=_between(rng, 0.03, 0.10, lv),
+        plan_horizon=round(plan_horizon, 6),
+        plan_lateral=_between(rng, 0.1, 0.3, lv),
+        plan_longitudinal=_between(rng, 0.2, 0.5, lv),
+        plan_tau=_between(rng, 3.0, 6.0, None),
+        prediction_points=int(prediction_points),
+        prediction_step=prediction_step,
+        profile=profile,
+        plan_sampling=sampling,
+        plan_step=plan_step,
+        plan_spacing=float(rng.choice((1.0, 2.0))),
+        loc_noise="ar1",
+        loc_phi=_between(rng, 0.5, 0.9, None),
+        plan_beyond_prediction=True,
+        plan_noise_lon=_between(rng, 0.1, 0.2, lv),
+        plan_noise_lat=_between(rng, 0.02, 0.05, lv),
+        pred_noise_lon=_between(rng, 0.1, 0.2, lv),
+        pred_noise_lat=_between(rng, 0.02, 0.05, lv),
         plan_foresight=_between(rng, 1.5, 3.0, None),
-    )  # fmt: skip
+    )
 
 
 def sample_pair(seed: int, profile: str) -> tuple[ChannelParams, ChannelParams]:

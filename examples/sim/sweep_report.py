@@ -50,9 +50,15 @@ class SpiFigures:
         return sum(v[1] for v in self.faults.values()) / total if total else None
 
     def as_dict(self) -> dict[str, Any]:
-        return {"node_id": self.node_id, "signal": self.signal, "evaluated": self.evaluated,
-                "violated": self.violated, "nominal": self.nominal,
-                "faults": self.faults, "detection": self.detection()}
+        return {
+            "node_id": self.node_id,
+            "signal": self.signal,
+            "evaluated": self.evaluated,
+            "violated": self.violated,
+            "nominal": self.nominal,
+            "faults": self.faults,
+            "detection": self.detection(),
+        }
 
 
 def spi_episodes(result: RunResult) -> dict[str, list[tuple[float, float]]]:
@@ -70,7 +76,9 @@ def spi_signals(result: RunResult) -> dict[str, str]:
 
 
 def figures_of(
-    clean: RunResult, faulted: RunResult | None, faults: list[FaultLabel],
+    clean: RunResult,
+    faulted: RunResult | None,
+    faults: list[FaultLabel],
     *into: dict[str, SpiFigures],
 ) -> None:
     """Add one drive pair's figures to each of `into` (by SPI node id): the clean run's
@@ -82,10 +90,12 @@ def figures_of(
     found: list[tuple[str, str, str, bool]] = []  # node, signal, family, detected
     if faulted is not None:
         with_fault, without = spi_episodes(faulted), spi_episodes(clean)
-        found = [(node, signal, f.fault,
-                  detected(with_fault.get(node, []), without.get(node, []), f))
-                 for node, signal in spi_signals(clean).items()
-                 for f in faults if signal in FAMILY_SIGNALS[f.fault]]  # fmt: skip
+        found = [
+            (node, signal, f.fault, detected(with_fault.get(node, []), without.get(node, []), f))
+            for node, signal in spi_signals(clean).items()
+            for f in faults
+            if signal in FAMILY_SIGNALS[f.fault]
+        ]
     for target in into:
         for share in shares:
             fig = target.setdefault(share.node_id, SpiFigures(share.node_id, share.signal))
@@ -93,15 +103,31 @@ def figures_of(
             fig.violated += share.violated
         for node, signal, family, hit in found:
             row = target.setdefault(node, SpiFigures(node, signal)).faults.setdefault(
-                family, [0, 0])
+                family, [0, 0]
+            )
             row[0] += 1
             row[1] += hit
 
 
 def _judge(case: Path, folder: Path, out: Path) -> int:
     with contextlib.redirect_stdout(io.StringIO()):
-        return cli(["run", str(case), str(folder), "--labels", "auto", "--jobs", "2",
-                    "--format", "none", "--quiet", "--save-signals", "-o", str(out)])  # fmt: skip
+        return cli(
+            [
+                "run",
+                str(case),
+                str(folder),
+                "--labels",
+                "auto",
+                "--jobs",
+                "2",
+                "--format",
+                "none",
+                "--quiet",
+                "--save-signals",
+                "-o",
+                str(out),
+            ]
+        )
 
 
 def judge_and_report(drives: list[Any], case: Path, out: Path, json_path: Path | None) -> int:
@@ -130,11 +156,19 @@ def judge_and_report(drives: list[Any], case: Path, out: Path, json_path: Path |
     print_tables(groups, total)
     if json_path is not None:
         json_path.parent.mkdir(parents=True, exist_ok=True)
-        json_path.write_text(json.dumps({
-            "groups": [{"seed": s, "profile": p, "spis": [f.as_dict() for f in g.values()]}
-                       for (s, p), g in sorted(groups.items())],
-            "total": [f.as_dict() for f in total.values()],
-        }, indent=1), encoding="utf-8")
+        json_path.write_text(
+            json.dumps(
+                {
+                    "groups": [
+                        {"seed": s, "profile": p, "spis": [f.as_dict() for f in g.values()]}
+                        for (s, p), g in sorted(groups.items())
+                    ],
+                    "total": [f.as_dict() for f in total.values()],
+                },
+                indent=1,
+            ),
+            encoding="utf-8",
+        )
     return 0
 
 
@@ -142,18 +176,22 @@ def _pct(v: float | None) -> str:
     return "-" if v is None else f"{100 * v:.1f}"
 
 
-def print_tables(groups: dict[tuple[int, str], dict[str, SpiFigures]],
-                 total: dict[str, SpiFigures]) -> None:
+def print_tables(
+    groups: dict[tuple[int, str], dict[str, SpiFigures]], total: dict[str, SpiFigures]
+) -> None:
     """Nominal % and detection % per SPI: one column per (seed, profile), then all."""
     keys = sorted(groups)
     head = "".join(f"{f's{s}/{p}':>12}" for s, p in keys)
     print(f"\nNominal ticks violated (%), per seed/profile, then all\n{'SPI':<16}{head}{'all':>8}")
     for node, fig in total.items():
-        cells = "".join(f"{_pct(groups[k].get(node, SpiFigures(node, '')).nominal):>12}"
-                        for k in keys)
+        cells = "".join(
+            f"{_pct(groups[k].get(node, SpiFigures(node, '')).nominal):>12}" for k in keys
+        )
         print(f"{node + ' ' + fig.signal:<16}{cells}{_pct(fig.nominal):>8}")
-    print(f"\nInjected faults detected (found/injected), per seed/profile, then all\n"
-          f"{'SPI':<16}{head}{'all':>8}")
+    print(
+        f"\nInjected faults detected (found/injected), per seed/profile, then all\n"
+        f"{'SPI':<16}{head}{'all':>8}"
+    )
     for node, fig in total.items():
         if not fig.faults:
             continue
@@ -165,5 +203,7 @@ def print_tables(groups: dict[tuple[int, str], dict[str, SpiFigures]],
             cells += f"{f'{found}/{n}':>12}"
         print(f"{node + ' ' + fig.signal:<16}{cells}{_pct(fig.detection()):>8}")
         for family, (n, found) in sorted(fig.faults.items()):
-            print(f"{'  ' + family:<16}{'':>{12 * len(keys)}}{_pct(found / n if n else None):>8}"
-                  f"  ({found}/{n})")
+            print(
+                f"{'  ' + family:<16}{'':>{12 * len(keys)}}{_pct(found / n if n else None):>8}"
+                f"  ({found}/{n})"
+            )

@@ -27,26 +27,103 @@ CHANNELS = ["lav", "tfuse"]
 # -- safety cases --------------------------------------------------------------------------------
 
 FORMULAS = [
-    "1 > 0", "els >= 1_0", "els >= \u0661", "els >= 1e400", "once[0:1e300s] els > 0",
-    "once[0:0.15] els > 0", "historically[0:1000000h] (els >= 0.6)", "eventually[0:1s] els > 0",
-    "els__lav__tfuse >= 0.5", "ss__tfuse__lav < 0.2", "(" * 300 + "els" + ")" * 300 + " > 0",
-    "not " * 300 + "els > 0", "els / 0 > 1", "els / (els - els) > 1", "abs(els) > 1",
-    " and ".join(["els > 0"] * 200), "prev prev els > 0", "els since[0:1] ocs > 0",
-    "\u00fcn\u00efc\u00f6d\u00e9 > 1", "els\x00 > 1", "", " ", "els >", "els == 0.5",
-    "a__b > 0", "speed > 20", "ppcs__lav >= 0.8 implies ss >= 0.9",
-]  # fmt: skip
-THRESHOLDS = [">= 0.6", ">= 1_0", ">= \u0661", "=> 1", ">= 1e400", "> 1e308", "<= .5", 0.6,
-              None, True, ">= nan", "<0"]  # fmt: skip
-DURATIONS = ["1s", "0", "-1s", "1e300s", "1e-300s", "0.15s", "inf", 1e300, True, "300ms",
-             ".5min", None, [1]]  # fmt: skip
+    "1 > 0",
+    "els >= 1_0",
+    "els >= \u0661",
+    "els >= 1e400",
+    "once[0:1e300s] els > 0",
+    "once[0:0.15] els > 0",
+    "historically[0:1000000h] (els >= 0.6)",
+    "eventually[0:1s] els > 0",
+    "els__lav__tfuse >= 0.5",
+    "ss__tfuse__lav < 0.2",
+    "(" * 300 + "els" + ")" * 300 + " > 0",
+    "not " * 300 + "els > 0",
+    "els / 0 > 1",
+    "els / (els - els) > 1",
+    "abs(els) > 1",
+    " and ".join(["els > 0"] * 200),
+    "prev prev els > 0",
+    "els since[0:1] ocs > 0",
+    "\u00fcn\u00efc\u00f6d\u00e9 > 1",
+    "els\x00 > 1",
+    "",
+    " ",
+    "els >",
+    "els == 0.5",
+    "a__b > 0",
+    "speed > 20",
+    "ppcs__lav >= 0.8 implies ss >= 0.9",
+]
+THRESHOLDS = [
+    ">= 0.6",
+    ">= 1_0",
+    ">= \u0661",
+    "=> 1",
+    ">= 1e400",
+    "> 1e308",
+    "<= .5",
+    0.6,
+    None,
+    True,
+    ">= nan",
+    "<0",
+]
+DURATIONS = [
+    "1s",
+    "0",
+    "-1s",
+    "1e300s",
+    "1e-300s",
+    "0.15s",
+    "inf",
+    1e300,
+    True,
+    "300ms",
+    ".5min",
+    None,
+    [1],
+]
 PERIODS = ["0.1s", "0.05s", "0", "-0.1", "1e-12s", 1e300, "100ms", "0.3s", 0.1, "1h", "x"]
-CHANNEL_SETS = [["lav", "tfuse"], ["chA", "Apollo7"], ["lav"], ["lav", "lav"],
-                ["lav", "tf__use"], ["a_", "b"], ["lav", "tfuse", "third"], [], "lav", [1, 2],
-                ["lav", "TFUSE"]]  # fmt: skip
-METRIC_VALUES = [0, -1, 1e300, float("inf"), float("nan"), True, "x", 10**12, 0.5, 2, 10001,
-                 "1e-1", None, [0.5]]  # fmt: skip
-NODE_KEYS = ["text", "supportedBy", "inContextOf", "challenges", "undeveloped", "spi", "hazard",
-             "url"]  # fmt: skip
+CHANNEL_SETS = [
+    ["lav", "tfuse"],
+    ["chA", "Apollo7"],
+    ["lav"],
+    ["lav", "lav"],
+    ["lav", "tf__use"],
+    ["a_", "b"],
+    ["lav", "tfuse", "third"],
+    [],
+    "lav",
+    [1, 2],
+    ["lav", "TFUSE"],
+]
+METRIC_VALUES = [
+    0,
+    -1,
+    1e300,
+    float("inf"),
+    float("nan"),
+    True,
+    "x",
+    10**12,
+    0.5,
+    2,
+    10001,
+    "1e-1",
+    None,
+    [0.5],
+]
+NODE_KEYS = [
+    "text",
+    "supportedBy",
+    "inContextOf",
+    "challenges",
+    "undeveloped",
+    "spi",
+    "hazard",
+    "url",
+]
 SCALARS = [None, True, 0, -1, 1e308, "", "x", "\u202e", [], {}, "G1", ["G1", "G1"]]
 
 
@@ -64,10 +141,25 @@ def case_mutation(draw, tree: dict) -> None:
     """Apply one mutation to `tree` in place."""
     ids = _node_ids(tree) or ["G1"]
     some_id = st.sampled_from([*ids, "G99", "X1", "CSn1", "C1"])
-    kind = draw(st.sampled_from([
-        "delete-node", "delete-key", "rewire", "add-support", "formula", "threshold", "duration",
-        "period", "channels", "metric", "node-scalar", "rename", "monitor-key",
-    ]))  # fmt: skip
+    kind = draw(
+        st.sampled_from(
+            [
+                "delete-node",
+                "delete-key",
+                "rewire",
+                "add-support",
+                "formula",
+                "threshold",
+                "duration",
+                "period",
+                "channels",
+                "metric",
+                "node-scalar",
+                "rename",
+                "monitor-key",
+            ]
+        )
+    )
     node_id = draw(st.sampled_from(ids))
     node = tree.get(node_id)
     if kind == "delete-node":
@@ -87,8 +179,10 @@ def case_mutation(draw, tree: dict) -> None:
         if isinstance(tree.get(target), dict):
             tree[target][key] = value
     elif kind == "threshold" and isinstance(node, dict):
-        node["spi"] = {"signal": draw(st.sampled_from(["els", "ppcs", "x"])),
-                       "threshold": draw(st.sampled_from(THRESHOLDS))}  # fmt: skip
+        node["spi"] = {
+            "signal": draw(st.sampled_from(["els", "ppcs", "x"])),
+            "threshold": draw(st.sampled_from(THRESHOLDS)),
+        }
     elif kind == "duration" and isinstance(node, dict):
         binding = node.get("spi") if isinstance(node.get("spi"), dict) else None
         key = draw(st.sampled_from(["for", "merge_gap", "min_duration"]))
@@ -130,20 +224,58 @@ def mutated_cases(draw) -> str:
 # -- streams -------------------------------------------------------------------------------------
 
 FIELD_PATHS = [
-    ("t",), ("channels",), ("channels", "lav"), ("channels", "lav", "ego"),
-    ("channels", "lav", "ego", "x"), ("channels", "tfuse", "ego", "yaw"),
-    ("channels", "tfuse", "ego", "length"), ("channels", "lav", "plan"),
-    ("channels", "lav", "plan", 0), ("channels", "lav", "objects"),
-    ("channels", "lav", "objects", 0), ("channels", "lav", "objects", 0, "prediction"),
-    ("channels", "lav", "objects", 0, "x"), ("channels", "lav", "objects", 0, "id"),
-    ("channels", "tfuse", "objects", 0, "polygon"), ("signals",), ("signals", "speed_limit"),
-]  # fmt: skip
-HOSTILE = [None, True, "ten", 1e308, -1e308, 0, -5, 1e-7, 2**64, [], {}, [[0, 1]],
-           [[0, 1, 2], [0, 1, 2]], [[-1, 0, 0]], [[0, 0], [0, 0], [0, 0]], "\u202e",
-           [[[[[[[[[[[[1]]]]]]]]]]]], {"x": 1}]  # fmt: skip
-RAW_LINES = ["", "{", "[" * 5000, "null", "42", '"x"', '{"t": NaN, "channels": {}}',
-             '{"t": Infinity}', " " * 70_000 + "{}", '{"header": {"period": 0.1}}',
-             '{"t": 1e999, "channels": {}}', "\u2028{}"]  # fmt: skip
+    ("t",),
+    ("channels",),
+    ("channels", "lav"),
+    ("channels", "lav", "ego"),
+    ("channels", "lav", "ego", "x"),
+    ("channels", "tfuse", "ego", "yaw"),
+    ("channels", "tfuse", "ego", "length"),
+    ("channels", "lav", "plan"),
+    ("channels", "lav", "plan", 0),
+    ("channels", "lav", "objects"),
+    ("channels", "lav", "objects", 0),
+    ("channels", "lav", "objects", 0, "prediction"),
+    ("channels", "lav", "objects", 0, "x"),
+    ("channels", "lav", "objects", 0, "id"),
+    ("channels", "tfuse", "objects", 0, "polygon"),
+    ("signals",),
+    ("signals", "speed_limit"),
+]
+HOSTILE = [
+    None,
+    True,
+    "ten",
+    1e308,
+    -1e308,
+    0,
+    -5,
+    1e-7,
+    2**64,
+    [],
+    {},
+    [[0, 1]],
+    [[0, 1, 2], [0, 1, 2]],
+    [[-1, 0, 0]],
+    [[0, 0], [0, 0], [0, 0]],
+    "\u202e",
+    [[[[[[[[[[[[1]]]]]]]]]]]],
+    {"x": 1},
+]
+RAW_LINES = [
+    "",
+    "{",
+    "[" * 5000,
+    "null",
+    "42",
+    '"x"',
+    '{"t": NaN, "channels": {}}',
+    '{"t": Infinity}',
+    " " * 70_000 + "{}",
+    '{"header": {"period": 0.1}}',
+    '{"t": 1e999, "channels": {}}',
+    "\u2028{}",
+]
 
 
 @cache
@@ -174,10 +306,23 @@ def stream_mutation(draw, rows: list[object]) -> None:
     if not rows:
         return
     i = draw(st.integers(0, len(rows) - 1))
-    kind = draw(st.sampled_from([
-        "drop", "duplicate", "swap", "field", "time", "dropout", "ghost-channel", "raw",
-        "truncate-line", "header", "deep",
-    ]))  # fmt: skip
+    kind = draw(
+        st.sampled_from(
+            [
+                "drop",
+                "duplicate",
+                "swap",
+                "field",
+                "time",
+                "dropout",
+                "ghost-channel",
+                "raw",
+                "truncate-line",
+                "header",
+                "deep",
+            ]
+        )
+    )
     row = rows[i]
     if kind == "drop":
         del rows[i]
@@ -239,8 +384,26 @@ def mutated_streams(draw) -> bytes:
 # -- issue 31: bags, topic mappings, library uses, ODD files, run and fleet folders ------------
 
 #: Values a hostile mapping, ODD file or result.json puts where a number, text or list belongs.
-HOSTILE_VALUES = [None, True, 0, -1, -0.1, 1e308, "nan", "inf", "1e400", 10**401, "", "a\x00b",
-                  "x" * 300, [], {}, [[[[[[1]]]]]], "\u202e", 0.0]  # fmt: skip
+HOSTILE_VALUES = [
+    None,
+    True,
+    0,
+    -1,
+    -0.1,
+    1e308,
+    "nan",
+    "inf",
+    "1e400",
+    10**401,
+    "",
+    "a\x00b",
+    "x" * 300,
+    [],
+    {},
+    [[[[[[1]]]]]],
+    "\u202e",
+    0.0,
+]
 
 
 @cache
@@ -257,8 +420,10 @@ def small_bag() -> tuple[bytes, str]:
         stream = write_stream(Path(tmp) / "s.jsonl", frames=40)
         with contextlib.redirect_stderr(io.StringIO()):
             assert main(["convert", str(stream), "-o", str(Path(tmp) / "bag")]) == 0
-        return ((Path(tmp) / "bag" / "bag.mcap").read_bytes(),
-                (Path(tmp) / "bag.topics.yaml").read_text())  # fmt: skip
+        return (
+            (Path(tmp) / "bag" / "bag.mcap").read_bytes(),
+            (Path(tmp) / "bag.topics.yaml").read_text(),
+        )
 
 
 @st.composite
@@ -273,25 +438,45 @@ def mutated_bags(draw) -> bytes:
         elif kind == "flip" and data:
             data[at] ^= 1 << draw(st.integers(0, 7))
         elif kind == "length" and len(data) > at + 8:
-            data[at:at + 8] = draw(st.sampled_from([b"\xff" * 8, b"\x00" * 8,
-                                                    b"\xff\xff\xff\x7f\x00\x00\x00\x00"]))
+            data[at : at + 8] = draw(
+                st.sampled_from([b"\xff" * 8, b"\x00" * 8, b"\xff\xff\xff\x7f\x00\x00\x00\x00"])
+            )
         elif kind == "zero-run":
-            data[at:at + draw(st.integers(1, 64))] = b"\x00" * 8
+            data[at : at + draw(st.integers(1, 64))] = b"\x00" * 8
         elif kind == "type":
             found = data.find(b"PredictedObjects")
             if found >= 0:
-                data[found:found + 16] = b"TrackedObjects\x00\x00"
+                data[found : found + 16] = b"TrackedObjects\x00\x00"
     return bytes(data)
 
 
-MAPPING_PATHS = [("ego",), ("ego", "length"), ("ego", "width"), ("channels",),
-                 ("channels", "lav"), ("channels", "lav", "odometry"),
-                 ("channels", "tfuse", "objects"), ("signals",), ("signals", "speed"),
-                 ("max_age",), ("max_delay",), ("time",), ("plan_time",), ("coverage",),
-                 ("meta",), ("junk",)]  # fmt: skip
-RAW_MAPPING_EDITS = ["ego: {length: 4.5, width: 1.8}\n", "x: &a [1]\ny: *a\n", "t: !!set {}\n",
-                     "  width: [1.8\n", "\t: tab\n", "max_age: 0\n",
-                     "max_age: " + "9" * 401 + "\n"]  # fmt: skip
+MAPPING_PATHS = [
+    ("ego",),
+    ("ego", "length"),
+    ("ego", "width"),
+    ("channels",),
+    ("channels", "lav"),
+    ("channels", "lav", "odometry"),
+    ("channels", "tfuse", "objects"),
+    ("signals",),
+    ("signals", "speed"),
+    ("max_age",),
+    ("max_delay",),
+    ("time",),
+    ("plan_time",),
+    ("coverage",),
+    ("meta",),
+    ("junk",),
+]
+RAW_MAPPING_EDITS = [
+    "ego: {length: 4.5, width: 1.8}\n",
+    "x: &a [1]\ny: *a\n",
+    "t: !!set {}\n",
+    "  width: [1.8\n",
+    "\t: tab\n",
+    "max_age: 0\n",
+    "max_age: " + "9" * 401 + "\n",
+]
 
 
 @st.composite
@@ -325,29 +510,53 @@ def mutated_uses(draw) -> tuple[str, dict[str, str]]:
     modules may be missing, cyclic, hostile names, not YAML, or define a node twice."""
     from tests.evaluator.streams import SMALL_CASE
 
-    name = draw(st.sampled_from(["rules.gsn.yaml", "a\\0b.yaml", "x" * 300 + ".yaml",
-                                 "traffic-rules", "../outside.yaml", "self.yaml", "", "."]))
-    module = draw(st.sampled_from([
-        "module: {name: rules}\nSn9: {text: extra, spi: {signal: els, threshold: '>= 0.5'}}\n",
-        "module: {name: rules, uses: [case.yaml]}\n",
-        "module: {name: rules}\nSn1: {text: twice}\n",
-        "module: {name: rules}\nmonitor: {channels: [a, b]}\n",
-        ": not yaml [\n", "", "module: {name: rules}\nSn9: null\n",
-        "module: {name: rules}\nG7: {text: " + "{" * 80 + "}" * 80 + "}\n",
-    ]))  # fmt: skip
-    case = SMALL_CASE.replace("brief: One SPI and one hazard}",
-                              f'brief: x, uses: ["{name}"]}}')  # fmt: skip
+    name = draw(
+        st.sampled_from(
+            [
+                "rules.gsn.yaml",
+                "a\\0b.yaml",
+                "x" * 300 + ".yaml",
+                "traffic-rules",
+                "../outside.yaml",
+                "self.yaml",
+                "",
+                ".",
+            ]
+        )
+    )
+    module = draw(
+        st.sampled_from(
+            [
+                "module: {name: rules}\n"
+                "Sn9: {text: extra, spi: {signal: els, threshold: '>= 0.5'}}\n",
+                "module: {name: rules, uses: [case.yaml]}\n",
+                "module: {name: rules}\nSn1: {text: twice}\n",
+                "module: {name: rules}\nmonitor: {channels: [a, b]}\n",
+                ": not yaml [\n",
+                "",
+                "module: {name: rules}\nSn9: null\n",
+                "module: {name: rules}\nG7: {text: " + "{" * 80 + "}" * 80 + "}\n",
+            ]
+        )
+    )
+    case = SMALL_CASE.replace("brief: One SPI and one hazard}", f'brief: x, uses: ["{name}"]}}')
     return case, {"rules.gsn.yaml": module, "self.yaml": case}
 
 
 ODD_FILES = [
     "attributes: {environment.weather: [clear, rain]}\n",
     "attributes: {road.speed_limit: {min: 0, max: " + "9" * 401 + "}}\n",
-    "attributes: {}\n", "attributes: {x: []}\n", "attributes: {x: {min: 5, max: 1}}\n",
-    "attributes: {" + "a" * 300 + ": [1]}\n", "attributes: {w: [\"a\\0b\"]}\n",
-    "[1, 2]\n", "attributes: {w: [clear]}\ncombinations: [[1, 2, 3]]\n", ": [\n", "",
+    "attributes: {}\n",
+    "attributes: {x: []}\n",
+    "attributes: {x: {min: 5, max: 1}}\n",
+    "attributes: {" + "a" * 300 + ": [1]}\n",
+    'attributes: {w: ["a\\0b"]}\n',
+    "[1, 2]\n",
+    "attributes: {w: [clear]}\ncombinations: [[1, 2, 3]]\n",
+    ": [\n",
+    "",
     "attributes: {w: " + "[" * 70 + "]" * 70 + "}\n",
-]  # fmt: skip
+]
 
 
 def json_paths(value: object, prefix: tuple = ()) -> list[tuple]:
@@ -368,5 +577,8 @@ def result_mutation(draw, result: dict) -> None:
     paths = [p for p in json_paths(result) if p]
     for _ in range(draw(st.integers(1, 3))):
         path = draw(st.sampled_from(paths))
-        _set_path(result, path, draw(st.sampled_from([*HOSTILE_VALUES, "Infinity", "-Infinity",
-                                                     float("inf")])))
+        _set_path(
+            result,
+            path,
+            draw(st.sampled_from([*HOSTILE_VALUES, "Infinity", "-Infinity", float("inf")])),
+        )

@@ -24,25 +24,45 @@ def small_bag(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, Pat
 
 
 def run(case: Path, bag: Path, topics: Path, out: Path) -> int:
-    return main(["run", str(case), str(bag), "--topics", str(topics), "-o", str(out),
-                 "--format", "none", "--quiet"])  # fmt: skip
+    return main(
+        [
+            "run",
+            str(case),
+            str(bag),
+            "--topics",
+            str(topics),
+            "-o",
+            str(out),
+            "--format",
+            "none",
+            "--quiet",
+        ]
+    )
 
 
-@pytest.mark.parametrize(("edit", "expected"), [
-    (lambda t: t.replace("  width: 1.8", "  width: [1.8"), ":5:9: CW003: YAML syntax error"),
-    (lambda t: t + "ego: {length: 1, width: 1}\n", "CW005: duplicate key 'ego'"),
-    (lambda t: t.replace("max_age: 0.1", "max_age: 0"),
-     ": max_age: a message age limit must be longer than zero"),
-    (lambda t: t.replace("max_age: 0.1", "max_age: " + "9" * 401),
-     ": max_age: a duration longer than a day"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("edit", "expected"),
+    [
+        (lambda t: t.replace("  width: 1.8", "  width: [1.8"), ":5:9: CW003: YAML syntax error"),
+        (lambda t: t + "ego: {length: 1, width: 1}\n", "CW005: duplicate key 'ego'"),
+        (
+            lambda t: t.replace("max_age: 0.1", "max_age: 0"),
+            ": max_age: a message age limit must be longer than zero",
+        ),
+        (
+            lambda t: t.replace("max_age: 0.1", "max_age: " + "9" * 401),
+            ": max_age: a duration longer than a day",
+        ),
+    ],
+)
 def test_a_bad_topic_mapping_names_its_line(small_bag, tmp_path, capsys, edit, expected):
     case, bag, topics = small_bag
     bad = tmp_path / "topics.yaml"
     bad.write_text(edit(topics.read_text()))
     assert run(case, bag, bad, tmp_path / "o") == 2
-    assert main(["convert", str(bag), "--topics", str(bad), "-o",
-                 str(tmp_path / "f.jsonl.gz")]) == 2  # fmt: skip
+    assert (
+        main(["convert", str(bag), "--topics", str(bad), "-o", str(tmp_path / "f.jsonl.gz")]) == 2
+    )
     err = capsys.readouterr().err
     assert err.count(f"{bad}:") == 2 and err.count(expected) == 2, err
     assert "internal error" not in err
@@ -59,8 +79,7 @@ def _damaged(data: bytes, how: str) -> bytes:
 
 
 @pytest.mark.parametrize("how", ["magic-only", "garbage-after-magic", "huge-record-length"])
-def test_a_damaged_mcap_is_unusable_input_for_run_and_list_topics(small_bag, tmp_path, capsys,
-                                                                   how):  # fmt: skip
+def test_a_damaged_mcap_is_unusable_input_for_run_and_list_topics(small_bag, tmp_path, capsys, how):
     case, bag, topics = small_bag
     damaged = tmp_path / "d.mcap"
     damaged.write_bytes(_damaged((bag / "small.mcap").read_bytes(), how))
@@ -97,12 +116,18 @@ def test_an_mcap_without_channels_is_not_an_empty_success(tmp_path, capsys):
     assert "the bag holds no topic (no channel is recorded in it)" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize(("args", "expected"), [
-    (["--period", "-0.1"], "--period -0.1: expected the seconds between frames, from 0.001 to 60"),
-    (["--period", "nan"], "--period nan: expected"),
-    (["--ego-size", "-1", "nan"], "--ego-size LENGTH -1.0: expected metres"),
-    (["--ego-size", "4.5", "inf"], "--ego-size WIDTH inf: expected metres"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("args", "expected"),
+    [
+        (
+            ["--period", "-0.1"],
+            "--period -0.1: expected the seconds between frames, from 0.001 to 60",
+        ),
+        (["--period", "nan"], "--period nan: expected"),
+        (["--ego-size", "-1", "nan"], "--ego-size LENGTH -1.0: expected metres"),
+        (["--ego-size", "4.5", "inf"], "--ego-size WIDTH inf: expected metres"),
+    ],
+)
 def test_convert_refuses_numbers_out_of_range_before_writing(tmp_path, capsys, args, expected):
     stream = write_stream(tmp_path / "s.jsonl")
     out = tmp_path / "bag"
@@ -124,13 +149,13 @@ def test_a_convert_crash_leaves_no_folder_at_the_output_path(tmp_path, capsys, m
     assert main(["convert", str(bag), "--topics", topics, "-o", str(out)]) == 3
     assert not out.exists() and (tmp_path / "casewatch-crash.log").is_file()
     monkeypatch.undo()
-    assert main(["convert", str(bag), "--topics", topics, "--case", str(case), "-o",
-                 str(out)]) == 0  # fmt: skip
+    assert main(["convert", str(bag), "--topics", topics, "--case", str(case), "-o", str(out)]) == 0
     assert out.is_file()
 
 
-def _retyped(source: Path, target: Path, old: str, new: str, definition: str,
-             encoding: str | None = None) -> None:
+def _retyped(
+    source: Path, target: Path, old: str, new: str, definition: str, encoding: str | None = None
+) -> None:
     """`source` rewritten with the message type `old` renamed `new` (and its definition
     replaced), as a recorder of another Autoware generation would have written it."""
     from mcap.reader import make_reader
@@ -148,29 +173,43 @@ def _retyped(source: Path, target: Path, old: str, new: str, definition: str,
             if name == old:
                 name, data, kind = new, definition.encode(), encoding or kind
             schemas[schema.id] = writer.register_schema(name, kind, data)
-        channels = {c.id: writer.register_channel(c.topic, c.message_encoding,
-                                                  schemas[c.schema_id])
-                    for c in summary.channels.values()}  # fmt: skip
+        channels = {
+            c.id: writer.register_channel(c.topic, c.message_encoding, schemas[c.schema_id])
+            for c in summary.channels.values()
+        }
         for _schema, channel, message in reader.iter_messages():
-            writer.add_message(channels[channel.id], message.log_time, message.data,
-                               message.publish_time)  # fmt: skip
+            writer.add_message(
+                channels[channel.id], message.log_time, message.data, message.publish_time
+            )
         writer.finish()
 
 
-@pytest.mark.parametrize(("new", "expected"), [
-    ("autoware_perception_msgs/msg/TrackedObjects",
-     "carries autoware_perception_msgs/msg/TrackedObjects; as the objects of a channel it must "
-     "carry autoware_perception_msgs/msg/PredictedObjects"),
-    ("autoware_auto_perception_msgs/msg/PredictedObjects",
-     "must carry autoware_perception_msgs/msg/PredictedObjects (the older autoware_auto_* "
-     "messages are not read"),
-])  # fmt: skip
-def test_objects_of_another_type_are_named_not_dumped(small_bag, tmp_path, capsys, new,
-                                                      expected):  # fmt: skip
+@pytest.mark.parametrize(
+    ("new", "expected"),
+    [
+        (
+            "autoware_perception_msgs/msg/TrackedObjects",
+            "carries autoware_perception_msgs/msg/TrackedObjects; "
+            "as the objects of a channel it must carry "
+            "autoware_perception_msgs/msg/PredictedObjects",
+        ),
+        (
+            "autoware_auto_perception_msgs/msg/PredictedObjects",
+            "must carry autoware_perception_msgs/msg/PredictedObjects (the older autoware_auto_* "
+            "messages are not read",
+        ),
+    ],
+)
+def test_objects_of_another_type_are_named_not_dumped(small_bag, tmp_path, capsys, new, expected):
     case, bag, topics = small_bag
     other = tmp_path / "other.mcap"
-    _retyped(bag / "small.mcap", other, "autoware_perception_msgs/msg/PredictedObjects", new,
-             "this definition { does not parse")  # fmt: skip
+    _retyped(
+        bag / "small.mcap",
+        other,
+        "autoware_perception_msgs/msg/PredictedObjects",
+        new,
+        "this definition { does not parse",
+    )
     assert run(case, other, topics, tmp_path / "o") == 2
     err = capsys.readouterr().err
     assert expected in err and "cannot be parsed" not in err
@@ -180,12 +219,15 @@ def test_idl_definitions_with_include_lines_are_read(small_bag, tmp_path):
     """rosbag2 writes `ros2idl` definitions with `#include` lines, which rosbags' IDL parser
     refuses: the signal topic as such a definition is read like the original."""
     case, bag, topics = small_bag
-    idl = ("=" * 80 + "\nIDL: std_msgs/msg/Float64\n#include \"std_msgs/msg/Empty.idl\"\n\n"
-           "module std_msgs {\n  module msg {\n    struct Float64 {\n      double data;\n"
-           "    };\n  };\n};\n")  # fmt: skip
+    idl = (
+        "=" * 80 + '\nIDL: std_msgs/msg/Float64\n#include "std_msgs/msg/Empty.idl"\n\n'
+        "module std_msgs {\n  module msg {\n    struct Float64 {\n      double data;\n"
+        "    };\n  };\n};\n"
+    )
     other = tmp_path / "idl.mcap"
-    _retyped(bag / "small.mcap", other, "std_msgs/msg/Float64", "std_msgs/msg/Float64", idl,
-             "ros2idl")  # fmt: skip
+    _retyped(
+        bag / "small.mcap", other, "std_msgs/msg/Float64", "std_msgs/msg/Float64", idl, "ros2idl"
+    )
     assert run(case, other, topics, tmp_path / "o") == 1  # the stream's els episode
     result = json.loads((tmp_path / "o" / "result.json").read_text())
     hazard = next(f for f in result["formulas"] if f["id"] == "CSn1")

@@ -30,8 +30,10 @@ def test_the_example_mapping_loads(tmp_path: Path) -> None:
 def test_the_quick_start_runs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     block = re.search(r"## Try it on a bundled drive.*?```bash\n(.*?)```", DOC, re.S).group(1)
     commands = [shlex.split(c) for c in block.replace("\\\n", " ").splitlines() if c.strip()]
-    assert [c[:2] for c in commands] == [[".venv/bin/casewatch", "convert"],
-                                         [".venv/bin/casewatch", "run"]]  # fmt: skip
+    assert [c[:2] for c in commands] == [
+        [".venv/bin/casewatch", "convert"],
+        [".venv/bin/casewatch", "run"],
+    ]
     for example in ("examples",):
         (tmp_path / example).symlink_to(REPO / example)
     monkeypatch.chdir(tmp_path)

@@ -55,17 +55,28 @@ def series(base: float, spans: list[tuple[int, int, float]]) -> np.ndarray:
 
 
 def write_run(
-    folder: Path, streams: Path, name: str, els: np.ndarray, eos: np.ndarray,
-    labels: list[dict] | None = None, faults: list[dict] | None = None,
+    folder: Path,
+    streams: Path,
+    name: str,
+    els: np.ndarray,
+    eos: np.ndarray,
+    labels: list[dict] | None = None,
+    faults: list[dict] | None = None,
 ) -> Path:
     """A run folder as `casewatch run --save-signals` leaves it, for a stream `name` in
     `streams` (which need not exist: calibrate reads the saved signals)."""
     run = folder / name
     run.mkdir(parents=True)
     t = np.round(np.arange(TICKS) * PERIOD, 6)
-    np.savez_compressed(run / FILE_NAME, t=t, names=np.array(["els", "eos"]),
-                        values=np.stack([els, eos], axis=1), period=np.float64(PERIOD),
-                        max_gap=np.float64(0.5), version=np.int64(FORMAT_VERSION))  # fmt: skip
+    np.savez_compressed(
+        run / FILE_NAME,
+        t=t,
+        names=np.array(["els", "eos"]),
+        values=np.stack([els, eos], axis=1),
+        period=np.float64(PERIOD),
+        max_gap=np.float64(0.5),
+        version=np.int64(FORMAT_VERSION),
+    )
     result: dict = {"stream": {"path": str(streams / f"{name}.jsonl.gz")}}
     if labels is not None:
         path = streams / f"{name}.labels.jsonl"
@@ -73,7 +84,8 @@ def write_run(
         result["ground_truth"] = {"labels_path": str(path)}
     if faults is not None:
         (streams / f"{name}.fault-labels.jsonl").write_text(
-            "".join(json.dumps(f) + "\n" for f in faults))
+            "".join(json.dumps(f) + "\n" for f in faults)
+        )
     (run / "result.json").write_text(json.dumps(result))
     return run
 
@@ -87,16 +99,25 @@ def fleet(tmp_path: Path) -> tuple[Path, list[Path]]:
     streams = tmp_path / "streams"
     streams.mkdir()
     eos = series(0.95, [(2000, 40, 0.0), (6000, 40, 0.0)])
-    a = write_run(tmp_path / "runs", streams, "drive-a",
-                  series(0.9, [(1000, 3, 0.5), (5000, 3, 0.5), (8000, 20, 0.3),
-                               (12000, 51, 0.2)]), eos,
-                  labels=[{"hazard": "G1", "start": 1200.0, "end": 1205.0}])  # fmt: skip
-    b = write_run(tmp_path / "runs", streams, "drive-b",
-                  series(0.9, [(1000, 3, 0.5), (5000, 3, 0.5), (10000, 31, 0.4)]), eos,
-                  faults=[{"fault": "localisation_drift", "start": 1000.0, "end": 1003.0,
-                           "channel": "lav"},
-                          {"fault": "frozen_channel", "start": 1500.0, "end": 1502.0,
-                           "channel": "tfuse"}])  # fmt: skip
+    a = write_run(
+        tmp_path / "runs",
+        streams,
+        "drive-a",
+        series(0.9, [(1000, 3, 0.5), (5000, 3, 0.5), (8000, 20, 0.3), (12000, 51, 0.2)]),
+        eos,
+        labels=[{"hazard": "G1", "start": 1200.0, "end": 1205.0}],
+    )
+    b = write_run(
+        tmp_path / "runs",
+        streams,
+        "drive-b",
+        series(0.9, [(1000, 3, 0.5), (5000, 3, 0.5), (10000, 31, 0.4)]),
+        eos,
+        faults=[
+            {"fault": "localisation_drift", "start": 1000.0, "end": 1003.0, "channel": "lav"},
+            {"fault": "frozen_channel", "start": 1500.0, "end": 1502.0, "channel": "tfuse"},
+        ],
+    )
     case = tmp_path / "case.yaml"
     case.write_text(CASE)
     return case, [a, b]
@@ -105,8 +126,19 @@ def fleet(tmp_path: Path) -> tuple[Path, list[Path]]:
 def test_calibrate_loosens_by_persistence_and_refuses_a_cliff(fleet, tmp_path, capsys):
     case, runs = fleet
     out = tmp_path / "cal"
-    code = cli(["calibrate", str(case), *map(str, runs), "--labels", "auto",
-                "--false-alarms-per-hour", "2", "-o", str(out)])  # fmt: skip
+    code = cli(
+        [
+            "calibrate",
+            str(case),
+            *map(str, runs),
+            "--labels",
+            "auto",
+            "--false-alarms-per-hour",
+            "2",
+            "-o",
+            str(out),
+        ]
+    )
     assert code == 1  # both originals are over the budget
     report = json.loads((out / "calibration.json").read_text())
     assert report["hours"] == pytest.approx(HOURS, abs=1e-6) and report["faults"] == 2
@@ -122,26 +154,33 @@ def test_calibrate_loosens_by_persistence_and_refuses_a_cliff(fleet, tmp_path, c
     # Sn2: every threshold that can fire raises the 4 cliffs (4 s each: longer than any for:)
     assert sn2["status"] == "not calibratable" and sn2["faults"] == 0
     assert (sn2["chosen"]["threshold"], sn2["chosen"]["for"]) == (0.5, 1.0)
-    reason = ("no threshold that can fire keeps 2/h: eos is exactly 0 on 160 nominal ticks "
-              "(0.4%), and every threshold above 0 fires there; quietest that can fire: "
-              ">= 0.5 for 3 s at 4.0/h")  # fmt: skip
+    reason = (
+        "no threshold that can fire keeps 2/h: eos is exactly 0 on 160 nominal ticks "
+        "(0.4%), and every threshold above 0 fires there; quietest that can fire: "
+        ">= 0.5 for 3 s at 4.0/h"
+    )
     assert sn2["reason"] == reason
     text = (out / "calibrated-case.yaml").read_text()
     assert 'spi: {signal: els, threshold: ">= 0.6", for: 0.5s}' in text
     # the reason beside the number, after the author's own comment
-    assert (f'threshold: ">= 0.5"  # from the HARA; casewatch calibrate: not calibratable on '
-            f"these logs: {reason}\n") in text  # fmt: skip
+    assert (
+        f'threshold: ">= 0.5"  # from the HARA; casewatch calibrate: not calibratable on '
+        f"these logs: {reason}\n"
+    ) in text
     assert text.startswith("# A tiny case")
     assert cli(["check", str(out / "calibrated-case.yaml")]) == 0
     printed = capsys.readouterr().out
     assert "2 injected faults" in printed and reason in " ".join(printed.split())
-    assert report["skipped"] == [{"formula": "Sn3", "reason": "a raw stl: formula; calibrate "
-                                  "sets signal + threshold SPIs"}]  # fmt: skip
+    assert report["skipped"] == [
+        {"formula": "Sn3", "reason": "a raw stl: formula; calibrate sets signal + threshold SPIs"}
+    ]
     assert "  Sn3: not calibrated (a raw stl: formula;" in printed
     assert max(len(line) for line in printed.splitlines() if "/tmp" not in line) <= 100
     # 5 and 1 episodes in 0.992 h; 95 % bounds 10.51 and 4.74 episodes
-    assert ("  Sn1    0.99  >= 0.6 0s       5.0 (10.6)*   >= 0.6 0.5s     1.0 (4.8)     1/2"
-            "      calibrated\n") in printed  # fmt: skip
+    assert (
+        "  Sn1    0.99  >= 0.6 0s       5.0 (10.6)*   >= 0.6 0.5s     1.0 (4.8)     1/2"
+        "      calibrated\n"
+    ) in printed
     html = (out / "calibration.html").read_text()
     assert "<script" not in html and "faults detected" in html and "<polyline" in html
     assert "not calibratable" in html
@@ -150,11 +189,39 @@ def test_calibrate_loosens_by_persistence_and_refuses_a_cliff(fleet, tmp_path, c
 def test_calibrating_the_calibrated_case_changes_nothing_but_its_notes(fleet, tmp_path):
     case, runs = fleet
     first, second = tmp_path / "one", tmp_path / "two"
-    assert cli(["calibrate", str(case), *map(str, runs), "--labels", "auto",
-                "--false-alarms-per-hour", "2", "-o", str(first)]) == 1  # fmt: skip
+    assert (
+        cli(
+            [
+                "calibrate",
+                str(case),
+                *map(str, runs),
+                "--labels",
+                "auto",
+                "--false-alarms-per-hour",
+                "2",
+                "-o",
+                str(first),
+            ]
+        )
+        == 1
+    )
     calibrated = first / "calibrated-case.yaml"
-    assert cli(["calibrate", str(calibrated), *map(str, runs), "--labels", "auto",
-                "--false-alarms-per-hour", "2", "-o", str(second)]) == 1  # fmt: skip
+    assert (
+        cli(
+            [
+                "calibrate",
+                str(calibrated),
+                *map(str, runs),
+                "--labels",
+                "auto",
+                "--false-alarms-per-hour",
+                "2",
+                "-o",
+                str(second),
+            ]
+        )
+        == 1
+    )
     # Sn1 now keeps the budget; Sn2's note is written again, not twice
     again = (second / "calibrated-case.yaml").read_text()
     assert again == calibrated.read_text() and again.count("casewatch calibrate:") == 1
@@ -163,27 +230,76 @@ def test_calibrating_the_calibrated_case_changes_nothing_but_its_notes(fleet, tm
 def test_too_few_hours_and_tighten(fleet, tmp_path):
     case, runs = fleet
     out = tmp_path / "few"
-    assert cli(["calibrate", str(case), *map(str, runs), "--labels", "auto", "--min-hours",
-                "2", "--false-alarms-per-hour", "2", "-o", str(out)]) == 1  # fmt: skip
+    assert (
+        cli(
+            [
+                "calibrate",
+                str(case),
+                *map(str, runs),
+                "--labels",
+                "auto",
+                "--min-hours",
+                "2",
+                "--false-alarms-per-hour",
+                "2",
+                "-o",
+                str(out),
+            ]
+        )
+        == 1
+    )
     report = json.loads((out / "calibration.json").read_text())
     assert [r["status"] for r in report["spis"]] == ["not calibrated", "not calibrated"]
     assert report["spis"][0]["reason"] == (
         f"{HOURS:.2f} h of nominal driving with a value of els, fewer than the 2 h asked "
-        "(--min-hours)")
+        "(--min-hours)"
+    )
     assert (out / "calibrated-case.yaml").read_text().count("not calibrated on these logs") == 2
     # a generous budget: the originals keep it and stay, unless --tighten
     loose = tmp_path / "loose"
-    assert cli(["calibrate", str(case), *map(str, runs), "--labels", "auto",
-                "--false-alarms-per-hour", "10", "-o", str(loose)]) == 0  # fmt: skip
+    assert (
+        cli(
+            [
+                "calibrate",
+                str(case),
+                *map(str, runs),
+                "--labels",
+                "auto",
+                "--false-alarms-per-hour",
+                "10",
+                "-o",
+                str(loose),
+            ]
+        )
+        == 0
+    )
     assert (loose / "calibrated-case.diff").read_text() == ""
     tight = tmp_path / "tight"
-    assert cli(["calibrate", str(case), *map(str, runs), "--labels", "auto", "--tighten",
-                "--false-alarms-per-hour", "10", "-o", str(tight)]) == 0  # fmt: skip
+    assert (
+        cli(
+            [
+                "calibrate",
+                str(case),
+                *map(str, runs),
+                "--labels",
+                "auto",
+                "--tighten",
+                "--false-alarms-per-hour",
+                "10",
+                "-o",
+                str(tight),
+            ]
+        )
+        == 0
+    )
     sn1 = json.loads((tight / "calibration.json").read_text())["spis"][0]
     # the strictest threshold that can fire within 10/h (up to 9 episodes): x < 0.9 fires on
     # every dip; at for 0: 4 ghosts + the nominal dip = 5 episodes
-    assert (sn1["chosen"]["threshold"], sn1["chosen"]["for"], sn1["chosen"]["episodes"]) == \
-        (0.9, 0.0, 5)  # fmt: skip
+    assert (sn1["chosen"]["threshold"], sn1["chosen"]["for"], sn1["chosen"]["episodes"]) == (
+        0.9,
+        0.0,
+        5,
+    )
 
 
 def test_calibrate_refuses_what_it_cannot_use(fleet, tmp_path, capsys):

@@ -16,8 +16,10 @@ RENAME = {"lav": "chA", "tfuse": "Apollo7"}
 CASE = (
     SMALL_CASE.replace("[lav, tfuse]", "[chA, Apollo7]")
     .replace('spi: {signal: els, threshold: ">= 0.6"}', 'spi: {stl: "els__chA__Apollo7 >= 0.6"}')
-    .replace('hazard: {when: "speed > 20"}',
-             'hazard: {when: "speed > 20 or ss__Apollo7__chA < -1 or ppcs__chA < -1"}')
+    .replace(
+        'hazard: {when: "speed > 20"}',
+        'hazard: {when: "speed > 20 or ss__Apollo7__chA < -1 or ppcs__chA < -1"}',
+    )
 )
 
 
@@ -62,5 +64,18 @@ def test_run_end_to_end_with_chA_and_Apollo7(tmp_path) -> None:
     hazard = next(f for f in result.formulas if f.node_id == "CSn1")
     assert hazard.signals == ["ppcs__chA", "speed", "ss__Apollo7__chA"]
     assert hazard.ticks_evaluated > 0 and hazard.episodes == 0
-    assert main(["run", str(case), str(stream), "-o", str(tmp_path / "cli"), "--quiet",
-                 "--format", "none"]) == 1
+    assert (
+        main(
+            [
+                "run",
+                str(case),
+                str(stream),
+                "-o",
+                str(tmp_path / "cli"),
+                "--quiet",
+                "--format",
+                "none",
+            ]
+        )
+        == 1
+    )

@@ -14,10 +14,11 @@ HEAVY = ("numpy", "numba", "pydantic", "jinja2", "rtamt", "networkx", "shapely",
 
 
 def test_help_imports_no_command_and_lists_every_one():
-    code = ("import sys; from casewatch.cli import main; main(['--help']); "
-            f"print('loaded:', sorted(m for m in {HEAVY!r} if m in sys.modules))")  # fmt: skip
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          check=True)  # fmt: skip
+    code = (
+        "import sys; from casewatch.cli import main; main(['--help']); "
+        f"print('loaded:', sorted(m for m in {HEAVY!r} if m in sys.modules))"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert "loaded: []" in done.stdout  # nothing heavy: --help answers in under 0.1 s
     for name in COMMANDS:
         assert f"    {name}" in done.stdout

@@ -35,8 +35,9 @@ RULES = {"H1": "red_light", "H2": "speeding_light", "H3": "collision"}
 #: the "straight" scenario drives y = -1.6 (lane e_0 of NET) from x = 0 to 100 m
 STRAIGHT = [[t, 10.0 * t, -1.6] for t in range(11)]
 #: the "curve" scenario drives a quarter circle of radius 50 m about the origin
-CURVE = [[float(i), 50 * math.cos(i * math.pi / 40), 50 * math.sin(i * math.pi / 40)]
-         for i in range(21)]  # fmt: skip
+CURVE = [
+    [float(i), 50 * math.cos(i * math.pi / 40), 50 * math.sin(i * math.pi / 40)] for i in range(21)
+]
 NET = """<?xml version="1.0" encoding="UTF-8"?>
 <net version="1.20">
   <location netOffset="0.00,0.00" convBoundary="0,0,100,0"/>
@@ -71,29 +72,60 @@ XODR = """<?xml version="1.0" encoding="UTF-8"?>
 
 def episode(formula: str, start: float, xy: tuple[float, float] | None) -> dict:
     kind = "hazard" if formula.startswith("H") else "spi"
-    e = Episode(formula_id=formula, node_id=f"N{formula}", kind=kind, start=start,
-                end=start + 2.0, ticks=20, worst_robustness=-1.0, t_worst=start + 1.0,
-                trace=[]).model_dump(mode="json")  # fmt: skip
+    e = Episode(
+        formula_id=formula,
+        node_id=f"N{formula}",
+        kind=kind,
+        start=start,
+        end=start + 2.0,
+        ticks=20,
+        worst_robustness=-1.0,
+        t_worst=start + 1.0,
+        trace=[],
+    ).model_dump(mode="json")
     e["x"], e["y"] = xy if xy else (None, None)
     return e
 
 
-def write_run(folder: Path, meta: dict, duration: float, episodes: list[dict],
-              track: list, scores: dict | None) -> Path:  # fmt: skip
+def write_run(
+    folder: Path,
+    meta: dict,
+    duration: float,
+    episodes: list[dict],
+    track: list,
+    scores: dict | None,
+) -> Path:
     """A run folder with a result.json shaped like a traffic-rule run."""
-    formulas = [FormulaStats(id=f, node_id=f"N{f}", node_text=f"{rule} broken", kind="hazard",
-                             source="x", rtamt="x") for f, rule in RULES.items()]
-    formulas.append(FormulaStats(id="S1", node_id="NS1", node_text="spi", kind="spi",
-                                 source="x", rtamt="x"))  # fmt: skip
-    case = CaseInfo(path="rules.yaml", digest="sha256:" + "0" * 64, module="rules",
-                    root_id="G1", channels=["ego"], period=0.1,
-                    nodes=[CaseNode(id="G1", type="G", text="drive lawfully")])  # fmt: skip
+    formulas = [
+        FormulaStats(
+            id=f, node_id=f"N{f}", node_text=f"{rule} broken", kind="hazard", source="x", rtamt="x"
+        )
+        for f, rule in RULES.items()
+    ]
+    formulas.append(
+        FormulaStats(id="S1", node_id="NS1", node_text="spi", kind="spi", source="x", rtamt="x")
+    )
+    case = CaseInfo(
+        path="rules.yaml",
+        digest="sha256:" + "0" * 64,
+        module="rules",
+        root_id="G1",
+        channels=["ego"],
+        period=0.1,
+        nodes=[CaseNode(id="G1", type="G", text="drive lawfully")],
+    )
     result = RunResult(
-        casewatch_version="0.1.0", created="2026-01-01T00:00:00Z", case=case,
-        stream=StreamInfo(path=f"{folder.name}.jsonl", digest=None, meta=meta,
-                          duration=duration),
-        verdict="violated", formulas=formulas, episodes=[], data_gaps=[], status=[], series=[],
-    )  # fmt: skip
+        casewatch_version="0.1.0",
+        created="2026-01-01T00:00:00Z",
+        case=case,
+        stream=StreamInfo(path=f"{folder.name}.jsonl", digest=None, meta=meta, duration=duration),
+        verdict="violated",
+        formulas=formulas,
+        episodes=[],
+        data_gaps=[],
+        status=[],
+        series=[],
+    )
     data = result.model_dump(mode="json")
     for f in data["formulas"]:
         f["rule"] = RULES.get(f["id"])
@@ -107,15 +139,29 @@ def write_run(folder: Path, meta: dict, duration: float, episodes: list[dict],
 
 def scores(penalty: float, driving: float, per_rule: dict[str, tuple[int, float]]) -> dict:
     return {
-        "penalty": {"score": penalty, "c": 1.0, "t": 60.0, "t_o": 60.0, "d": 1.0,
-                    "route_length": 100.0, "v_avg": 10.0, "stop_time": 0.0, "gamma": 1.0,
-                    "penalty_sum": sum(p for _, p in per_rule.values()),
-                    "per_rule": {r: {"events": n, "while_speeding": 0, "penalty": p}
-                                 for r, (n, p) in per_rule.items()}},
-        "carla": {"driving_score": driving, "route_completion": 1.0,
-                  "infraction_penalty": driving,
-                  "per_infraction": {"red_light": {"events": 1, "coefficient": 0.7}}},
-    }  # fmt: skip
+        "penalty": {
+            "score": penalty,
+            "c": 1.0,
+            "t": 60.0,
+            "t_o": 60.0,
+            "d": 1.0,
+            "route_length": 100.0,
+            "v_avg": 10.0,
+            "stop_time": 0.0,
+            "gamma": 1.0,
+            "penalty_sum": sum(p for _, p in per_rule.values()),
+            "per_rule": {
+                r: {"events": n, "while_speeding": 0, "penalty": p}
+                for r, (n, p) in per_rule.items()
+            },
+        },
+        "carla": {
+            "driving_score": driving,
+            "route_completion": 1.0,
+            "infraction_penalty": driving,
+            "per_infraction": {"red_light": {"events": 1, "coefficient": 0.7}},
+        },
+    }
 
 
 @pytest.fixture
@@ -124,19 +170,42 @@ def four_runs(tmp_path: Path) -> list[Path]:
     (0.5 h each); r4 is an older result without scores and its hazard has no position."""
     runs = tmp_path / "runs"
     return [
-        write_run(runs / "r1", {"agent": "A", "scenario": "straight"}, 3600.0,
-                  [episode("S1", 1.0, (10.0, -1.6)), episode("H1", 12.0, (50.0, -1.6))],
-                  STRAIGHT, scores(0.8, 0.7, {"red_light": (1, 0.2)})),
-        write_run(runs / "r2", {"agent": "A", "scenario": "curve"}, 1800.0,
-                  [episode("H2", 5.0, (50 * math.cos(math.pi / 4), 50 * math.sin(math.pi / 4))),
-                   episode("H2", 9.0, (0.0, 0.0))],  # 50 m from the arc: off its track
-                  CURVE, scores(0.6, 0.5, {"speeding_light": (2, 0.4)})),
-        write_run(runs / "r3", {"agent": "B", "scenario": "straight"}, 1800.0,
-                  [episode("H3", 3.0, (50.0, 21.6))],  # 23.2 m off its track, 20 m off lane e_1
-                  STRAIGHT, scores(0.5, 0.9, {"collision": (1, 0.5)})),
-        write_run(runs / "r4", {"agent": "B", "scenario": "curve"}, 1800.0,
-                  [episode("H1", 4.0, None)], CURVE, None),
-    ]  # fmt: skip
+        write_run(
+            runs / "r1",
+            {"agent": "A", "scenario": "straight"},
+            3600.0,
+            [episode("S1", 1.0, (10.0, -1.6)), episode("H1", 12.0, (50.0, -1.6))],
+            STRAIGHT,
+            scores(0.8, 0.7, {"red_light": (1, 0.2)}),
+        ),
+        write_run(
+            runs / "r2",
+            {"agent": "A", "scenario": "curve"},
+            1800.0,
+            [
+                episode("H2", 5.0, (50 * math.cos(math.pi / 4), 50 * math.sin(math.pi / 4))),
+                episode("H2", 9.0, (0.0, 0.0)),
+            ],  # 50 m from the arc: off its track
+            CURVE,
+            scores(0.6, 0.5, {"speeding_light": (2, 0.4)}),
+        ),
+        write_run(
+            runs / "r3",
+            {"agent": "B", "scenario": "straight"},
+            1800.0,
+            [episode("H3", 3.0, (50.0, 21.6))],  # 23.2 m off its track, 20 m off lane e_1
+            STRAIGHT,
+            scores(0.5, 0.9, {"collision": (1, 0.5)}),
+        ),
+        write_run(
+            runs / "r4",
+            {"agent": "B", "scenario": "curve"},
+            1800.0,
+            [episode("H1", 4.0, None)],
+            CURVE,
+            None,
+        ),
+    ]
 
 
 def compare(tmp_path: Path, *args: str) -> tuple[int, dict | None]:
@@ -153,8 +222,12 @@ def test_groups_and_numbers_by_agent_and_scenario(tmp_path, four_runs, capsys):
     groups = {g["label"]: g for g in report["groups"]}
     assert list(groups) == ["A / curve", "A / straight", "B / curve", "B / straight"]
     assert groups["A / straight"]["hours"] == 1.0 and groups["A / curve"]["hours"] == 0.5
-    assert groups["A / straight"]["penalty_score"] == {"mean": 0.8, "min": 0.8, "max": 0.8,
-                                                        "runs": 1}
+    assert groups["A / straight"]["penalty_score"] == {
+        "mean": 0.8,
+        "min": 0.8,
+        "max": 0.8,
+        "runs": 1,
+    }
     assert groups["B / straight"]["driving_score"]["mean"] == 0.9
     assert groups["B / curve"]["penalty_score"] is None  # an older, unscored result
     assert report["rules"] == ["collision", "red_light", "speeding_light"]
@@ -165,18 +238,23 @@ def test_groups_and_numbers_by_agent_and_scenario(tmp_path, four_runs, capsys):
     assert groups["A / straight"]["per_infraction"] == {"red_light": 1}
     table = report["table"]
     assert (table["rows"], table["cols"]) == (["A", "B"], ["curve", "straight"])
-    assert [[c and c["mean"] for c in row] for row in table["cells"]] == [[0.6, 0.8],
-                                                                          [None, 0.5]]
+    assert [[c and c["mean"] for c in row] for row in table["cells"]] == [[0.6, 0.8], [None, 0.5]]
     # markers: hazard episodes with a position (the SPI episode is none); one has no position
     checks = report["checks"]
     assert (checks["hazard_events"], checks["markers"], checks["without_position"]) == (5, 4, 1)
-    assert [m["rule"] for m in report["markers"]] == ["red_light", "speeding_light",
-                                                      "speeding_light", "collision"]
+    assert [m["rule"] for m in report["markers"]] == [
+        "red_light",
+        "speeding_light",
+        "speeding_light",
+        "collision",
+    ]
     assert checks["track"]["off"] == 2 and checks["network"] is None
     off = [report["markers"][i] for i in checks["track"]["off_markers"]]
     # the origin is 50 m from the arc, 50 cos(pi/80) m from its nearest chords
     assert [(m["run"], m["track_distance"]) for m in off] == [
-        ("r2", pytest.approx(50 * math.cos(math.pi / 80), abs=1e-3)), ("r3", 23.2)]
+        ("r2", pytest.approx(50 * math.cos(math.pi / 80), abs=1e-3)),
+        ("r3", 23.2),
+    ]
     assert report["markers"][1]["track_distance"] < 0.05  # on the arc, between two samples
     printed = capsys.readouterr().out
     assert "A / straight" in printed and "0.800" in printed
@@ -203,17 +281,22 @@ def test_group_by_one_key_gives_min_and_max(tmp_path, four_runs, capsys):
     assert "0.700 (0.600-0.800)" in capsys.readouterr().out
 
 
-def test_runs_without_the_key_are_grouped_under_none_and_fleets_are_read(tmp_path, four_runs,
-                                                                          capsys):
+def test_runs_without_the_key_are_grouped_under_none_and_fleets_are_read(
+    tmp_path, four_runs, capsys
+):
     old = write_run(tmp_path / "runs" / "old", {"town": "Town01"}, 360.0, [], [], None)
     fleet = tmp_path / "fleet"
     fleet.mkdir()
-    (fleet / "summary.json").write_text(json.dumps(
-        {"per_log": [{"out_dir": str(p)} for p in four_runs[:2]]}))
+    (fleet / "summary.json").write_text(
+        json.dumps({"per_log": [{"out_dir": str(p)} for p in four_runs[:2]]})
+    )
     code, report = compare(tmp_path, str(fleet), str(old))
     assert code == 0
-    assert [g["label"] for g in report["groups"]] == ["(none) / (none)", "A / curve",
-                                                      "A / straight"]
+    assert [g["label"] for g in report["groups"]] == [
+        "(none) / (none)",
+        "A / curve",
+        "A / straight",
+    ]
     assert report["without_key"] == {"agent": ["old"], "scenario": ["old"]}
     printed = capsys.readouterr().out
     assert "1 run(s) without 'agent' in the stream meta, grouped under (none)" in printed
@@ -272,10 +355,13 @@ def test_opendrive_line_and_arc(tmp_path):
     # drivable lanes only (not the sidewalk), centres 1.75 m each side; edges at 3.5 and 5.5 m
     assert [ln.id for ln in network.lanes] == ["1:1", "1:-1"]
     left, right = network.lanes
-    assert np.allclose(left.centre[-1], [18.25, 10.0]) and np.allclose(right.centre[-1],
-                                                                       [21.75, 10.0])
-    assert sorted(np.round(e[-1], 6).tolist() for e in network.edges) == [[16.5, 10.0],
-                                                                         [25.5, 10.0]]
+    assert np.allclose(left.centre[-1], [18.25, 10.0]) and np.allclose(
+        right.centre[-1], [21.75, 10.0]
+    )
+    assert sorted(np.round(e[-1], 6).tolist() for e in network.edges) == [
+        [16.5, 10.0],
+        [25.5, 10.0],
+    ]
     markers = [{"x": 5.0, "y": -1.75}, {"x": 5.0, "y": 30.0}]
     assert check_markers(markers, network)["off_road_markers"] == [1]
 
@@ -293,22 +379,38 @@ def test_the_world_to_svg_transform_flips_y_and_keeps_the_aspect():
     assert tall.scale == pytest.approx(0.608) and cx == pytest.approx(450) and top == 16
 
 
-@pytest.mark.parametrize(("net_text", "flag", "message"), [
-    ("<net><edge id='e'>", "--net", "not well-formed XML"),
-    ("<nets/>", "--net", "root element is <nets>, expected <net>"),
-    ("<net><edge id='e'><lane id='e_0'/></edge></net>", "--net",
-     "lane 'e_0': attribute 'shape' missing"),
-    ("<net><edge id='e'><lane id='e_0' shape='0,0 a,b'/></edge></net>", "--net",
-     "lane 'e_0': shape '0,0 a,b' is not a list of at least two x,y points"),
-    ("<OpenDRIVE><road id='7'><planView><geometry x='0' y='0' hdg='0' length='5'><arc/>"
-     "</geometry></planView></road></OpenDRIVE>", "--xodr",
-     "road '7' geometry 1 <arc>: attribute 'curvature' missing"),
-    ("<OpenDRIVE><road id='7'><planView><geometry x='0' y='0' hdg='0' length='5'><clothoid/>"
-     "</geometry></planView></road></OpenDRIVE>", "--xodr",
-     "road '7' geometry 1: <clothoid> where line, arc, spiral, poly3 or paramPoly3"),
-])  # fmt: skip
-def test_an_unusable_network_is_refused_with_its_path(tmp_path, four_runs, capsys, net_text,
-                                                      flag, message):
+@pytest.mark.parametrize(
+    ("net_text", "flag", "message"),
+    [
+        ("<net><edge id='e'>", "--net", "not well-formed XML"),
+        ("<nets/>", "--net", "root element is <nets>, expected <net>"),
+        (
+            "<net><edge id='e'><lane id='e_0'/></edge></net>",
+            "--net",
+            "lane 'e_0': attribute 'shape' missing",
+        ),
+        (
+            "<net><edge id='e'><lane id='e_0' shape='0,0 a,b'/></edge></net>",
+            "--net",
+            "lane 'e_0': shape '0,0 a,b' is not a list of at least two x,y points",
+        ),
+        (
+            "<OpenDRIVE><road id='7'><planView><geometry x='0' y='0' hdg='0' length='5'><arc/>"
+            "</geometry></planView></road></OpenDRIVE>",
+            "--xodr",
+            "road '7' geometry 1 <arc>: attribute 'curvature' missing",
+        ),
+        (
+            "<OpenDRIVE><road id='7'><planView><geometry x='0' y='0' hdg='0' length='5'><clothoid/>"
+            "</geometry></planView></road></OpenDRIVE>",
+            "--xodr",
+            "road '7' geometry 1: <clothoid> where line, arc, spiral, poly3 or paramPoly3",
+        ),
+    ],
+)
+def test_an_unusable_network_is_refused_with_its_path(
+    tmp_path, four_runs, capsys, net_text, flag, message
+):
     path = tmp_path / ("bad.net.xml" if flag == "--net" else "bad.xodr")
     path.write_text(net_text)
     code, _ = compare(tmp_path, str(four_runs[0]), flag, str(path))
@@ -332,9 +434,11 @@ def test_unusable_input_exits_2_with_one_line(tmp_path, four_runs, capsys):
         ([str(other)], "'format' is 'casewatch-diff', expected 'casewatch-result'"),
         ([str(four_runs[0]), "--by", "driver"], "--by driver: no run's stream meta has this key"),
         ([str(four_runs[0]), "--by", ","], "--by needs at least one stream meta key"),
-        ([str(four_runs[0]), "--net", str(tmp_path / "missing.net.xml")],
-         f"{tmp_path / 'missing.net.xml'}: no such file"),
-    ]  # fmt: skip
+        (
+            [str(four_runs[0]), "--net", str(tmp_path / "missing.net.xml")],
+            f"{tmp_path / 'missing.net.xml'}: no such file",
+        ),
+    ]
     for args, message in cases:
         code, _ = compare(tmp_path, *args)
         err = capsys.readouterr().err
@@ -345,8 +449,9 @@ def test_unusable_input_exits_2_with_one_line(tmp_path, four_runs, capsys):
 
 def test_results_without_the_new_keys_still_compare(tmp_path, capsys):
     """A result written before agent, scores, track and positions existed."""
-    folder = write_run(tmp_path / "old", {"scenario": "s"}, 36.0,
-                       [episode("H1", 1.0, None)], [], None)  # fmt: skip
+    folder = write_run(
+        tmp_path / "old", {"scenario": "s"}, 36.0, [episode("H1", 1.0, None)], [], None
+    )
     data = json.loads((folder / "result.json").read_text())
     for key in ("track", "scores"):
         del data[key]

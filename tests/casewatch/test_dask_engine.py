@@ -34,21 +34,50 @@ def logs(tmp_path: Path, names: list[str]) -> Path:
 
 
 def test_a_killed_worker_is_retried_and_a_bad_log_fails_alone(tmp_path):
-    names = ["highway-tailgating", "highway-tailgated", "urban-grid", "urban-realstack",
-             "highway-realstack", "highway-close-realstack"]  # fmt: skip
+    names = [
+        "highway-tailgating",
+        "highway-tailgated",
+        "urban-grid",
+        "urban-realstack",
+        "highway-realstack",
+        "highway-close-realstack",
+    ]
     folder = logs(tmp_path, names)
     # a log that cannot be judged: its header declares a 0.2 s period, the case 0.1 s
-    header = {"header": {"format": "casewatch-frames", "version": 1, "period": 0.2,
-                         "channels": ["lav", "tfuse"]}}  # fmt: skip
+    header = {
+        "header": {
+            "format": "casewatch-frames",
+            "version": 1,
+            "period": 0.2,
+            "channels": ["lav", "tfuse"],
+        }
+    }
     frames = [json.dumps(frame(2 * i, 0.1)) for i in range(5)]
     (folder / "bad-period.jsonl").write_text("\n".join([json.dumps(header), *frames]) + "\n")
     out = tmp_path / "out"
     proc = subprocess.Popen(
-        [sys.executable, "-m", "casewatch", "run", str(CASE), str(folder), "--engine", "dask",
-         "--jobs", "2", "--format", "none", "-o", str(out)],
-        cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        [
+            sys.executable,
+            "-m",
+            "casewatch",
+            "run",
+            str(CASE),
+            str(folder),
+            "--engine",
+            "dask",
+            "--jobs",
+            "2",
+            "--format",
+            "none",
+            "-o",
+            str(out),
+        ],
+        cwd=REPO,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
         env=dict(os.environ, PYTHONUNBUFFERED="1"),
-    )  # fmt: skip
+    )
     try:
         # once the workers (the run's child processes; their nannies live in the run's own
         # process) are busy with logs, kill one of them mid-task
@@ -85,8 +114,9 @@ def test_a_killed_worker_is_retried_and_a_bad_log_fails_alone(tmp_path):
     failed = [log for log in summary["per_log"] if not log["ok"]]
     assert [Path(log["stream"]).name for log in failed] == ["bad-period.jsonl"]
     assert "period" in failed[0]["error"]
-    assert all((Path(log["out_dir"]) / "result.json").is_file()
-               for log in summary["per_log"] if log["ok"])  # fmt: skip
+    assert all(
+        (Path(log["out_dir"]) / "result.json").is_file() for log in summary["per_log"] if log["ok"]
+    )
 
 
 def test_resume_skips_logs_judged_with_this_case_from_the_same_stream(tmp_path):
@@ -94,8 +124,20 @@ def test_resume_skips_logs_judged_with_this_case_from_the_same_stream(tmp_path):
 
     folder = logs(tmp_path, ["highway-tailgating", "urban-realstack"])
     out = tmp_path / "out"
-    args = ["run", str(CASE), str(folder), "--engine", "dask", "--jobs", "1", "--format",
-            "none", "--quiet", "-o", str(out)]  # fmt: skip
+    args = [
+        "run",
+        str(CASE),
+        str(folder),
+        "--engine",
+        "dask",
+        "--jobs",
+        "1",
+        "--format",
+        "none",
+        "--quiet",
+        "-o",
+        str(out),
+    ]
     assert main(args) == 1
     first = json.loads((out / "summary.json").read_text())
     stamp = (out / "urban-realstack" / "result.json").stat().st_mtime_ns
@@ -109,5 +151,7 @@ def test_resume_skips_logs_judged_with_this_case_from_the_same_stream(tmp_path):
     assert by_name["highway-tailgating.jsonl.gz"]["frames"] == 1501  # judged again (new data)
     assert first["formulas"] != again["formulas"]
     # without a scheduler engine, --scheduler is a usage error
-    assert main(["run", str(CASE), str(folder), "--scheduler", "tcp://127.0.0.1:1", "-o",
-                 str(out)]) == 2  # fmt: skip
+    assert (
+        main(["run", str(CASE), str(folder), "--scheduler", "tcp://127.0.0.1:1", "-o", str(out)])
+        == 2
+    )

@@ -7,12 +7,26 @@ from tools import demo
 
 
 def test_commands_wrap_within_100_columns_between_options(capsys):
-    demo.command("casewatch", "run", "examples/rules/rules-case.yaml", "examples/data/rules",
-                 "--labels", "auto", "--jobs", "2", "--format", "none", "--quiet", "-o",
-                 "out/demo-rules")  # fmt: skip
+    demo.command(
+        "casewatch",
+        "run",
+        "examples/rules/rules-case.yaml",
+        "examples/data/rules",
+        "--labels",
+        "auto",
+        "--jobs",
+        "2",
+        "--format",
+        "none",
+        "--quiet",
+        "-o",
+        "out/demo-rules",
+    )
     lines = capsys.readouterr().out.splitlines()
-    first = ("$ casewatch run examples/rules/rules-case.yaml examples/data/rules --labels auto "
-             "--jobs 2 \\")
+    first = (
+        "$ casewatch run examples/rules/rules-case.yaml examples/data/rules --labels auto "
+        "--jobs 2 \\"
+    )
     assert lines == [first, "    --format none --quiet -o out/demo-rules"]
     assert len(first) == 91  # "--format none" would make it 105
 

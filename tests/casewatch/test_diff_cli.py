@@ -17,8 +17,9 @@ def run(tmp_path, name: str, case_text: str, stream) -> str:
     return str(out)
 
 
-def test_diff_against_itself_is_empty_and_a_changed_case_shows_exactly_its_episodes(tmp_path,
-                                                                                   capsys):
+def test_diff_against_itself_is_empty_and_a_changed_case_shows_exactly_its_episodes(
+    tmp_path, capsys
+):
     stream = write_stream(tmp_path / "s.jsonl")
     a = run(tmp_path, "a", SMALL_CASE, stream)  # Sn1: one episode 2.0-3.0 s; CSn1 never
     # B: the hazard fires on every tick (speed 10 > 5: one event 0.0-9.9 s), and Sn1's
@@ -58,14 +59,27 @@ def test_fleets_pair_logs_by_name_and_bad_input_exits_2(tmp_path, capsys):
     shutil.copy(streams / "one.jsonl", streams / "two.jsonl")
     case = write_case(tmp_path / "case.yaml")
     for name in ("fa", "fb"):
-        main(["run", str(case), str(streams), "-o", str(tmp_path / name), "--format", "none",
-              "--quiet"])  # fmt: skip
-    assert main(["diff", str(tmp_path / "fa"), str(tmp_path / "fb"), "-o",
-                 str(tmp_path / "d")]) == 0  # fmt: skip
+        main(
+            [
+                "run",
+                str(case),
+                str(streams),
+                "-o",
+                str(tmp_path / name),
+                "--format",
+                "none",
+                "--quiet",
+            ]
+        )
+    assert (
+        main(["diff", str(tmp_path / "fa"), str(tmp_path / "fb"), "-o", str(tmp_path / "d")]) == 0
+    )
     report = json.loads((tmp_path / "d" / "diff.json").read_text())
     assert [d["log"] for d in report["logs"]] == ["one", "two"]
-    assert main(["diff", str(tmp_path / "fa"), str(tmp_path / "nothing"), "-o",
-                 str(tmp_path / "d")]) == 2  # fmt: skip
+    assert (
+        main(["diff", str(tmp_path / "fa"), str(tmp_path / "nothing"), "-o", str(tmp_path / "d")])
+        == 2
+    )
     assert "neither a run folder" in capsys.readouterr().err
 
 
@@ -77,8 +91,10 @@ def test_a_degraded_case_on_a_bundled_drive_shows_exactly_its_new_episodes(tmp_p
     repo = Path(__file__).resolve().parents[2]
     stream = repo / "examples" / "data" / "highway-tailgated.jsonl.gz"
     text = (repo / "examples" / "reference-case.yaml").read_text()
-    degraded = text.replace('spi: {signal: els, threshold: ">= 0.6", for: 0.5s}',
-                            'spi: {signal: els, threshold: ">= 0.9", for: 0.5s}')  # fmt: skip
+    degraded = text.replace(
+        'spi: {signal: els, threshold: ">= 0.6", for: 0.5s}',
+        'spi: {signal: els, threshold: ">= 0.9", for: 0.5s}',
+    )
     assert degraded != text
     a = run(tmp_path, "ref", text, stream)
     b = run(tmp_path, "degraded", degraded, stream)
@@ -91,8 +107,11 @@ def test_a_degraded_case_on_a_bundled_drive_shows_exactly_its_new_episodes(tmp_p
     ra = json.loads(Path(a, "result.json").read_text())["episodes"]
     rb = json.loads(Path(b, "result.json").read_text())["episodes"]
     old = [(e["start"], e["end"]) for e in ra if e["node_id"] == "Sn1"]
-    want_new = [(e["start"], e["end"]) for e in rb if e["node_id"] == "Sn1"
-                and not any(s <= e["end"] and e["start"] <= t for s, t in old)]  # fmt: skip
+    want_new = [
+        (e["start"], e["end"])
+        for e in rb
+        if e["node_id"] == "Sn1" and not any(s <= e["end"] and e["start"] <= t for s, t in old)
+    ]
     assert [(s["start"], s["end"]) for s in nodes["Sn1"]["new"]] == want_new and want_new
     assert report["regressions"] == 0  # --fail-on hazard: new SPI episodes are no regression
 
@@ -106,8 +125,10 @@ def test_labels_given_or_carried_decide_fixed_lost_and_new_detection(tmp_path, c
     a = run(tmp_path, "a", SMALL_CASE, stream)
     b = run(tmp_path, "b", SMALL_CASE.replace('"speed > 20"', '"speed > 5"'), stream)
     assert main(["diff", a, b, "-o", str(tmp_path / "d"), "--labels", str(labels)]) == 0
-    row = {n["formula"]: n for n in json.loads((tmp_path / "d" / "diff.json").read_text())
-           ["logs"][0]["nodes"]}["CSn1"]  # fmt: skip
+    row = {
+        n["formula"]: n
+        for n in json.loads((tmp_path / "d" / "diff.json").read_text())["logs"][0]["nodes"]
+    }["CSn1"]
     assert [(s["start"], s["end"]) for s in row["new_detection"]] == [(0.0, 9.9)]
     assert row["new"] == [] and row["labelled"] is True
     assert "1 new detection" in capsys.readouterr().out
@@ -121,14 +142,28 @@ def test_labels_given_or_carried_decide_fixed_lost_and_new_detection(tmp_path, c
     far = tmp_path / "far.labels.jsonl"
     far.write_text('{"hazard": "CSn1", "start": 20.0, "end": 21.0}\n')
     assert main(["diff", b, a, "-o", str(tmp_path / "f"), "--labels", str(far)]) == 0
-    row = {n["formula"]: n for n in json.loads((tmp_path / "f" / "diff.json").read_text())
-           ["logs"][0]["nodes"]}["CSn1"]  # fmt: skip
+    row = {
+        n["formula"]: n
+        for n in json.loads((tmp_path / "f" / "diff.json").read_text())["logs"][0]["nodes"]
+    }["CSn1"]
     assert [(s["start"], s["end"]) for s in row["fixed"]] == [(0.0, 9.9)]
     # runs judged against different labels: refused, with the way out named
     la, lb = tmp_path / "la", tmp_path / "lb"
     for out, path in ((la, labels), (lb, far)):
-        main(["run", str(tmp_path / "b.yaml"), str(stream), "-o", str(out), "--format", "none",
-              "--quiet", "--labels", str(path)])  # fmt: skip
+        main(
+            [
+                "run",
+                str(tmp_path / "b.yaml"),
+                str(stream),
+                "-o",
+                str(out),
+                "--format",
+                "none",
+                "--quiet",
+                "--labels",
+                str(path),
+            ]
+        )
     capsys.readouterr()
     assert main(["diff", str(la), str(lb), "-o", str(tmp_path / "x")]) == 2
     assert "different labels" in capsys.readouterr().err
@@ -147,8 +182,20 @@ def test_the_readme_example_reads_truthfully_on_one_drive(tmp_path):
     outs = []
     for case in ("reference-case", "study-case"):
         out = tmp_path / case
-        main(["run", str(repo / "examples" / f"{case}.yaml"), str(stream), "--labels",
-              str(labels), "-o", str(out), "--format", "none", "--quiet"])  # fmt: skip
+        main(
+            [
+                "run",
+                str(repo / "examples" / f"{case}.yaml"),
+                str(stream),
+                "--labels",
+                str(labels),
+                "-o",
+                str(out),
+                "--format",
+                "none",
+                "--quiet",
+            ]
+        )
         outs.append(str(out))
     assert main(["diff", *outs, "-o", str(tmp_path / "d"), "--fail-on", "hazard"]) == 1
     report = json.loads((tmp_path / "d" / "diff.json").read_text())

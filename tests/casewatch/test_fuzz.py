@@ -74,8 +74,16 @@ def test_mutated_cases_never_crash_check_compile_or_run(text: str) -> None:
         if code == 0:  # a case that passes check must also run
             stream = Path(tmp) / "s.jsonl"
             stream.write_text(short_stream())
-            ran, printed = cli("run", str(case), str(stream), "-o", str(Path(tmp) / "o"),
-                               "--quiet", "--format", "md")
+            ran, printed = cli(
+                "run",
+                str(case),
+                str(stream),
+                "-o",
+                str(Path(tmp) / "o"),
+                "--quiet",
+                "--format",
+                "md",
+            )
             assert_no_crash(ran, printed, f"run of\n{text}")
 
 
@@ -92,8 +100,9 @@ def test_mutated_streams_never_crash_and_missing_data_is_never_satisfied(data: b
         stream = Path(tmp) / "s.jsonl"
         stream.write_bytes(data)
         out = Path(tmp) / "o"
-        code, printed = cli("run", str(REFERENCE), str(stream), "-o", str(out), "--quiet",
-                            "--format", "none")
+        code, printed = cli(
+            "run", str(REFERENCE), str(stream), "-o", str(out), "--quiet", "--format", "none"
+        )
         assert_no_crash(code, printed, f"a stream of {len(data)} bytes")
         result_path = out / "result.json"
         if not result_path.exists():
@@ -112,8 +121,11 @@ def assert_never_satisfied_without_data(stream: Path, result: dict) -> None:
         for frame in reader:
             if set(CHANNELS) <= set(frame.channels):
                 continue
-            statuses = [iv["status"] for iv in root["timeline"]
-                        if iv["start"] - 1e-6 <= frame.t <= iv["end"] + 1e-6]  # fmt: skip
+            statuses = [
+                iv["status"]
+                for iv in root["timeline"]
+                if iv["start"] - 1e-6 <= frame.t <= iv["end"] + 1e-6
+            ]
             assert statuses and "satisfied" not in statuses, (frame.t, frame.line, statuses)
     formulas = result["formulas"]
     ticks = sum(root["ticks"].values())
@@ -136,16 +148,27 @@ def test_mutated_bags_never_crash_run_or_convert(data: bytes) -> None:
         topics.write_text(small_bag()[1])
         case.write_text(SMALL_CASE)
         out = Path(tmp) / "o"
-        code, printed = cli("run", str(case), str(bag), "--topics", str(topics), "-o", str(out),
-                            "--quiet", "--format", "junit")  # fmt: skip
+        code, printed = cli(
+            "run",
+            str(case),
+            str(bag),
+            "--topics",
+            str(topics),
+            "-o",
+            str(out),
+            "--quiet",
+            "--format",
+            "junit",
+        )
         assert_no_crash(code, printed, f"run of a bag of {len(data)} bytes")
         if code == 0:  # nothing lost: every frame a bag of 40 ticks holds was judged
             result = json.loads((out / "result.json").read_text())
             assert result["stream"]["defect_count"] == 0, result["stream"]["defects"]
         code, printed = cli("convert", "--list-topics", str(bag))
         assert_no_crash(code, printed, "convert --list-topics")
-        code, printed = cli("convert", str(bag), "--topics", str(topics), "-o",
-                            str(Path(tmp) / "f.jsonl.gz"))  # fmt: skip
+        code, printed = cli(
+            "convert", str(bag), "--topics", str(topics), "-o", str(Path(tmp) / "f.jsonl.gz")
+        )
         assert_no_crash(code, printed, "convert to frames")
 
 
@@ -160,8 +183,18 @@ def test_mutated_topic_mappings_never_crash(text: str) -> None:
         bag.write_bytes(small_bag()[0])
         topics.write_text(text, encoding="utf-8")
         case.write_text(SMALL_CASE)
-        code, printed = cli("run", str(case), str(bag), "--topics", str(topics), "-o",
-                            str(Path(tmp) / "o"), "--quiet", "--format", "none")  # fmt: skip
+        code, printed = cli(
+            "run",
+            str(case),
+            str(bag),
+            "--topics",
+            str(topics),
+            "-o",
+            str(Path(tmp) / "o"),
+            "--quiet",
+            "--format",
+            "none",
+        )
         assert_no_crash(code, printed, f"a run with the mapping\n{text}")
         if code == 2:
             assert "t.yaml" in printed or "b.mcap" in printed, printed  # names the culprit
@@ -187,8 +220,10 @@ def test_cases_using_hostile_modules_never_crash_check_or_compile(data) -> None:
 def test_hostile_odd_files_never_crash_check(odd_text: str) -> None:
     from tests.evaluator.streams import SMALL_CASE
 
-    text = SMALL_CASE.replace("  supportedBy: [S1]", "  supportedBy: [S1]\n  inContextOf: [C1]",
-                              1) + "C1:\n  text: the ODD\n  odd: odd.yaml\n"  # fmt: skip
+    text = (
+        SMALL_CASE.replace("  supportedBy: [S1]", "  supportedBy: [S1]\n  inContextOf: [C1]", 1)
+        + "C1:\n  text: the ODD\n  odd: odd.yaml\n"
+    )
     with tempfile.TemporaryDirectory() as tmp:
         (Path(tmp) / "odd.yaml").write_text(odd_text, encoding="utf-8")
         case = Path(tmp) / "case.yaml"
@@ -211,9 +246,17 @@ def _fleet() -> bytes:
         write_stream(logs / "a.jsonl", frames=60)
         write_stream(logs / "b.jsonl", frames=40)
         (Path(tmp) / "case.yaml").write_text(SMALL_CASE)
-        code, printed = cli("run", str(Path(tmp) / "case.yaml"), str(logs), "-o",
-                            str(Path(tmp) / "fleet"), "--quiet", "--format", "none",
-                            "--save-signals")  # fmt: skip
+        code, printed = cli(
+            "run",
+            str(Path(tmp) / "case.yaml"),
+            str(logs),
+            "-o",
+            str(Path(tmp) / "fleet"),
+            "--quiet",
+            "--format",
+            "none",
+            "--save-signals",
+        )
         assert code == 1, printed
         buffer = _io.BytesIO()
         with tarfile.open(fileobj=buffer, mode="w") as tar:

@@ -69,13 +69,12 @@ def test_deeply_nested_line_is_one_malformed_json_defect(tmp_path):
     rows = [json.dumps(frame(i)) for i in range(40)]
     rows.insert(20, "[" * 100_000)
     stream.write_text("\n".join(rows) + "\n")
-    code = main(["run", str(case), str(stream), "-o", str(tmp_path / "o"), "--format", "none",
-                 "--quiet"])
+    code = main(
+        ["run", str(case), str(stream), "-o", str(tmp_path / "o"), "--format", "none", "--quiet"]
+    )
     assert code in (0, 1)
     result = json.loads((tmp_path / "o" / "result.json").read_text())
-    assert [(d["line"], d["kind"]) for d in result["stream"]["defects"]] == [
-        (21, "malformed-json")
-    ]
+    assert [(d["line"], d["kind"]) for d in result["stream"]["defects"]] == [(21, "malformed-json")]
     assert result["stream"]["frames_read"] == 40
 
 
@@ -158,11 +157,31 @@ def test_root_goal_without_data_on_most_ticks_is_unusable_input_not_a_pass(tmp_p
     assert "root goal G1 had no data on 100.0% of 60 ticks (limit 50%" in captured.err
     assert "root goal without data on 60 of 60 ticks (100.0%; limit 50%)" in captured.out
     no_data = json.loads((out / "result.json").read_text())["root_no_data"]
-    assert no_data == {"ticks": 60, "no_data_ticks": 60, "share": 1.0, "limit": 0.5,
-                       "exceeded": True}
+    assert no_data == {
+        "ticks": 60,
+        "no_data_ticks": 60,
+        "share": 1.0,
+        "limit": 0.5,
+        "exceeded": True,
+    }
     # the limit is the user's: with 1 (anything goes) the same run is an ordinary pass
-    assert main(["run", str(case), str(stream), "-o", str(out), "--format", "none", "--quiet",
-                 "--max-no-data", "1"]) == 0
+    assert (
+        main(
+            [
+                "run",
+                str(case),
+                str(stream),
+                "-o",
+                str(out),
+                "--format",
+                "none",
+                "--quiet",
+                "--max-no-data",
+                "1",
+            ]
+        )
+        == 0
+    )
 
 
 def test_half_the_ticks_without_data_is_within_the_default_limit(tmp_path):
@@ -173,11 +192,25 @@ def test_half_the_ticks_without_data_is_within_the_default_limit(tmp_path):
     stream = tmp_path / "s.jsonl"
     stream.write_text("".join(json.dumps(r) + "\n" for r in rows))
     out = tmp_path / "o"
-    assert main(["run", str(case), str(stream), "-o", str(out), "--format", "none",
-                 "--quiet"]) == 0
+    assert main(["run", str(case), str(stream), "-o", str(out), "--format", "none", "--quiet"]) == 0
     assert json.loads((out / "result.json").read_text())["root_no_data"]["share"] == 0.5
-    assert main(["run", str(case), str(stream), "-o", str(out), "--format", "none",
-                 "--quiet", "--max-no-data", "0.4"]) == 2
+    assert (
+        main(
+            [
+                "run",
+                str(case),
+                str(stream),
+                "-o",
+                str(out),
+                "--format",
+                "none",
+                "--quiet",
+                "--max-no-data",
+                "0.4",
+            ]
+        )
+        == 2
+    )
 
 
 @pytest.mark.parametrize("bad", ["1.5", "-0.1", "nan", "half"])
@@ -202,8 +235,10 @@ def test_bundled_drive_stays_well_within_the_no_data_limit(tmp_path):
     # warm-up gaps are real gaps: the bundled drives' root goal reads no-data on 2-3 % of ticks
     out = tmp_path / "o"
     stream = REPO / "examples" / "data" / "highway-tailgating.jsonl.gz"
-    assert main(["run", str(REFERENCE), str(stream), "-o", str(out), "--quiet",
-                 "--format", "none"]) == 1
+    assert (
+        main(["run", str(REFERENCE), str(stream), "-o", str(out), "--quiet", "--format", "none"])
+        == 1
+    )
     no_data = json.loads((out / "result.json").read_text())["root_no_data"]
     assert 0 < no_data["share"] < 0.1 and not no_data["exceeded"]
 
@@ -212,10 +247,13 @@ def test_bundled_drive_stays_well_within_the_no_data_limit(tmp_path):
 
 
 @pytest.mark.parametrize("engine", ["rtamt", "numpy", "both"])
-@pytest.mark.parametrize(("old", "new"), [
-    ('hazard: {when: "speed > 20"}', 'hazard: {when: "historically[1s:2s] (speed > 5)"}'),
-    ('spi: {signal: els, threshold: ">= 0.6"}', 'spi: {stl: "once[1s:2s] (els >= 0.6)"}'),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("old", "new"),
+    [
+        ('hazard: {when: "speed > 20"}', 'hazard: {when: "historically[1s:2s] (speed > 5)"}'),
+        ('spi: {signal: els, threshold: ">= 0.6"}', 'spi: {stl: "once[1s:2s] (els >= 0.6)"}'),
+    ],
+)
 def test_infinite_robustness_is_written_read_and_rendered(tmp_path, capsys, old, new, engine):
     """The issue's reproductions: -inf at the first second was a crash writing events.jsonl."""
     from tests.evaluator.streams import SMALL_CASE
@@ -226,8 +264,10 @@ def test_infinite_robustness_is_written_read_and_rendered(tmp_path, capsys, old,
     assert "CW050 warning" in capsys.readouterr().out
     stream = write_stream(tmp_path / "s.jsonl")
     out = tmp_path / "o"
-    assert main(["run", str(case), str(stream), "-o", str(out), "--quiet",
-                 "--stl-engine", engine]) == 1  # fmt: skip
+    assert (
+        main(["run", str(case), str(stream), "-o", str(out), "--quiet", "--stl-engine", engine])
+        == 1
+    )
     first = json.loads((out / "result.json").read_text())["episodes"][0]
     assert (first["start"], first["worst_robustness"]) == (0.0, "-Infinity")
     events = [json.loads(line) for line in (out / "events.jsonl").read_text().splitlines()]
@@ -260,21 +300,50 @@ def _disagreeing_engines(monkeypatch) -> None:
 def test_engines_disagreeing_exit_4_not_3(tmp_path, capsys, monkeypatch):
     _disagreeing_engines(monkeypatch)
     case, stream = write_case(tmp_path / "case.yaml"), write_stream(tmp_path / "s.jsonl")
-    assert main(["run", str(case), str(stream), "-o", str(tmp_path / "o"), "--quiet",
-                 "--stl-engine", "both"]) == 4  # fmt: skip
+    assert (
+        main(
+            [
+                "run",
+                str(case),
+                str(stream),
+                "-o",
+                str(tmp_path / "o"),
+                "--quiet",
+                "--stl-engine",
+                "both",
+            ]
+        )
+        == 4
+    )
     assert "the rtamt and numpy STL engines disagree on" in capsys.readouterr().err
 
 
-def test_a_fleet_with_disagreeing_engines_exits_4_and_says_so_even_quiet(tmp_path, capsys,
-                                                                         monkeypatch):
+def test_a_fleet_with_disagreeing_engines_exits_4_and_says_so_even_quiet(
+    tmp_path, capsys, monkeypatch
+):
     _disagreeing_engines(monkeypatch)
     case = write_case(tmp_path / "case.yaml")
     logs = tmp_path / "logs"
     logs.mkdir()
     write_stream(logs / "a.jsonl")
     out = tmp_path / "out"
-    assert main(["run", str(case), str(logs), "-o", str(out), "--quiet", "--format", "none",
-                 "--stl-engine", "both"]) == 4  # fmt: skip
+    assert (
+        main(
+            [
+                "run",
+                str(case),
+                str(logs),
+                "-o",
+                str(out),
+                "--quiet",
+                "--format",
+                "none",
+                "--stl-engine",
+                "both",
+            ]
+        )
+        == 4
+    )
     summary = json.loads((out / "summary.json").read_text())
     assert (summary["logs_crashed"], summary["logs_engines_disagree"]) == (0, 1)
     err = capsys.readouterr().err
@@ -324,8 +393,7 @@ def test_a_truncated_log_is_a_damage_finding_under_every_policy(tmp_path, capsys
     err = capsys.readouterr().err
     assert "the log is damaged (1 stream defect(s), listed in result.json)" in err
     result = json.loads((out / "result.json").read_text())
-    assert result["episodes"] == [] and result["stream"]["defects"][0]["kind"] == \
-        "truncated-stream"  # fmt: skip
+    assert result["episodes"] == [] and result["stream"]["defects"][0]["kind"] == "truncated-stream"
     junit = (out / "junit.xml").read_text()
     assert 'type="casewatch.damage"' in junit and 'name="stream read without damage"' in junit
 
@@ -337,8 +405,23 @@ def test_frames_refused_as_non_increasing_make_a_damaged_fleet_log(tmp_path, cap
     rows = _calm_stream(logs / "a.jsonl")
     (logs / "b.jsonl").write_text("\n".join(rows[:30] + rows[:30]) + "\n")  # 30 refused
     out = tmp_path / "out"
-    assert main(["run", str(case), str(logs), "-o", str(out), "--quiet", "--format", "none",
-                 "--max-no-data", "1"]) == 1  # fmt: skip
+    assert (
+        main(
+            [
+                "run",
+                str(case),
+                str(logs),
+                "-o",
+                str(out),
+                "--quiet",
+                "--format",
+                "none",
+                "--max-no-data",
+                "1",
+            ]
+        )
+        == 1
+    )
     summary = json.loads((out / "summary.json").read_text())
     assert summary["logs_damaged"] == 1 and summary["formulas"][0]["episodes"] == 0
     assert [log["defects"] for log in summary["per_log"]] == [0, 30]
@@ -378,12 +461,22 @@ def test_resume_judges_again_a_result_edited_after_it_was_written(tmp_path):
 # -- issue 31: a null binding is a check error ---------------------------------------------
 
 
-@pytest.mark.parametrize(("old", "new", "where"), [
-    ('spi: {signal: els, threshold: ">= 0.6"}', "spi: null", ":17:8: CW018 error: node Sn1, `spi`: "
-     "`spi:` is empty (null), so nothing would be monitored"),
-    ('hazard: {when: "speed > 20"}', "hazard:", ":21:10: CW018 error: node CSn1, `hazard`: "
-     "`hazard:` is empty (null)"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("old", "new", "where"),
+    [
+        (
+            'spi: {signal: els, threshold: ">= 0.6"}',
+            "spi: null",
+            ":17:8: CW018 error: node Sn1, `spi`: "
+            "`spi:` is empty (null), so nothing would be monitored",
+        ),
+        (
+            'hazard: {when: "speed > 20"}',
+            "hazard:",
+            ":21:10: CW018 error: node CSn1, `hazard`: `hazard:` is empty (null)",
+        ),
+    ],
+)
 def test_a_null_spi_or_hazard_is_a_check_error(tmp_path, capsys, old, new, where):
     from tests.evaluator.streams import SMALL_CASE
 
@@ -405,8 +498,23 @@ def test_an_integer_beyond_float_range_is_a_stream_defect(tmp_path, capsys):
     stream = tmp_path / "s.jsonl"
     stream.write_text("\n".join(rows) + "\n")
     out = tmp_path / "o"
-    assert main(["run", str(case), str(stream), "-o", str(out), "--quiet", "--format", "none",
-                 "--max-no-data", "1"]) == 1  # fmt: skip
+    assert (
+        main(
+            [
+                "run",
+                str(case),
+                str(stream),
+                "-o",
+                str(out),
+                "--quiet",
+                "--format",
+                "none",
+                "--max-no-data",
+                "1",
+            ]
+        )
+        == 1
+    )
     defects = json.loads((out / "result.json").read_text())["stream"]["defects"]
     assert [(d["line"], d["kind"], d["message"]) for d in defects] == [
         (6, "non-finite", "frame.t: inf is not a finite number"),
@@ -418,27 +526,37 @@ def test_a_header_meta_nested_900_deep_is_a_bad_header(tmp_path):
     case = write_case(tmp_path / "case.yaml")
     stream = write_stream(tmp_path / "s.jsonl", frames=30)
     lines = stream.read_text().splitlines()
-    lines[0] = lines[0].replace('"meta": {"test": "e2e"}', '"meta": ' + '{"a": ' * 900 + "1"
-                                + "}" * 900)  # fmt: skip
+    lines[0] = lines[0].replace(
+        '"meta": {"test": "e2e"}', '"meta": ' + '{"a": ' * 900 + "1" + "}" * 900
+    )
     stream.write_text("\n".join(lines) + "\n")
     out = tmp_path / "o"
     assert main(["run", str(case), str(stream), "-o", str(out), "--quiet"]) == 1
     result = json.loads((out / "result.json").read_text())
-    assert result["stream"]["defects"] == [{"line": 1, "kind": "bad-header", "message":
-        "header.meta: nested deeper than 32 levels of objects and lists"}]  # fmt: skip
+    assert result["stream"]["defects"] == [
+        {
+            "line": 1,
+            "kind": "bad-header",
+            "message": "header.meta: nested deeper than 32 levels of objects and lists",
+        }
+    ]
     assert result["stream"]["frames_read"] == 30
 
 
-@pytest.mark.parametrize(("name", "shown"), [
-    ("a\\0b.yaml", "'a\\x00b.yaml': not a usable file name (embedded null byte)"),
-    ("a" * 300 + ".yaml", "(305 chars): not a usable file name (File name too long)"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("name", "shown"),
+    [
+        ("a\\0b.yaml", "'a\\x00b.yaml': not a usable file name (embedded null byte)"),
+        ("a" * 300 + ".yaml", "(305 chars): not a usable file name (File name too long)"),
+    ],
+)
 def test_a_module_uses_name_that_is_no_file_name_is_cw028(tmp_path, capsys, name, shown):
     from tests.evaluator.streams import SMALL_CASE
 
     case = tmp_path / "case.yaml"
-    case.write_text(SMALL_CASE.replace("brief: One SPI and one hazard}",
-                                       f'brief: x, uses: ["{name}"]}}'))  # fmt: skip
+    case.write_text(
+        SMALL_CASE.replace("brief: One SPI and one hazard}", f'brief: x, uses: ["{name}"]}}')
+    )
     assert main(["check", str(case)]) == 1
     out = capsys.readouterr().out
     assert f"{case}:1:" in out and "CW028 error: module `uses` " in out and shown in out
@@ -448,8 +566,10 @@ def test_a_module_uses_name_that_is_no_file_name_is_cw028(tmp_path, capsys, name
 def test_an_odd_file_name_that_is_no_file_name_is_cw009(tmp_path, capsys, name):
     from tests.evaluator.streams import SMALL_CASE
 
-    text = SMALL_CASE.replace("  supportedBy: [S1]", "  supportedBy: [S1]\n  inContextOf: [C1]",
-                              1) + f'C1:\n  text: the ODD\n  odd: "{name}"\n'  # fmt: skip
+    text = (
+        SMALL_CASE.replace("  supportedBy: [S1]", "  supportedBy: [S1]\n  inContextOf: [C1]", 1)
+        + f'C1:\n  text: the ODD\n  odd: "{name}"\n'
+    )
     case = tmp_path / "case.yaml"
     case.write_text(text)
     assert main(["check", str(case)]) == 1
@@ -458,18 +578,19 @@ def test_an_odd_file_name_that_is_no_file_name_is_cw009(tmp_path, capsys, name):
     assert len(out) < 1000
 
 
-@pytest.mark.parametrize(("scores", "expected"), [
-    ("abc", "scores: Input should be a valid dictionary"),
-    ({"penalty": "x", "carla": None}, "scores.penalty: expected an object or null"),
-    ({"penalty": {"score": "x"}, "carla": None}, "scores.penalty.score: expected a number"),
-    ({"per_rule": 1}, "scores.penalty: missing"),
-])  # fmt: skip
-def test_a_result_with_malformed_scores_is_refused_by_report(tmp_path, capsys, scores,
-                                                             expected):  # fmt: skip
+@pytest.mark.parametrize(
+    ("scores", "expected"),
+    [
+        ("abc", "scores: Input should be a valid dictionary"),
+        ({"penalty": "x", "carla": None}, "scores.penalty: expected an object or null"),
+        ({"penalty": {"score": "x"}, "carla": None}, "scores.penalty.score: expected a number"),
+        ({"per_rule": 1}, "scores.penalty: missing"),
+    ],
+)
+def test_a_result_with_malformed_scores_is_refused_by_report(tmp_path, capsys, scores, expected):
     case, stream = write_case(tmp_path / "case.yaml"), write_stream(tmp_path / "s.jsonl", 30)
     out = tmp_path / "o"
-    assert main(["run", str(case), str(stream), "-o", str(out), "--quiet", "--format",
-                 "none"]) == 1  # fmt: skip
+    assert main(["run", str(case), str(stream), "-o", str(out), "--quiet", "--format", "none"]) == 1
     result = json.loads((out / "result.json").read_text())
     result["scores"] = scores
     (out / "result.json").write_text(json.dumps(result))
@@ -478,13 +599,18 @@ def test_a_result_with_malformed_scores_is_refused_by_report(tmp_path, capsys, s
     assert expected in err and "internal error" not in err
 
 
-@pytest.mark.parametrize(("frames", "expected"), [
-    ("9" * 401, ":11:70: CW008 error: node Sn1: `params.frames` must be a finite number, got "
-     "9999999999999999999999999999999999999..."),
-    ("100", ":11:19: CW051 error: guarantee of node Sn1 is nested too deeply for rtamt"),
-])  # fmt: skip
-def test_library_parameters_that_used_to_crash_are_findings(tmp_path, capsys, frames,
-                                                             expected):  # fmt: skip
+@pytest.mark.parametrize(
+    ("frames", "expected"),
+    [
+        (
+            "9" * 401,
+            ":11:70: CW008 error: node Sn1: `params.frames` must be a finite number, got "
+            "9999999999999999999999999999999999999...",
+        ),
+        ("100", ":11:19: CW051 error: guarantee of node Sn1 is nested too deeply for rtamt"),
+    ],
+)
+def test_library_parameters_that_used_to_crash_are_findings(tmp_path, capsys, frames, expected):
     case = tmp_path / "case.yaml"
     case.write_text(
         "module: {name: da}\nmonitor:\n  channels: [lav, tfuse]\n  period: 0.1s\n"
@@ -496,12 +622,16 @@ def test_library_parameters_that_used_to_crash_are_findings(tmp_path, capsys, fr
     assert f"{case}{expected}" in capsys.readouterr().out
 
 
-@pytest.mark.parametrize(("period", "expected"), [
-    (float("nan"), "period must be a finite number above 0, got nan"),
-    ([0.1, 0.2], "period must be a finite number above 0, got [0.1, 0.2]"),
-])  # fmt: skip
-def test_saved_signals_with_a_bad_period_are_refused_by_calibrate(tmp_path, capsys, period,
-                                                                  expected):  # fmt: skip
+@pytest.mark.parametrize(
+    ("period", "expected"),
+    [
+        (float("nan"), "period must be a finite number above 0, got nan"),
+        ([0.1, 0.2], "period must be a finite number above 0, got [0.1, 0.2]"),
+    ],
+)
+def test_saved_signals_with_a_bad_period_are_refused_by_calibrate(
+    tmp_path, capsys, period, expected
+):
     import numpy as np
 
     case = write_case(tmp_path / "case.yaml")
@@ -509,15 +639,41 @@ def test_saved_signals_with_a_bad_period_are_refused_by_calibrate(tmp_path, caps
     logs.mkdir()
     write_stream(logs / "a.jsonl", frames=40)
     fleet = tmp_path / "fleet"
-    assert main(["run", str(case), str(logs), "-o", str(fleet), "--quiet", "--format", "none",
-                 "--save-signals"]) == 1  # fmt: skip
+    assert (
+        main(
+            [
+                "run",
+                str(case),
+                str(logs),
+                "-o",
+                str(fleet),
+                "--quiet",
+                "--format",
+                "none",
+                "--save-signals",
+            ]
+        )
+        == 1
+    )
     npz = fleet / "a" / "signals.npz"
     with np.load(npz, allow_pickle=False) as saved:
         arrays = {k: saved[k] for k in saved.files}
     arrays["period"] = np.array(period)
     np.savez_compressed(npz, **arrays)
-    assert main(["calibrate", str(case), str(fleet), "--false-alarms-per-hour", "10", "-o",
-                 str(tmp_path / "cal")]) == 2  # fmt: skip
+    assert (
+        main(
+            [
+                "calibrate",
+                str(case),
+                str(fleet),
+                "--false-alarms-per-hour",
+                "10",
+                "-o",
+                str(tmp_path / "cal"),
+            ]
+        )
+        == 2
+    )
     err = capsys.readouterr().err
     assert f"{npz}: {expected}" in err and "internal error" not in err
 
@@ -534,10 +690,13 @@ def test_plan_and_object_points_at_1e308_are_out_of_range_defects(tmp_path, caps
     stream = tmp_path / "s.jsonl"
     stream.write_text("\n".join(rows) + "\n")
     out = tmp_path / "o"
-    assert main(["run", str(REFERENCE), str(stream), "-o", str(out), "--quiet", "--format",
-                 "none"]) == 2  # fmt: skip
+    assert (
+        main(["run", str(REFERENCE), str(stream), "-o", str(out), "--quiet", "--format", "none"])
+        == 2
+    )
     assert "line 1: out-of-range: channels.lav.plan[0]: a value beyond ±1e+09 in [0.0, 1e+308" in (
-        capsys.readouterr().err)
+        capsys.readouterr().err
+    )
 
 
 @pytest.mark.parametrize("engine", ["rtamt", "numpy", "both"])
@@ -548,16 +707,38 @@ def test_a_division_by_a_signal_reaching_zero_is_ieee_not_a_crash(tmp_path, engi
     from tests.evaluator.streams import SMALL_CASE
 
     case = tmp_path / "case.yaml"
-    case.write_text(SMALL_CASE.replace('spi: {signal: els, threshold: ">= 0.6"}',
-                                       'spi: {stl: "els / (els - els) > 1"}'))  # fmt: skip
+    case.write_text(
+        SMALL_CASE.replace(
+            'spi: {signal: els, threshold: ">= 0.6"}', 'spi: {stl: "els / (els - els) > 1"}'
+        )
+    )
     stream = write_stream(tmp_path / "s.jsonl", frames=40)
     out = tmp_path / "o"
-    assert main(["run", str(case), str(stream), "-o", str(out), "--quiet", "--format", "none",
-                 "--stl-engine", engine]) == 0  # fmt: skip
-    sn1 = next(f for f in json.loads((out / "result.json").read_text())["formulas"]
-               if f["id"] == "Sn1")  # fmt: skip
+    assert (
+        main(
+            [
+                "run",
+                str(case),
+                str(stream),
+                "-o",
+                str(out),
+                "--quiet",
+                "--format",
+                "none",
+                "--stl-engine",
+                engine,
+            ]
+        )
+        == 0
+    )
+    sn1 = next(
+        f for f in json.loads((out / "result.json").read_text())["formulas"] if f["id"] == "Sn1"
+    )
     assert (sn1["ticks_evaluated"], sn1["ticks_violated"], sn1["worst_robustness"]) == (
-        40, 0, "Infinity")
+        40,
+        0,
+        "Infinity",
+    )
 
 
 def test_a_not_a_number_robustness_is_no_data() -> None:
@@ -568,8 +749,10 @@ def test_a_not_a_number_robustness_is_no_data() -> None:
     case = make_case(stl_node("Sn1", "x / y > 1"), signals={"x": "a", "y": "b"})
     spec, _ = compile_case(case)
     evaluator = Evaluator(case, spec)
-    statuses = [evaluator.step(i / 10, {"x": x, "y": y})["Sn1"]
-                for i, (x, y) in enumerate([(4.0, 2.0), (0.0, 0.0), (1.0, 0.0), (1.0, 2.0)])]
+    statuses = [
+        evaluator.step(i / 10, {"x": x, "y": y})["Sn1"]
+        for i, (x, y) in enumerate([(4.0, 2.0), (0.0, 0.0), (1.0, 0.0), (1.0, 2.0)])
+    ]
     assert statuses == ["satisfied", "no-data", "satisfied", "violated"]
     evaluator.finish()
     assert [g.missing for g in evaluator.data_gaps] == [[UNDEFINED]]
@@ -578,12 +761,13 @@ def test_a_not_a_number_robustness_is_no_data() -> None:
 def test_a_401_digit_count_in_result_json_is_refused_not_an_overflow(tmp_path, capsys):
     case, stream = write_case(tmp_path / "case.yaml"), write_stream(tmp_path / "s.jsonl", 30)
     out = tmp_path / "o"
-    assert main(["run", str(case), str(stream), "-o", str(out), "--quiet", "--format",
-                 "none"]) == 1  # fmt: skip
+    assert main(["run", str(case), str(stream), "-o", str(out), "--quiet", "--format", "none"]) == 1
     text = (out / "result.json").read_text()
-    (out / "result.json").write_text(text.replace('"ticks_violated": ',
-                                                  '"ticks_violated": ' + "9" * 401 + ", "
-                                                  '"ticks_violated_was": ', 1))  # fmt: skip
+    (out / "result.json").write_text(
+        text.replace(
+            '"ticks_violated": ', '"ticks_violated": ' + "9" * 401 + ', "ticks_violated_was": ', 1
+        )
+    )
     assert main(["report", str(out)]) == 2
     err = capsys.readouterr().err
     assert "formulas.0.ticks_violated: Input should be a finite number" in err

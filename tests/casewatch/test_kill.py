@@ -40,8 +40,11 @@ def closed_after_each_frame(case_path: Path) -> list[list[dict]]:
     case, spec = api.prepare(case_path)
     closed: list[list[dict]] = [[] for _ in range(FRAMES)]
     current = [0]
-    evaluator = Evaluator(case, spec, on_event=lambda e: closed[current[0]].append(
-        json.loads(json.dumps(event_record(e)))))
+    evaluator = Evaluator(
+        case,
+        spec,
+        on_event=lambda e: closed[current[0]].append(json.loads(json.dumps(event_record(e)))),
+    )
     engine = MetricEngine(case.monitor.metrics, list(case.monitor.channels))
     for i in range(FRAMES):
         current[0] = i
@@ -72,11 +75,26 @@ def test_kill_9_after_events_closed_keeps_every_one(setup, tmp_path, which: int)
     everything = [e for events in closed for e in events]
     out = tmp_path / "out"
     proc = subprocess.Popen(
-        [sys.executable, "-m", "casewatch", "run", str(case), "-", "-o", str(out),
-         "--format", "none", "--quiet"],
-        stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, cwd=REPO,
-        env=dict(os.environ, PYTHONUNBUFFERED="1"), text=True,
-    )  # fmt: skip
+        [
+            sys.executable,
+            "-m",
+            "casewatch",
+            "run",
+            str(case),
+            "-",
+            "-o",
+            str(out),
+            "--format",
+            "none",
+            "--quiet",
+        ],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        cwd=REPO,
+        env=dict(os.environ, PYTHONUNBUFFERED="1"),
+        text=True,
+    )
     events_path = out / "events.jsonl"
     try:
         assert proc.stdin is not None

@@ -16,8 +16,11 @@ REPO = Path(__file__).resolve().parents[2]
 GRID = REPO / "examples" / "data" / "odd-grid"
 CASE = REPO / "examples" / "odd" / "contracts-case.yaml"
 #: two runs of four cells: two degraded (heavy fog by day, medium rain at night), two not
-DRIVES = [f"odd-{cell}-r{k}" for cell in ("cloudy-light-day", "rain-light-day", "fog-heavy-day",
-                                          "rain-medium-night") for k in (0, 1)]  # fmt: skip
+DRIVES = [
+    f"odd-{cell}-r{k}"
+    for cell in ("cloudy-light-day", "rain-light-day", "fog-heavy-day", "rain-medium-night")
+    for k in (0, 1)
+]
 #: the study's intensity bins
 BINS = ["--bins", "intensity=0,30,70,100:light,medium,heavy"]
 
@@ -29,26 +32,55 @@ def judged(tmp_path_factory: pytest.TempPathFactory) -> Path:
     logs.mkdir()
     for name in DRIVES:
         shutil.copy(GRID / f"{name}.jsonl.gz", logs / f"{name}.jsonl.gz")
-    code = main(["run", str(CASE), str(logs), "--jobs", "2", "--format", "none", "--quiet",
-                 "--save-signals", "-o", str(root / "runs")])  # fmt: skip
+    code = main(
+        [
+            "run",
+            str(CASE),
+            str(logs),
+            "--jobs",
+            "2",
+            "--format",
+            "none",
+            "--quiet",
+            "--save-signals",
+            "-o",
+            str(root / "runs"),
+        ]
+    )
     assert code in (0, 1)
     return root / "runs"
 
 
 def test_the_degraded_cells_are_rejected_and_the_rest_is_the_domain(judged, tmp_path, capsys):
     out = tmp_path / "odd"
-    code = main(["odd", str(judged), "-o", str(out), "--max-mae",
-                 "lead_gap__camera-gt_lead_gap=3", *BINS, "--by",
-                 "environment.weather,environment.intensity,environment.light"])  # fmt: skip
+    code = main(
+        [
+            "odd",
+            str(judged),
+            "-o",
+            str(out),
+            "--max-mae",
+            "lead_gap__camera-gt_lead_gap=3",
+            *BINS,
+            "--by",
+            "environment.weather,environment.intensity,environment.light",
+        ]
+    )
     printed = capsys.readouterr().out
     assert code == 0
     report = json.loads((out / "odd.json").read_text())
     assert report["by"] == ["environment.weather", "environment.intensity", "environment.light"]
     cells = {tuple(c["conditions"].values()): c for c in report["cells"]}
-    assert set(cells) == {("cloudy", "light", "day"), ("rain", "light", "day"),
-                          ("fog", "heavy", "day"), ("rain", "medium", "night")}
-    assert {k for k, c in cells.items() if c["accepted"]} == {("cloudy", "light", "day"),
-                                                              ("rain", "light", "day")}
+    assert set(cells) == {
+        ("cloudy", "light", "day"),
+        ("rain", "light", "day"),
+        ("fog", "heavy", "day"),
+        ("rain", "medium", "night"),
+    }
+    assert {k for k, c in cells.items() if c["accepted"]} == {
+        ("cloudy", "light", "day"),
+        ("rain", "light", "day"),
+    }
     fog = cells[("fog", "heavy", "day")]
     assert fog["rejected_by"][:1] == ["Sn1"] and fog["formulas"]["Sn1"]["rate"] > 0.5
     assert fog["mae"]["lead_gap__camera-gt_lead_gap"]["mae"] > 3
@@ -70,8 +102,10 @@ def test_the_degraded_cells_are_rejected_and_the_rest_is_the_domain(judged, tmp_
 def test_the_odd_gates_what_the_case_claims(judged, tmp_path):
     """The example case states the accepted ODD on its root goal's context: a fog drive is
     outside it on every tick, a cloudy one inside."""
-    for name, expected in (("odd-fog-heavy-day-r0", "outside"),
-                           ("odd-cloudy-light-day-r0", "inside")):  # fmt: skip
+    for name, expected in (
+        ("odd-fog-heavy-day-r0", "outside"),
+        ("odd-cloudy-light-day-r0", "inside"),
+    ):
         result = json.loads((judged / name / "result.json").read_text())
         (odd,) = result["odd"]
         assert odd[expected] == 201 and odd["node_id"] == "C1"
@@ -80,8 +114,20 @@ def test_the_odd_gates_what_the_case_claims(judged, tmp_path):
 
 
 def test_strict_criterion_and_gating_subsets(judged, tmp_path, capsys):
-    code = main(["odd", str(judged), "-o", str(tmp_path / "o"), "--formulas", "Sn3",
-                 "--criterion", "upper", "--by", "environment.weather"])  # fmt: skip
+    code = main(
+        [
+            "odd",
+            str(judged),
+            "-o",
+            str(tmp_path / "o"),
+            "--formulas",
+            "Sn3",
+            "--criterion",
+            "upper",
+            "--by",
+            "environment.weather",
+        ]
+    )
     assert code == 0  # lane keeping holds everywhere: every weather is accepted
     report = json.loads((tmp_path / "o" / "odd.json").read_text())
     assert report["gating"] == ["Sn3"] and all(c["accepted"] for c in report["cells"])
@@ -89,8 +135,18 @@ def test_strict_criterion_and_gating_subsets(judged, tmp_path, capsys):
     capsys.readouterr()
     # by light alone, each cell holds a degraded condition (heavy fog by day, medium rain at
     # night)
-    code = main(["odd", str(judged), "-o", str(tmp_path / "none"), "--by", "environment.light",
-                 "--formulas", "Sn1"])  # fmt: skip
+    code = main(
+        [
+            "odd",
+            str(judged),
+            "-o",
+            str(tmp_path / "none"),
+            "--by",
+            "environment.light",
+            "--formulas",
+            "Sn1",
+        ]
+    )
     assert code == 1 and not (tmp_path / "none" / "accepted-odd.yaml").exists()
     assert "no cell accepted" in capsys.readouterr().out
 
@@ -130,9 +186,20 @@ def test_the_studys_mae_criterion_is_on_by_default(judged, tmp_path, capsys):
 
 def test_binned_lane_counts_on_the_grid(judged, tmp_path, capsys):
     # the grid's only numeric condition is road.lanes (3 on the highway): one bin of two
-    code = main(["odd", str(judged), "-o", str(tmp_path / "o"), "--by",
-                 "road.lanes,environment.weather", "--bins", "lanes=0,2,4:few,many",
-                 "--formulas", "Sn3"])  # fmt: skip
+    code = main(
+        [
+            "odd",
+            str(judged),
+            "-o",
+            str(tmp_path / "o"),
+            "--by",
+            "road.lanes,environment.weather",
+            "--bins",
+            "lanes=0,2,4:few,many",
+            "--formulas",
+            "Sn3",
+        ]
+    )
     assert code == 0
     report = json.loads((tmp_path / "o" / "odd.json").read_text())
     assert {c["conditions"]["road.lanes"] for c in report["cells"]} == {"many"}

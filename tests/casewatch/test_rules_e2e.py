@@ -19,8 +19,22 @@ CASE = REPO / "examples" / "rules" / "rules-case.yaml"
 @pytest.fixture(scope="module")
 def judged(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("rules") / "runs"
-    code = main(["run", str(CASE), str(DRIVES), "--labels", "auto", "--jobs", "2", "--format",
-                 "none", "--quiet", "-o", str(out)])  # fmt: skip
+    code = main(
+        [
+            "run",
+            str(CASE),
+            str(DRIVES),
+            "--labels",
+            "auto",
+            "--jobs",
+            "2",
+            "--format",
+            "none",
+            "--quiet",
+            "-o",
+            str(out),
+        ]
+    )
     assert code == 1  # the hurried and sloppy drivers break rules
     return out
 
@@ -45,12 +59,21 @@ def test_the_careful_driver_breaks_no_rule_and_is_not_blamed(judged):
     assert hit["scores"]["penalty"]["penalty_sum"] == 0.0  # the victim is not penalised here,
     # but the Leaderboard counts every collision: a vehicle, 0.6
     assert hit["scores"]["carla"]["per_infraction"] == {
-        "collisions_vehicle": {"events": 1, "coefficient": 0.6}}
+        "collisions_vehicle": {"events": 1, "coefficient": 0.6}
+    }
 
 
 def test_every_event_is_placed_on_the_road(judged, tmp_path, capsys):
-    code = main(["compare", str(judged), "--net", str(DRIVES / "rules.net.xml"), "-o",
-                 str(tmp_path / "cmp")])  # fmt: skip
+    code = main(
+        [
+            "compare",
+            str(judged),
+            "--net",
+            str(DRIVES / "rules.net.xml"),
+            "-o",
+            str(tmp_path / "cmp"),
+        ]
+    )
     assert code == 0
     report = json.loads((tmp_path / "cmp" / "compare.json").read_text())
     markers = report["markers"]
@@ -67,10 +90,12 @@ def test_each_score_says_what_it_is_made_of(judged):
     result = load_result(judged / "urban-lights-hurried" / "result.json")
     p, c = result.scores["penalty"], result.scores["carla"]
     # eq. 6.1 from its own (rounded) terms: c * t_o / t * d - gamma * penalties
-    assert p["score"] == pytest.approx(p["c"] * p["t_o"] / p["t"] * p["d"]
-                                       - p["gamma"] * p["penalty_sum"], abs=1e-3)
-    assert c["driving_score"] == pytest.approx(100 * c["route_completion"]
-                                               * c["infraction_penalty"], abs=1e-3)
+    assert p["score"] == pytest.approx(
+        p["c"] * p["t_o"] / p["t"] * p["d"] - p["gamma"] * p["penalty_sum"], abs=1e-3
+    )
+    assert c["driving_score"] == pytest.approx(
+        100 * c["route_completion"] * c["infraction_penalty"], abs=1e-3
+    )
     html, md = render_html(result), render_markdown(result)
     for text in (p["made_of"], c["made_of"]):
         assert text in html
@@ -87,13 +112,19 @@ def test_the_indicator_must_point_the_way_of_the_crossing(judged):
 
     with gzip.open(DRIVES / "stop-and-merge-hurried.jsonl.gz", "rt") as fh:
         frames = [json.loads(line) for line in fh][1:]
-    broken = [(f["t"], f["world"]["crossing"], f["world"]["indicator"]) for f in frames
-              if f["world"].get("marking") == "broken"]  # fmt: skip
+    broken = [
+        (f["t"], f["world"]["crossing"], f["world"]["indicator"])
+        for f in frames
+        if f["world"].get("marking") == "broken"
+    ]
     assert {(side, ind) for _, side, ind in broken} == {("left", "left"), ("right", "left")}
     assert min(t for t, side, _ in broken if side == "right") == 23.1
     result = json.loads((judged / "stop-and-merge-hurried" / "result.json").read_text())
-    wrong = [(e["start"], e["end"]) for e in result["episodes"]
-             if e["node_id"] == "CSn_broken_wrong_indicator"]  # fmt: skip
+    wrong = [
+        (e["start"], e["end"])
+        for e in result["episodes"]
+        if e["node_id"] == "CSn_broken_wrong_indicator"
+    ]
     assert wrong == [(23.1, 23.9), (26.2, 27.0)]
     assert not any(e["node_id"] == "CSn_broken_no_indicator" for e in result["episodes"])
     sloppy = json.loads((judged / "stop-and-merge-sloppy" / "result.json").read_text())
@@ -113,9 +144,12 @@ def test_leaderboard_inputs_reach_the_score_through_a_stream(tmp_path):
             world = frame.get("world")
             if world is not None:
                 t = frame["t"]
-                world.update(traffic_speed=20.0, blocked=False,
-                             timeouts={"route": False, "scenario": 10.0 <= t < 11.0},
-                             emergency_vehicle={"failed_to_yield": False})  # fmt: skip
+                world.update(
+                    traffic_speed=20.0,
+                    blocked=False,
+                    timeouts={"route": False, "scenario": 10.0 <= t < 11.0},
+                    emergency_vehicle={"failed_to_yield": False},
+                )
                 world["route"].update(outside_lanes=5.0 <= t < 7.0, deviated=False)
             lines.append(json.dumps(frame))
     stream = tmp_path / "drive.jsonl"
@@ -127,6 +161,9 @@ def test_leaderboard_inputs_reach_the_score_through_a_stream(tmp_path):
     assert infractions["scenario_timeouts"] == {"events": 1, "coefficient": 0.7}
     assert 0 < infractions["outside_route_lanes"]["percentage"] < 5
     assert all(p < 100 for p in infractions["min_speed_infractions"]["percentage"])
-    product = 0.7 * infractions["outside_route_lanes"]["coefficient"] * \
-        infractions["min_speed_infractions"]["coefficient"]  # fmt: skip
+    product = (
+        0.7
+        * infractions["outside_route_lanes"]["coefficient"]
+        * infractions["min_speed_infractions"]["coefficient"]
+    )
     assert carla["infraction_penalty"] == pytest.approx(product, abs=1e-5)

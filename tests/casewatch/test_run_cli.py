@@ -22,8 +22,12 @@ def casewatch_process(*args: str) -> subprocess.Popen:
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     return subprocess.Popen(
         [sys.executable, "-m", "casewatch", *args],
-        stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-        cwd=REPO, env=env, text=True,
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        cwd=REPO,
+        env=env,
+        text=True,
     )
 
 
@@ -42,8 +46,21 @@ def test_exit_0_when_nothing_is_violated(tmp_path):
     stream = tmp_path / "s.jsonl"
     # frames 30..49 of the test stream: channels agree, nobody drops out
     stream.write_text("".join(json.dumps(frame(i)) + "\n" for i in range(31, 50)))
-    assert main(["run", str(case), str(stream), "-o", str(tmp_path / "o"), "--format", "none",
-                 "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "run",
+                str(case),
+                str(stream),
+                "-o",
+                str(tmp_path / "o"),
+                "--format",
+                "none",
+                "--quiet",
+            ]
+        )
+        == 0
+    )
 
 
 def test_exit_2_on_bad_case_missing_stream_and_strict_defect(tmp_path, capsys):
@@ -100,8 +117,7 @@ def _await_line(proc: subprocess.Popen, marker: str, timeout: float = 60.0) -> s
 
 def test_live_mode_prints_the_episode_before_the_input_ends(tmp_path):
     case = write_case(tmp_path / "case.yaml")
-    proc = casewatch_process("run", str(case), "-", "-o", str(tmp_path / "out"),
-                             "--format", "none")
+    proc = casewatch_process("run", str(case), "-", "-o", str(tmp_path / "out"), "--format", "none")
     try:
         # The onset is announced the tick the episode opens (t = 2.0 s, frame 20; the case's
         # min_duration is 0): frames 0-20 are enough...
@@ -136,7 +152,8 @@ def test_kill_9_keeps_every_closed_episode_and_no_truncated_line(tmp_path):
     assert raw.endswith("\n")
     events = [json.loads(line) for line in raw.splitlines()]
     assert [(e["event"], e["node_id"], e["start"], e.get("end")) for e in events] == [
-        ("episode_open", "Sn1", 2.0, None), ("spi_episode", "Sn1", 2.0, 3.0)
+        ("episode_open", "Sn1", 2.0, None),
+        ("spi_episode", "Sn1", 2.0, 3.0),
     ]
     assert events[0]["t"] == 2.0 and events[0]["trace"] == events[1]["trace"]
     assert not (out / "result.json").exists()
@@ -151,8 +168,22 @@ def test_many_logs_write_one_result_each_and_a_summary(tmp_path, jobs):
     write_stream(logs / "b.jsonl", frames=50)
     (logs / "a.labels.jsonl").write_text('{"hazard": "CSn1", "start": 1, "end": 2}\n')
     out = tmp_path / "out"
-    code = main(["run", str(case), str(logs), "-o", str(out), "--jobs", str(jobs),
-                 "--labels", "auto", "--format", "none", "--quiet"])
+    code = main(
+        [
+            "run",
+            str(case),
+            str(logs),
+            "-o",
+            str(out),
+            "--jobs",
+            str(jobs),
+            "--labels",
+            "auto",
+            "--format",
+            "none",
+            "--quiet",
+        ]
+    )
     assert code == 1
     summary = json.loads((out / "summary.json").read_text())
     assert summary["logs"] == 2 and summary["logs_failed"] == 0
@@ -166,8 +197,14 @@ def test_many_logs_write_one_result_each_and_a_summary(tmp_path, jobs):
     # only log a has labels: its one label (1-2 s) is missed, nothing fired
     truth = summary["ground_truth"]
     assert truth["logs"] == 1
-    assert truth["overall"] == {"hazard": "all", "true_positives": 0, "false_positives": 0,
-                                "false_negatives": 1, "precision": None, "recall": 0.0}
+    assert truth["overall"] == {
+        "hazard": "all",
+        "true_positives": 0,
+        "false_positives": 0,
+        "false_negatives": 1,
+        "precision": None,
+        "recall": 0.0,
+    }
 
 
 def test_fail_on_policy_sets_the_exit_code_and_junit(tmp_path):
@@ -177,8 +214,20 @@ def test_fail_on_policy_sets_the_exit_code_and_junit(tmp_path):
     codes = {}
     for policy in ("any", "hazard", "spi", "never"):
         out = tmp_path / policy
-        codes[policy] = main(["run", str(case), str(stream), "-o", str(out), "--format", "junit",
-                              "--quiet", "--fail-on", policy])  # fmt: skip
+        codes[policy] = main(
+            [
+                "run",
+                str(case),
+                str(stream),
+                "-o",
+                str(out),
+                "--format",
+                "junit",
+                "--quiet",
+                "--fail-on",
+                policy,
+            ]
+        )
         result = json.loads((out / "result.json").read_text())
         assert result["fail_on"] == policy
         assert [e["kind"] for e in result["episodes"]] == ["spi"]
@@ -189,9 +238,10 @@ def test_fail_on_policy_sets_the_exit_code_and_junit(tmp_path):
     assert 'failures="0"' in waved and "<failure" not in waved
     assert "1 episode, not counted as failures (--fail-on hazard)" in waved
     # re-rendering with another policy follows it
-    assert main(["report", str(tmp_path / "hazard"), "--format", "junit", "--fail-on",
-                 "any"]) == 0  # fmt: skip
+    assert main(["report", str(tmp_path / "hazard"), "--format", "junit", "--fail-on", "any"]) == 0
     assert 'failures="1"' in (tmp_path / "hazard" / "junit.xml").read_text()
     # an unknown policy is a usage error
-    assert main(["run", str(case), str(stream), "-o", str(tmp_path / "x"), "--fail-on",
-                 "hazards"]) == 2  # fmt: skip
+    assert (
+        main(["run", str(case), str(stream), "-o", str(tmp_path / "x"), "--fail-on", "hazards"])
+        == 2
+    )

@@ -15,12 +15,16 @@ def test_a_misspelt_channel_is_named_with_a_did_you_mean(tmp_path, capsys):
     out, err = capsys.readouterr()
     lines = err.splitlines()
     assert "no frames could be read (51 defects)" in lines[0]
-    assert lines[1] == ("  line 1: unknown-channel: header lists channel(s) tfuse not declared "
-                        "(declared: lav, tfuze)")  # fmt: skip
+    assert lines[1] == (
+        "  line 1: unknown-channel: header lists channel(s) tfuse not declared "
+        "(declared: lav, tfuze)"
+    )
     assert lines[2].startswith("  line 2: unknown-channel: channels.tfuse: channel not declared")
     assert lines[3] == "  ... and 49 more defects (result.json lists all: 51 unknown-channel)"
-    assert ("the case declares channels lav, tfuze; the stream names tfuse, which the case does "
-            "not declare") in err  # fmt: skip
+    assert (
+        "the case declares channels lav, tfuze; the stream names tfuse, which the case does "
+        "not declare"
+    ) in err
     assert f"did you mean 'tfuse' where the case says 'tfuze'? (monitor.channels in {case})" in err
     assert "of 0 ticks" not in out  # no share of nothing
 

@@ -24,8 +24,21 @@ def runs(tmp_path_factory) -> Path:
         for suffix in (".jsonl.gz", ".labels.jsonl"):
             shutil.copy(DATA / f"{name}{suffix}", streams / f"{name}{suffix}")
     out = tmp_path_factory.mktemp("runs")
-    code = cli(["run", str(CASE), str(streams), "--labels", "auto", "--save-signals",
-                "--format", "none", "--quiet", "-o", str(out)])  # fmt: skip
+    code = cli(
+        [
+            "run",
+            str(CASE),
+            str(streams),
+            "--labels",
+            "auto",
+            "--save-signals",
+            "--format",
+            "none",
+            "--quiet",
+            "-o",
+            str(out),
+        ]
+    )
     assert code == 1  # the drives have hazards
     for name in DRIVES:
         assert (out / name / "signals.npz").is_file()
@@ -36,7 +49,8 @@ def mis_set(tmp_path: Path) -> Path:
     """The reference case with the tailgating headway at 1.6 s and no minimum duration."""
     text = CASE.read_text().replace(
         'hazard: {when: "lead_thw < 1.0 and ego_speed > 5.0", min_duration: 1s',
-        'hazard: {when: "lead_thw < 1.6 and ego_speed > 5.0", min_duration: 0s')
+        'hazard: {when: "lead_thw < 1.6 and ego_speed > 5.0", min_duration: 0s',
+    )
     assert "lead_thw < 1.6" in text
     path = tmp_path / "mis-set.yaml"
     path.write_text(text)
@@ -71,9 +85,22 @@ def test_tune_recovers_the_tailgating_headway(runs, tmp_path, capsys):
 def test_tune_streams_directly_and_min_precision(runs, tmp_path):
     out = tmp_path / "tune"
     stream = DATA / "highway-tailgating.jsonl.gz"
-    assert cli(["tune", str(CASE), str(stream), "--labels",
-                str(DATA / "highway-tailgating.labels.jsonl"), "--min-precision", "0.95",
-                "-o", str(out)]) == 0  # fmt: skip
+    assert (
+        cli(
+            [
+                "tune",
+                str(CASE),
+                str(stream),
+                "--labels",
+                str(DATA / "highway-tailgating.labels.jsonl"),
+                "--min-precision",
+                "0.95",
+                "-o",
+                str(out),
+            ]
+        )
+        == 0
+    )
     assert (out / "runs" / "highway-tailgating" / "signals.npz").is_file()
     report = json.loads((out / "tuning.json").read_text())
     assert report["objective"] == "min-precision" and report["logs"] == 1
@@ -84,8 +111,21 @@ def test_tune_refuses_what_it_cannot_use(runs, tmp_path, capsys):
     out = tmp_path / "t"
     # a run without saved signals
     plain = tmp_path / "plain"
-    assert cli(["run", str(CASE), str(DATA / "highway-tailgating.jsonl.gz"), "--format", "none",
-                "--quiet", "-o", str(plain)]) == 1  # fmt: skip
+    assert (
+        cli(
+            [
+                "run",
+                str(CASE),
+                str(DATA / "highway-tailgating.jsonl.gz"),
+                "--format",
+                "none",
+                "--quiet",
+                "-o",
+                str(plain),
+            ]
+        )
+        == 1
+    )
     assert cli(["tune", str(CASE), str(plain), "-o", str(out)]) == 2
     assert "--save-signals" in capsys.readouterr().err
     # a stream without labels
@@ -96,8 +136,20 @@ def test_tune_refuses_what_it_cannot_use(runs, tmp_path, capsys):
     # labels naming no node of the case
     bad = tmp_path / "bad.labels.jsonl"
     bad.write_text(json.dumps({"hazard": "tailgate", "start": 1, "end": 2}) + "\n")
-    assert cli(["tune", str(CASE), str(runs / "highway-tailgating"), "--labels", str(bad),
-                "-o", str(out)]) == 2  # fmt: skip
+    assert (
+        cli(
+            [
+                "tune",
+                str(CASE),
+                str(runs / "highway-tailgating"),
+                "--labels",
+                str(bad),
+                "-o",
+                str(out),
+            ]
+        )
+        == 2
+    )
     assert "name no node" in capsys.readouterr().err
     # a case reading a signal the saved run does not hold
     other = tmp_path / "other.yaml"
@@ -120,8 +172,19 @@ def test_calibrate_on_nominal_stretches(runs, tmp_path, capsys):
     default: nothing is calibrated, each SPI says why beside its threshold. Without the
     minimum, no written threshold is beyond the observed values or over the budget."""
     out = tmp_path / "cal"
-    code = cli(["calibrate", str(CASE), str(runs), "--labels", "auto",
-                "--false-alarms-per-hour", "30", "-o", str(out)])  # fmt: skip
+    code = cli(
+        [
+            "calibrate",
+            str(CASE),
+            str(runs),
+            "--labels",
+            "auto",
+            "--false-alarms-per-hour",
+            "30",
+            "-o",
+            str(out),
+        ]
+    )
     assert code in (0, 1)
     report = json.loads((out / "calibration.json").read_text())
     assert report["per_hour"] == 30 and report["hours"] < 0.1
@@ -130,17 +193,35 @@ def test_calibrate_on_nominal_stretches(runs, tmp_path, capsys):
     assert text.count("casewatch calibrate: not calibrated on these logs") == len(report["spis"])
     assert cli(["check", str(out / "calibrated-case.yaml")]) == 0
     anyway = tmp_path / "anyway"
-    cli(["calibrate", str(CASE), str(runs), "--labels", "auto", "--min-hours", "0",
-         "--false-alarms-per-hour", "30", "-o", str(anyway)])  # fmt: skip
+    cli(
+        [
+            "calibrate",
+            str(CASE),
+            str(runs),
+            "--labels",
+            "auto",
+            "--min-hours",
+            "0",
+            "--false-alarms-per-hour",
+            "30",
+            "-o",
+            str(anyway),
+        ]
+    )
     for row in json.loads((anyway / "calibration.json").read_text())["spis"]:
         chosen = row["chosen"]
         if row["status"] == "calibrated":
-            point = next(p for p in row["curve"] if (p["threshold"], p["for"]) ==
-                         (chosen["threshold"], chosen["for"]))  # fmt: skip
+            point = next(
+                p
+                for p in row["curve"]
+                if (p["threshold"], p["for"]) == (chosen["threshold"], chosen["for"])
+            )
             assert point["fires"] and chosen["per_hour"] <= 30 + 1e-9, row["formula"]
         else:
             assert chosen == row["original"], row["formula"]
     assert cli(["check", str(anyway / "calibrated-case.yaml")]) == 0
-    assert cli(["calibrate", str(CASE), str(runs), "--false-alarms-per-hour", "-1",
-                "-o", str(out)]) == 2  # fmt: skip
+    assert (
+        cli(["calibrate", str(CASE), str(runs), "--false-alarms-per-hour", "-1", "-o", str(out)])
+        == 2
+    )
     assert "must be a number" in capsys.readouterr().err

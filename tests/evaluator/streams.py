@@ -47,8 +47,15 @@ def frame(i: int, period: float = 0.1) -> dict[str, object]:
 
 
 def write_stream(path: Path, frames: int = 100) -> Path:
-    header = {"header": {"format": "casewatch-frames", "version": 1,
-                         "channels": ["lav", "tfuse"], "period": 0.1, "meta": {"test": "e2e"}}}
+    header = {
+        "header": {
+            "format": "casewatch-frames",
+            "version": 1,
+            "channels": ["lav", "tfuse"],
+            "period": 0.1,
+            "meta": {"test": "e2e"},
+        }
+    }
     lines = [json.dumps(header)] + [json.dumps(frame(i)) for i in range(frames)]
     path.write_text("\n".join(lines) + "\n")
     return path

@@ -35,9 +35,23 @@ def saved(x: np.ndarray, name: str = "els") -> SavedSignals:
 
 def spi(value: float, duration: float = 0.0, op: str = ">=", signal: str = "els") -> Knob:
     """An SPI `signal op value` held `for: duration` (merge_gap 0, no minimum duration)."""
-    return Knob("Sn1", "Sn1", "s", "spi", f"{signal} {op} {value}",
-                Compare(op, Signal(signal), Num(value)), (), signal, op, True, value, "for",
-                duration, 0.0, 0.0)  # fmt: skip
+    return Knob(
+        "Sn1",
+        "Sn1",
+        "s",
+        "spi",
+        f"{signal} {op} {value}",
+        Compare(op, Signal(signal), Num(value)),
+        (),
+        signal,
+        op,
+        True,
+        value,
+        "for",
+        duration,
+        0.0,
+        0.0,
+    )
 
 
 def dips(base: float, n: int, spans: list[tuple[int, int, float]]) -> np.ndarray:
@@ -56,17 +70,22 @@ def test_poisson_upper_bound_is_the_exact_garwood_bound():
     assert poisson_upper(10) == pytest.approx(16.962219, abs=1e-4)
     # the defining property, at a count where no table is needed: P(N <= 3 | bound) = 0.05
     mean = poisson_upper(3, 0.9)
-    assert sum(math.exp(-mean) * mean**i / math.factorial(i) for i in range(4)) == \
-        pytest.approx(0.1, abs=1e-9)  # fmt: skip
+    assert sum(math.exp(-mean) * mean**i / math.factorial(i) for i in range(4)) == pytest.approx(
+        0.1, abs=1e-9
+    )
     with pytest.raises(ValueError):
         poisson_upper(-1)
 
 
 @settings(max_examples=150, deadline=None)
-@given(st.lists(st.one_of(st.none(), st.sampled_from([0.0, 0.2, 0.5, 0.55, 0.9])), min_size=1,
-                max_size=40),
-       st.sampled_from([">=", ">", "<=", "<"]), st.sampled_from([0.0, 0.2, 0.5, 1.0]),
-       st.sampled_from([0.0, 0.2, 0.5, 0.55, 0.9, 1.0]))  # fmt: skip
+@given(
+    st.lists(
+        st.one_of(st.none(), st.sampled_from([0.0, 0.2, 0.5, 0.55, 0.9])), min_size=1, max_size=40
+    ),
+    st.sampled_from([">=", ">", "<=", "<"]),
+    st.sampled_from([0.0, 0.2, 0.5, 1.0]),
+    st.sampled_from([0.0, 0.2, 0.5, 0.55, 0.9, 1.0]),
+)
 def test_one_level_per_duration_splits_ticks_as_the_evaluator_does(values, op, duration, th):
     """`_levels` + `violated_at` (one robustness pass for all thresholds) equals the tuning
     path that evaluates the formula at each threshold, gaps (None) included."""
@@ -84,11 +103,24 @@ def faulty_hour() -> CalibrationLog:
     a localisation drift (els 0.4 for 3 s, ticks 30000-30030), a frozen channel that leaves
     els at 0.9 (t 3200-3202), and an object drop with els 0.45 (t 3400-3402), whose family
     does not list els."""
-    x = dips(0.9, HOUR, [(1000, 3, 0.5), (5000, 3, 0.5), (9000, 3, 0.5), (13000, 3, 0.5),
-                         (20000, 20, 0.3), (30000, 31, 0.4), (34000, 21, 0.45)])  # fmt: skip
-    faults = [FaultLabel("localisation_drift", 3000.0, 3003.0, "lav", 1),
-              FaultLabel("frozen_channel", 3200.0, 3202.0, "tfuse", 2),
-              FaultLabel("object_drop", 3400.0, 3402.0, "lav", 3)]  # fmt: skip
+    x = dips(
+        0.9,
+        HOUR,
+        [
+            (1000, 3, 0.5),
+            (5000, 3, 0.5),
+            (9000, 3, 0.5),
+            (13000, 3, 0.5),
+            (20000, 20, 0.3),
+            (30000, 31, 0.4),
+            (34000, 21, 0.45),
+        ],
+    )
+    faults = [
+        FaultLabel("localisation_drift", 3000.0, 3003.0, "lav", 1),
+        FaultLabel("frozen_channel", 3200.0, 3202.0, "tfuse", 2),
+        FaultLabel("object_drop", 3400.0, 3402.0, "lav", 3),
+    ]
     whole = saved(x)
     return CalibrationLog(nominal_only(whole, faults, 0.0), whole, faults, "faulty")
 
@@ -138,7 +170,8 @@ def test_a_cliff_is_refused_with_its_reason_and_the_original_kept():
     assert row["reason"] == (
         "no threshold that can fire keeps 2/h: els is exactly 0 on 160 nominal ticks (0.4%), "
         "and every threshold above 0 fires there; quietest that can fire: >= 0.5 for 3 s at "
-        "4.0/h")
+        "4.0/h"
+    )
     assert row["faults"] == 0 and row["chosen"]["detection"] is None
 
 
@@ -146,8 +179,9 @@ def test_too_few_nominal_hours_calibrate_nothing():
     log = saved(dips(0.9, 9000, [(100, 20, 0.3)]))  # a quarter of an hour
     row = choose(calibration_sweep(spi(0.6), [CalibrationLog(log, log)]), 0.0, min_hours=0.5)
     assert row["status"] == "not calibrated"
-    assert row["reason"] == ("0.25 h of nominal driving with a value of els, fewer than the "
-                             "0.5 h asked (--min-hours)")  # fmt: skip
+    assert row["reason"] == (
+        "0.25 h of nominal driving with a value of els, fewer than the 0.5 h asked (--min-hours)"
+    )
     assert row["chosen"] == row["original"] and row["original"]["episodes"] == 1
     assert row["original"]["per_hour_upper"] == pytest.approx(4.743865 / 0.25, abs=1e-4)
 
@@ -174,8 +208,7 @@ def test_only_loosens_unless_asked_to_tighten():
 def test_upper_bound_spis_loosen_upwards():
     # `els_var <= 0.05` is violated above its threshold; one hour at 0.01 with two 4 s rises to
     # 0.08 and one to 0.2: no `for:` up to 3 s filters a 4 s rise, so the threshold moves, up
-    log = saved(dips(0.01, HOUR, [(1000, 40, 0.08), (2000, 40, 0.08), (3000, 40, 0.2)]),
-                "els_var")  # fmt: skip
+    log = saved(dips(0.01, HOUR, [(1000, 40, 0.08), (2000, 40, 0.08), (3000, 40, 0.2)]), "els_var")
     sw = calibration_sweep(spi(0.05, 0.0, "<=", "els_var"), [CalibrationLog(log, log)])
     assert sw.thresholds == [0.01, 0.05, 0.08, 0.2]
     row = choose(sw, per_hour=1.0)

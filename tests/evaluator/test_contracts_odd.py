@@ -64,8 +64,10 @@ FOG = {"environment.weather": "fog"}
 
 
 def run(ev: Evaluator, values: list[dict], conditions: list[dict]) -> list[dict[str, str]]:
-    out = [ev.step(round(0.1 * i, 6), v, c) for i, (v, c) in
-           enumerate(zip(values, conditions, strict=True))]  # fmt: skip
+    out = [
+        ev.step(round(0.1 * i, 6), v, c)
+        for i, (v, c) in enumerate(zip(values, conditions, strict=True))
+    ]
     ev.finish()
     return out
 
@@ -75,17 +77,30 @@ def test_a_contract_is_judged_only_where_its_assumption_holds():
     values = rows((0.2, 3.5, 10), (0.8, 3.5, 10), (0.8, 2.5, 10), (0.2, 2.5, 10), (0.9, 3.5, 10))
     statuses = run(ev, values, [CLEAR] * 5)
     assert [s["Sn1"] for s in statuses] == [
-        "satisfied", "violated", "outside-assumption", "outside-assumption", "violated"]
+        "satisfied",
+        "violated",
+        "outside-assumption",
+        "outside-assumption",
+        "violated",
+    ]
     # the goal above says what its support says: no pass where the contract was not judged
     assert [s["G2"] for s in statuses] == [
-        "satisfied", "undermined", "outside-assumption", "outside-assumption", "undermined"]
+        "satisfied",
+        "undermined",
+        "outside-assumption",
+        "outside-assumption",
+        "undermined",
+    ]
     (stats,) = [f for f in ev.formula_stats() if f.id == "Sn1"]
-    assert (stats.ticks_evaluated, stats.ticks_violated, stats.ticks_outside_assumption,
-            stats.ticks_no_data) == (3, 2, 2, 0)  # fmt: skip
+    assert (
+        stats.ticks_evaluated,
+        stats.ticks_violated,
+        stats.ticks_outside_assumption,
+        stats.ticks_no_data,
+    ) == (3, 2, 2, 0)
     assert stats.assumption == "lane_width > 3"
     # two episodes (merge_gap 0): the ticks outside the assumption are not violations
-    assert [(e.start, e.end) for e in ev.episodes if e.node_id == "Sn1"] == [(0.1, 0.1),
-                                                                            (0.4, 0.4)]
+    assert [(e.start, e.end) for e in ev.episodes if e.node_id == "Sn1"] == [(0.1, 0.1), (0.4, 0.4)]
 
 
 def test_an_assumption_without_data_is_no_data_not_a_pass():
@@ -102,16 +117,36 @@ def test_outside_the_odd_no_claim_is_made_but_violations_stay():
     conditions = [CLEAR, FOG, CLEAR, CLEAR, {}]
     statuses = run(ev, values, conditions)
     assert [s["C1"] for s in statuses] == [
-        "satisfied", "outside-odd", "satisfied", "outside-odd", "no-data"]
+        "satisfied",
+        "outside-odd",
+        "satisfied",
+        "outside-odd",
+        "no-data",
+    ]
     # fog: nothing in the scope is claimed; speed 28 violates Sn2 inside the ODD; speed 31 is
     # outside the ODD's range, and the violation stays a violation there; nothing reported:
     # no data, not a pass
     assert [s["Sn1"] for s in statuses] == [
-        "satisfied", "outside-odd", "satisfied", "outside-odd", "no-data"]
+        "satisfied",
+        "outside-odd",
+        "satisfied",
+        "outside-odd",
+        "no-data",
+    ]
     assert [s["Sn2"] for s in statuses] == [
-        "satisfied", "outside-odd", "violated", "violated", "no-data"]
+        "satisfied",
+        "outside-odd",
+        "violated",
+        "violated",
+        "no-data",
+    ]
     assert [s["G1"] for s in statuses] == [
-        "satisfied", "outside-odd", "undermined", "undermined", "no-data"]
+        "satisfied",
+        "outside-odd",
+        "undermined",
+        "undermined",
+        "no-data",
+    ]
     (summary,) = ev.odd_summaries()
     assert (summary.inside, summary.outside, summary.unknown) == (2, 2, 1)
     assert summary.outside_by == {"environment.weather": 1, "speed": 1}
@@ -141,7 +176,11 @@ Sn2: {text: e2, spi: {stl: "x > 0"}}
     ev = evaluator_for(text)
     (status,) = run(ev, [{"x": 1.0}], [{"road.type": "urban"}])
     assert (status["Sn1"], status["G2"], status["Sn2"], status["G3"]) == (
-        "outside-odd", "outside-odd", "satisfied", "satisfied")
+        "outside-odd",
+        "outside-odd",
+        "satisfied",
+        "satisfied",
+    )
     assert status["G1"] == "outside-odd"  # its support is not all satisfied
 
 
@@ -161,11 +200,16 @@ def test_condition_tallies_and_spans():
 
 
 def test_odd_check_values_ranges_and_combinations():
-    spec = parse_odd({"attributes": {"road.type": ["highway", "urban"],
-                                     "road.lanes": {"min": 2, "max": 3},
-                                     "temporary.roadworks": [False]},
-                      "combinations": [{"road.type": "highway", "road.lanes": 3},
-                                       {"road.type": "urban"}]})  # fmt: skip
+    spec = parse_odd(
+        {
+            "attributes": {
+                "road.type": ["highway", "urban"],
+                "road.lanes": {"min": 2, "max": 3},
+                "temporary.roadworks": [False],
+            },
+            "combinations": [{"road.type": "highway", "road.lanes": 3}, {"road.type": "urban"}],
+        }
+    )
     check = OddCheck("C1", spec)
 
     def judge(**kw: object) -> str:
@@ -185,7 +229,9 @@ def test_odd_check_values_ranges_and_combinations():
 
 def test_conditions_in_streams_are_checked():
     assert flatten_conditions({"road": {"type": "highway", "lanes": 3}}) == {
-        "road.type": "highway", "road.lanes": 3.0}
+        "road.type": "highway",
+        "road.lanes": 3.0,
+    }
     header = parse_header({"header": {"meta": {"odd": {"environment": {"weather": "rain"}}}}})
     assert header.conditions == {"environment.weather": "rain"}
     bad = parse_header({"header": {"period": 0.2, "meta": {"odd": {"wether": {"rain": True}}}}})
@@ -199,10 +245,13 @@ def test_conditions_in_streams_are_checked():
 
 def stream_line(i: int) -> dict:
     t = round(0.1 * i, 6)
-    frame: dict = {"t": t, "signals": {"lane_offset": 0.6 if 10 <= i < 15 else 0.1,
-                                       "lane_width": 3.5, "speed": 10.0},
-                   "channels": {c: {"ego": ego(10.0 * t, 0.0), "plan": [], "objects": []}
-                                for c in ("lav", "tfuse")}}  # fmt: skip
+    frame: dict = {
+        "t": t,
+        "signals": {"lane_offset": 0.6 if 10 <= i < 15 else 0.1, "lane_width": 3.5, "speed": 10.0},
+        "channels": {
+            c: {"ego": ego(10.0 * t, 0.0), "plan": [], "objects": []} for c in ("lav", "tfuse")
+        },
+    }
     if i == 20:
         frame["odd"] = {"environment": {"weather": "fog"}}
     return frame
@@ -213,10 +262,16 @@ def test_a_run_reports_conditions_and_the_odd(tmp_path, engine):
     case = tmp_path / "case.yaml"
     case.write_text(CASE)
     stream = tmp_path / "s.jsonl"
-    header = {"header": {"channels": ["lav", "tfuse"], "period": 0.1,
-                         "meta": {"odd": {"environment": {"weather": "clear"}}}}}
-    stream.write_text("".join(json.dumps(x) + "\n" for x in
-                              [header, *(stream_line(i) for i in range(30))]))  # fmt: skip
+    header = {
+        "header": {
+            "channels": ["lav", "tfuse"],
+            "period": 0.1,
+            "meta": {"odd": {"environment": {"weather": "clear"}}},
+        }
+    }
+    stream.write_text(
+        "".join(json.dumps(x) + "\n" for x in [header, *(stream_line(i) for i in range(30))])
+    )
     c, spec = api.prepare(case)
     result = evaluate_stream(c, spec, stream, RunOptions(stl_engine=engine))
     by = {s.attributes["environment.weather"]: s for s in result.conditions}
@@ -238,23 +293,39 @@ def test_wilson_and_cluster_intervals_hand_computed():
     # se = sqrt(3/2 * 8) / 30 = 0.11547; t(2) = 4.303: 0.2 +- 0.4969
     rate, low, high, how = cluster_rate([0, 2, 4], [10, 10, 10])
     assert (rate, low, how) == (pytest.approx(0.2), 0.0, "runs")
-    assert high == pytest.approx(0.2 + 4.303 * (12 ** 0.5) / 30, abs=1e-6)
+    assert high == pytest.approx(0.2 + 4.303 * (12**0.5) / 30, abs=1e-6)
     assert cluster_rate([1], [4])[3] == "ticks" and cluster_rate([0], [0])[0] is None
     assert t95(2) == 4.303 and t95(1000) == pytest.approx(1.96, abs=1e-3)
 
 
 def test_the_accepted_odd_is_a_product_or_its_combinations():
     def report(cells: list[tuple[str, str, bool]]) -> dict:
-        return {"by": ["environment.weather", "environment.light"],
-                "cells": [{"conditions": {"environment.weather": w, "environment.light": li},
-                           "accepted": a} for w, li, a in cells]}  # fmt: skip
+        return {
+            "by": ["environment.weather", "environment.light"],
+            "cells": [
+                {"conditions": {"environment.weather": w, "environment.light": li}, "accepted": a}
+                for w, li, a in cells
+            ],
+        }
 
-    product = accepted_odd(report([("clear", "day", True), ("rain", "day", True),
-                                   ("fog", "day", False)]))  # fmt: skip
-    assert product.attributes == {"environment.weather": ["clear", "rain"],
-                                  "environment.light": ["day"]} and product.combinations == []
-    partial = accepted_odd(report([("clear", "day", True), ("clear", "night", True),
-                                   ("rain", "day", True), ("rain", "night", False)]))
+    product = accepted_odd(
+        report([("clear", "day", True), ("rain", "day", True), ("fog", "day", False)])
+    )
+    assert (
+        product.attributes
+        == {"environment.weather": ["clear", "rain"], "environment.light": ["day"]}
+        and product.combinations == []
+    )
+    partial = accepted_odd(
+        report(
+            [
+                ("clear", "day", True),
+                ("clear", "night", True),
+                ("rain", "day", True),
+                ("rain", "night", False),
+            ]
+        )
+    )
     assert len(partial.combinations) == 3
     assert parse_odd(odd_to_data(partial)) == partial  # what casewatch odd writes reads back
     assert accepted_odd(report([("fog", "day", False)])) is None
@@ -274,10 +345,13 @@ def test_leaving_and_reentering_the_odd_are_events():
     run(ev, values, [clear, fog, fog, {}, clear])
     changes = [e for e in seen if isinstance(e, OddChange)]
     assert [(e.t, e.state, e.because) for e in changes] == [
-        (0.1, "outside", "environment.weather"), (0.3, "unknown", "environment.weather"),
-        (0.4, "inside", None)]
-    assert event_line(changes[0]) == ("ODD      C1  OUTSIDE the ODD from 0.1 s "
-                                      "(environment.weather)")
+        (0.1, "outside", "environment.weather"),
+        (0.3, "unknown", "environment.weather"),
+        (0.4, "inside", None),
+    ]
+    assert event_line(changes[0]) == (
+        "ODD      C1  OUTSIDE the ODD from 0.1 s (environment.weather)"
+    )
     assert event_record(changes[2])["event"] == "odd_change"
 
 
@@ -286,8 +360,12 @@ def test_an_assumption_restarts_after_a_stream_gap(tmp_path, engine):
     """`once[0:1s](lane_width > 3)` must not reach across a gap in the frames: after it, the
     narrow lane is outside the assumption at once, with every engine."""
     case = tmp_path / "case.yaml"
-    case.write_text(CASE.replace('contract: {assume: "lane_width > 3"',
-                                 'contract: {assume: "once[0:1s] (lane_width > 3)"'))
+    case.write_text(
+        CASE.replace(
+            'contract: {assume: "lane_width > 3"',
+            'contract: {assume: "once[0:1s] (lane_width > 3)"',
+        )
+    )
     stream = tmp_path / "s.jsonl"
     lines = []
     for i in [*range(10), *range(20, 30)]:  # frames at 0.0-0.9 s and 2.0-2.9 s
@@ -306,10 +384,16 @@ def test_unreadable_conditions_are_a_defect_and_report_nothing(tmp_path):
     from casewatch.monitor.reader import StreamReader
 
     stream = tmp_path / "s.jsonl"
-    header = {"header": {"channels": ["lav", "tfuse"], "period": 0.1,
-                         "meta": {"odd": {"environment": {"weather": ["fog"]}}}}}
-    stream.write_text("".join(json.dumps(x) + "\n" for x in
-                              [header, *(stream_line(i) for i in range(3))]))  # fmt: skip
+    header = {
+        "header": {
+            "channels": ["lav", "tfuse"],
+            "period": 0.1,
+            "meta": {"odd": {"environment": {"weather": ["fog"]}}},
+        }
+    }
+    stream.write_text(
+        "".join(json.dumps(x) + "\n" for x in [header, *(stream_line(i) for i in range(3))])
+    )
     reader = StreamReader(stream)
     assert len(list(reader)) == 3
     (defect,) = reader.defects

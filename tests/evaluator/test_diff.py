@@ -26,8 +26,10 @@ def spans(items: list[dict]) -> list[tuple[float, float]]:
 
 A = with_csn2(sample_result(), [(92.0, 96.2), (118.9, 121.7), (129.0, 130.0)])
 #: 92.0-96.2 finds L0 in A; 118.9-121.7 and 129.0-130.0 find nothing (false alarms in A)
-LABELS = [LabelInterval(node_id="CSn2", start=93.0, end=95.0),
-          LabelInterval(node_id="CSn2", start=140.0, end=145.0)]  # fmt: skip
+LABELS = [
+    LabelInterval(node_id="CSn2", start=93.0, end=95.0),
+    LabelInterval(node_id="CSn2", start=140.0, end=145.0),
+]
 #: B loses 92.0-96.2 (L0 no longer found) and 118.9-121.7, keeps 129.0-130.0, finds L1 at
 #: 141-143 and raises a new false alarm at 160-161
 B = with_csn2(A, [(129.0, 130.0), (141.0, 143.0), (160.0, 161.0)])
@@ -79,8 +81,15 @@ def test_a_label_found_by_another_episode_is_moved_not_lost():
 
 def test_pages_colour_regressions_red_and_gone_neutral():
     d = {**diff_runs(A, B, "drive", LABELS), "labels": "labels.jsonl"}
-    report = {"a": "A", "b": "B", "fail_on": "any", "regressions": 2, "only_a": [],
-              "only_b": [], "logs": [d]}  # fmt: skip
+    report = {
+        "a": "A",
+        "b": "B",
+        "fail_on": "any",
+        "regressions": 2,
+        "only_a": [],
+        "only_b": [],
+        "logs": [d],
+    }
     html = render_diff_html(report)
     assert '<li class="bad">lost detection CSn2: 92.0-96.2 s' in html
     assert '<li class="good">fixed CSn2: 118.9-121.7 s' in html
@@ -94,4 +103,4 @@ def test_pages_colour_regressions_red_and_gone_neutral():
     assert '<li class="neutral">gone CSn2: 92.0-96.2 s' in html
     body = html.split("</dl>")[1]
     assert '<td class="good"' not in body and '<li class="good"' not in body  # nothing green
-    assert "<th>B</th><th class=\"bad\">new</th><th class=\"neutral\">gone</th>" in body
+    assert '<th>B</th><th class="bad">new</th><th class="neutral">gone</th>' in body

@@ -25,19 +25,27 @@ def test_reads_a_fault_labels_file(tmp_path: Path) -> None:
         '{"fault": "phantom", "start": 60, "end": 61.9, "channel": "lav"}\n'
     )
     faults = read_fault_labels(path)
-    assert faults == [FaultLabel("object_drop", 41.2, 44.7, "tfuse", 1),
-                      FaultLabel("phantom", 60.0, 61.9, "lav", 3)]
+    assert faults == [
+        FaultLabel("object_drop", 41.2, 44.7, "tfuse", 1),
+        FaultLabel("phantom", 60.0, 61.9, "lav", 3),
+    ]
     assert faults[0].signals == FAMILY_SIGNALS["object_drop"] == ("lone_age",)
 
 
-@pytest.mark.parametrize(("line", "message"), [
-    ('{"fault": "gremlin", "start": 1, "end": 2, "channel": "a"}', "'fault' must be one of"),
-    ('{"fault": "phantom", "start": "1", "end": 2, "channel": "a"}', "'start' must be a number"),
-    ('{"fault": "phantom", "start": 3, "end": 2, "channel": "a"}', "'end' (2.0) is before"),
-    ('{"fault": "phantom", "start": 1, "end": 2}', "'channel' must name"),
-    ("[1, 2]", "expected an object"),
-    ("{oops", "not valid JSON (Expecting property name"),
-])
+@pytest.mark.parametrize(
+    ("line", "message"),
+    [
+        ('{"fault": "gremlin", "start": 1, "end": 2, "channel": "a"}', "'fault' must be one of"),
+        (
+            '{"fault": "phantom", "start": "1", "end": 2, "channel": "a"}',
+            "'start' must be a number",
+        ),
+        ('{"fault": "phantom", "start": 3, "end": 2, "channel": "a"}', "'end' (2.0) is before"),
+        ('{"fault": "phantom", "start": 1, "end": 2}', "'channel' must name"),
+        ("[1, 2]", "expected an object"),
+        ("{oops", "not valid JSON (Expecting property name"),
+    ],
+)
 def test_bad_lines_name_file_line_and_key(tmp_path: Path, line: str, message: str) -> None:
     path = tmp_path / "x.fault-labels.jsonl"
     path.write_text('{"fault": "phantom", "start": 1, "end": 2, "channel": "a"}\n' + line + "\n")

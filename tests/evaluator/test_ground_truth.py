@@ -11,8 +11,17 @@ HAZARDS = {"CSn1": "Inconsistent ego localization", "CSn2": "Ego tailgating iden
 
 
 def event(node: str, start: float, end: float) -> Episode:
-    return Episode(formula_id=node, node_id=node, kind="hazard", start=start, end=end,
-                   ticks=1, worst_robustness=-0.1, t_worst=start, trace=[])
+    return Episode(
+        formula_id=node,
+        node_id=node,
+        kind="hazard",
+        start=start,
+        end=end,
+        ticks=1,
+        worst_robustness=-0.1,
+        t_worst=start,
+        trace=[],
+    )
 
 
 def test_one_true_positive_one_false_positive_one_false_negative():
@@ -30,8 +39,11 @@ def test_one_true_positive_one_false_positive_one_false_negative():
 
 def test_events_are_marked_and_labels_kept_for_the_report():
     events = [event("CSn2", 10.0, 12.0), event("CSn2", 30.0, 31.0)]
-    labels = [Label("CSn2", 11.0, 13.0, 1), Label("Ego tailgating identified", 50.0, 52.0, 2),
-              Label("cut-in", 60.0, 61.0, 3)]  # fmt: skip
+    labels = [
+        Label("CSn2", 11.0, 13.0, 1),
+        Label("Ego tailgating identified", 50.0, 52.0, 2),
+        Label("cut-in", 60.0, 61.0, 3),
+    ]
     gt = score_events(events, labels, HAZARDS, "labels.jsonl", "d")
     assert [(m.start, m.match) for m in gt.marks] == [(10.0, "TP"), (30.0, "FP")]
     # labels resolved to hazard nodes (by id or text); the unknown one is reported apart
@@ -64,8 +76,12 @@ def test_unknown_hazard_names_are_reported():
 
 def test_read_labels_errors_name_file_and_line(tmp_path):
     path = tmp_path / "labels.jsonl"
-    path.write_text(json.dumps({"hazard": "CSn1", "start": 1, "end": 2}) + "\n"
-                    + json.dumps({"hazard": "CSn1", "start": "soon", "end": 2}) + "\n")
+    path.write_text(
+        json.dumps({"hazard": "CSn1", "start": 1, "end": 2})
+        + "\n"
+        + json.dumps({"hazard": "CSn1", "start": "soon", "end": 2})
+        + "\n"
+    )
     with pytest.raises(LabelsError, match=r"labels.jsonl:2: 'start' must be a number"):
         read_labels(path)
     path.write_text('{"hazard": "CSn1", "start": 3, "end": 2}\n')

@@ -18,21 +18,26 @@ def near_frame(i: int) -> dict:
     t = round(i * 0.1, 6)
     x = 10.0 * t
     offset = 2.0 if 2.0 <= t <= 3.0 else 0.4 if 6.0 <= t <= 6.9 else 0.0
-    return {"t": t, "signals": {"speed": 10.0},
-            "channels": {"lav": {"ego": ego(x, 0.0), "plan": [], "objects": []},
-                         "tfuse": {"ego": ego(x, offset), "plan": [], "objects": []}}}  # fmt: skip
+    return {
+        "t": t,
+        "signals": {"speed": 10.0},
+        "channels": {
+            "lav": {"ego": ego(x, 0.0), "plan": [], "objects": []},
+            "tfuse": {"ego": ego(x, offset), "plan": [], "objects": []},
+        },
+    }
 
 
 def test_near_misses_are_reported_not_violations(tmp_path):
-    text = (SMALL_CASE.replace('threshold: ">= 0.6"}', 'threshold: ">= 0.6", warn: 0.2}')
-            .replace('hazard: {when: "speed > 20"}', 'hazard: {when: "speed > 20", warn: 15}'))
+    text = SMALL_CASE.replace('threshold: ">= 0.6"}', 'threshold: ">= 0.6", warn: 0.2}').replace(
+        'hazard: {when: "speed > 20"}', 'hazard: {when: "speed > 20", warn: 15}'
+    )
     case_path = tmp_path / "case.yaml"
     case_path.write_text(text)
     stream = tmp_path / "s.jsonl"
     stream.write_text("".join(json.dumps(near_frame(i)) + "\n" for i in range(100)))
     case, spec = api.prepare(case_path)
-    result = evaluate_stream(case, spec, stream,
-                             RunOptions(events_path=tmp_path / "events.jsonl"))  # fmt: skip
+    result = evaluate_stream(case, spec, stream, RunOptions(events_path=tmp_path / "events.jsonl"))
     # the violation is an episode, as without a margin
     assert [(e.node_id, e.start, e.end) for e in result.episodes] == [("Sn1", 2.0, 3.0)]
     near = {(n.node_id, n.start, n.end): n for n in result.near_misses}
@@ -44,11 +49,11 @@ def test_near_misses_are_reported_not_violations(tmp_path):
     assert near[("CSn1", 0.0, 9.9)].least_robustness == 10.0
     # never a status change: Sn1 reads satisfied through 6.0-6.9 s, CSn1 never raises a hazard
     sn1 = next(s for s in result.status if s.node_id == "Sn1")
-    assert all(iv.status == "satisfied" for iv in sn1.timeline
-               if iv.start >= 6.0 and iv.end <= 6.9)  # fmt: skip
+    assert all(iv.status == "satisfied" for iv in sn1.timeline if iv.start >= 6.0 and iv.end <= 6.9)
     assert not any(e.kind == "hazard" for e in result.episodes)
-    kinds = [json.loads(line)["event"] for line in (tmp_path / "events.jsonl").read_text()
-             .splitlines()]  # fmt: skip
+    kinds = [
+        json.loads(line)["event"] for line in (tmp_path / "events.jsonl").read_text().splitlines()
+    ]
     assert kinds.count("near_miss") == 2 and kinds.count("spi_episode") == 1
 
 

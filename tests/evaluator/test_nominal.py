@@ -14,13 +14,13 @@ from casewatch.nominal import main as nominal_main
 
 
 def formula(node: str, signal: str, kind: str = "spi") -> FormulaStats:
-    return FormulaStats(id=node, node_id=node, node_text=node, kind=kind, source=signal,
-                        rtamt="", signal=signal)  # fmt: skip
+    return FormulaStats(
+        id=node, node_id=node, node_text=node, kind=kind, source=signal, rtamt="", signal=signal
+    )
 
 
 def interval(status: str, start: float, end: float) -> StatusInterval:
-    return StatusInterval(status=status, start=start, end=end,
-                          ticks=round((end - start) / 0.1) + 1)  # fmt: skip
+    return StatusInterval(status=status, start=start, end=end, ticks=round((end - start) / 0.1) + 1)
 
 
 def test_nominal_mask_keeps_ticks_beyond_the_margin():
@@ -37,11 +37,20 @@ def test_shares_count_only_evaluated_nominal_ticks():
     # not nominal (22 ticks). Evaluated nominal ticks: 100 - 20 - 22 = 58; violated 5.
     result = RunResult.model_construct(
         formulas=[formula("Sn1", "els"), formula("CSn1", "els_var", "hazard")],
-        status=[NodeStatus(node_id="Sn1", worst="violated", timeline=[
-            interval("satisfied", 0.0, 0.9), interval("violated", 1.0, 1.4),
-            interval("satisfied", 1.5, 3.9), interval("violated", 4.0, 4.4),
-            interval("satisfied", 4.5, 7.9), interval("no-data", 8.0, 9.9),
-        ])],
+        status=[
+            NodeStatus(
+                node_id="Sn1",
+                worst="violated",
+                timeline=[
+                    interval("satisfied", 0.0, 0.9),
+                    interval("violated", 1.0, 1.4),
+                    interval("satisfied", 1.5, 3.9),
+                    interval("violated", 4.0, 4.4),
+                    interval("satisfied", 4.5, 7.9),
+                    interval("no-data", 8.0, 9.9),
+                ],
+            )
+        ],
     )
     (row,) = nominal_shares(result, [Label("CSn1", 4.2, 4.3, 1)], margin=1.0)
     assert (row.node_id, row.signal, row.evaluated, row.violated) == ("Sn1", "els", 58, 5)
@@ -53,25 +62,49 @@ def test_cli_needs_labels_and_prints_the_table(tmp_path, capsys):
 
     labels = tmp_path / "drive.labels.jsonl"
     labels.write_text(json.dumps({"hazard": "CSn1", "start": 4.2, "end": 4.3}) + "\n")
-    score = HazardScore(hazard="all", true_positives=0, false_positives=0, false_negatives=0,
-                        precision=None, recall=None)  # fmt: skip
+    score = HazardScore(
+        hazard="all",
+        true_positives=0,
+        false_positives=0,
+        false_negatives=0,
+        precision=None,
+        recall=None,
+    )
     run = tmp_path / "drive"
     run.mkdir()
     result = RunResult(
-        casewatch_version="t", created="2026-11-24T00:00:00Z",
-        case=CaseInfo(path="c", digest="d", module="m", root_id="G1", channels=["a", "b"],
-                      period=0.1, nodes=[]),
-        stream=StreamInfo(path="s", digest=None), verdict="violated",
-        formulas=[formula("Sn1", "els")], episodes=[], data_gaps=[], series=[],
-        status=[NodeStatus(node_id="Sn1", worst="violated", timeline=[
-            interval("satisfied", 0.0, 0.9), interval("violated", 1.0, 1.4)])],
+        casewatch_version="t",
+        created="2026-11-24T00:00:00Z",
+        case=CaseInfo(
+            path="c",
+            digest="d",
+            module="m",
+            root_id="G1",
+            channels=["a", "b"],
+            period=0.1,
+            nodes=[],
+        ),
+        stream=StreamInfo(path="s", digest=None),
+        verdict="violated",
+        formulas=[formula("Sn1", "els")],
+        episodes=[],
+        data_gaps=[],
+        series=[],
+        status=[
+            NodeStatus(
+                node_id="Sn1",
+                worst="violated",
+                timeline=[interval("satisfied", 0.0, 0.9), interval("violated", 1.0, 1.4)],
+            )
+        ],
         ground_truth=None,
-    )  # fmt: skip
+    )
     (run / "result.json").write_text(result.model_dump_json())
     assert nominal_main([str(run)]) == 2  # judged without labels: refused, not guessed
     assert "--labels" in capsys.readouterr().err
-    result.ground_truth = GroundTruth(labels_path=str(labels), labels_digest="x",
-                                      per_hazard=[], overall=score)  # fmt: skip
+    result.ground_truth = GroundTruth(
+        labels_path=str(labels), labels_digest="x", per_hazard=[], overall=score
+    )
     (run / "result.json").write_text(result.model_dump_json())
     # default margin 3 s around 4.2-4.3: ticks 0.0-1.1 are nominal (12), of which 1.0 and 1.1
     # violated: 2 / 12 = 16.67 % > 1 %: exit 1

@@ -25,8 +25,10 @@ NaN = math.nan
 
 
 def compiled(for_seconds: float | None):
-    case = make_case(spi_node("Sn1", "speed", "<=", 20.0, for_seconds=for_seconds),
-                     signals={"speed": "ego speed, m/s"})  # fmt: skip
+    case = make_case(
+        spi_node("Sn1", "speed", "<=", 20.0, for_seconds=for_seconds),
+        signals={"speed": "ego speed, m/s"},
+    )
     spec, findings = compile_case(case)
     assert spec is not None, findings
     return case, spec
@@ -58,10 +60,14 @@ def judge(case, spec, speeds: list[float], engine: str) -> tuple[list[str], Eval
 
 def reference_statuses(spec, speeds: list[float]) -> list[str]:
     formula = spec.formulas[0]
-    values = reference_verdicts(parse_rtamt(formula.rtamt, PERIOD), {"speed": speeds}, PERIOD,
-                                formula.warmup_ticks, formula.persist_ticks)  # fmt: skip
-    return ["no-data" if math.isnan(v) else "violated" if v < 0 else "satisfied"
-            for v in values]  # fmt: skip
+    values = reference_verdicts(
+        parse_rtamt(formula.rtamt, PERIOD),
+        {"speed": speeds},
+        PERIOD,
+        formula.warmup_ticks,
+        formula.persist_ticks,
+    )
+    return ["no-data" if math.isnan(v) else "violated" if v < 0 else "satisfied" for v in values]
 
 
 # 0.0 and 0.1 too fast (two ticks: shorter than `for: 0.3s`), no speed at 0.5, then too fast
@@ -75,10 +81,21 @@ def test_a_violation_counts_once_it_has_lasted_for_of_data(engine: str) -> None:
     assert spec.formulas[0].persist_ticks == 3
     statuses, evaluator = judge(case, spec, [float(v) for v in SPEEDS], engine)
     assert statuses == [
-        "no-data", "no-data", "satisfied", "satisfied", "satisfied",
-        "no-data", "no-data", "no-data", "no-data", "violated", "violated",
-        "satisfied", "satisfied", "satisfied",
-    ]  # fmt: skip
+        "no-data",
+        "no-data",
+        "satisfied",
+        "satisfied",
+        "satisfied",
+        "no-data",
+        "no-data",
+        "no-data",
+        "no-data",
+        "violated",
+        "violated",
+        "satisfied",
+        "satisfied",
+        "satisfied",
+    ]
     assert [(e.start, e.end, e.ticks) for e in evaluator.episodes] == [(0.9, 1.0, 2)]
     gaps = [(g.start, g.end, g.missing) for g in evaluator.data_gaps]
     assert gaps == [(0.0, 0.1, [PERSISTING]), (0.5, 0.8, [PERSISTING, "speed"])]
@@ -124,7 +141,10 @@ def test_both_engines_judge_as_the_reference_evaluator(for_seconds, speeds) -> N
 
 
 def test_reference_verdicts_by_hand() -> None:
-    got = reference_verdicts(parse_rtamt("once[0:0.2] (x >= 1.0)", PERIOD),
-                             {"x": [0.0, 0.0, 0.0, 2.0, NaN, 0.0, 0.0, 0.0]}, PERIOD,
-                             persist_ticks=2)  # fmt: skip
+    got = reference_verdicts(
+        parse_rtamt("once[0:0.2] (x >= 1.0)", PERIOD),
+        {"x": [0.0, 0.0, 0.0, 2.0, NaN, 0.0, 0.0, 0.0]},
+        PERIOD,
+        persist_ticks=2,
+    )
     np.testing.assert_array_equal(got, [NaN, NaN, -1.0, 1.0, NaN, NaN, NaN, -1.0])

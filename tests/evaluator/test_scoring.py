@@ -13,17 +13,32 @@ from casewatch.safety_case.model import ScoringParams
 
 
 def formula(fid: str, rule: str | None) -> FormulaStats:
-    return FormulaStats(id=fid, node_id=fid, node_text=rule or "", kind="hazard", source="x",
-                        rtamt="x", rule=rule)  # fmt: skip
+    return FormulaStats(
+        id=fid, node_id=fid, node_text=rule or "", kind="hazard", source="x", rtamt="x", rule=rule
+    )
 
 
 def event(fid: str, start: float, end: float | None = None) -> Episode:
-    return Episode(formula_id=fid, node_id=fid, kind="hazard", start=start, end=end or start,
-                   ticks=1, worst_robustness=-1.0, t_worst=start, trace=[])  # fmt: skip
+    return Episode(
+        formula_id=fid,
+        node_id=fid,
+        kind="hazard",
+        start=start,
+        end=end or start,
+        ticks=1,
+        worst_robustness=-1.0,
+        t_worst=start,
+        trace=[],
+    )
 
 
-FORMULAS = [formula("R", "red_light"), formula("C", "collision"), formula("S", "stop_sign"),
-            formula("H", "no_headlights"), formula("F", "no_fog_lights")]  # fmt: skip
+FORMULAS = [
+    formula("R", "red_light"),
+    formula("C", "collision"),
+    formula("S", "stop_sign"),
+    formula("H", "no_headlights"),
+    formula("F", "no_fog_lights"),
+]
 
 
 def ticks(n: int = 100) -> tuple[np.ndarray, dict[str, np.ndarray]]:
@@ -36,13 +51,19 @@ def ticks(n: int = 100) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     tl_distance = np.where(t < 1.0, 5.0, np.where(t < 1.5, -1.0, 1000.0))
     contact = np.where((t >= 5.0) & (t < 5.3), 1.0, 0.0)
     return t, {
-        "vehicle_speed": speed, "ego_speed": np.full(n, np.nan), "speed_limit": np.full(n, 10.0),
-        "route_progress": np.linspace(0.0, 80.0, n), "route_length": np.full(n, 100.0),
-        "tl_state": np.where(t < 1.0, 3.0, 0.0), "tl_distance": tl_distance,
-        "stop_distance": np.full(n, 1000.0), "collision_party": contact,
-        "collision_at_fault": contact, "collision_victim": np.zeros(n),
+        "vehicle_speed": speed,
+        "ego_speed": np.full(n, np.nan),
+        "speed_limit": np.full(n, 10.0),
+        "route_progress": np.linspace(0.0, 80.0, n),
+        "route_length": np.full(n, 100.0),
+        "tl_state": np.where(t < 1.0, 3.0, 0.0),
+        "tl_distance": tl_distance,
+        "stop_distance": np.full(n, 1000.0),
+        "collision_party": contact,
+        "collision_at_fault": contact,
+        "collision_victim": np.zeros(n),
         "collision_victim_party": np.zeros(n),
-    }  # fmt: skip
+    }
 
 
 def test_eq_6_1_as_written():
@@ -53,16 +74,25 @@ def test_eq_6_1_as_written():
     # s = the route length 100 m (not the 80 m driven); v_avg 10 m/s; one stop line passed,
     # 12 s: t_o = 100 / 10 * (1 + 0.2) + 12 = 24 s; t = 10 s; c = 80 / 100 = 0.8
     assert (p["s"], p["v_avg"], p["stops"], p["t_o"], p["t"], p["c"], p["d"]) == (
-        100.0, 10.0, [12.0], 24.0, 10.0, 0.8, 100.0)
+        100.0,
+        10.0,
+        [12.0],
+        24.0,
+        10.0,
+        0.8,
+        100.0,
+    )
     # red light while speeding 100, pedestrian 600, stop sign 40 (table A.3): 740
     assert p["penalty_sum"] == 740.0
     assert p["per_rule"]["red_light"] == {"events": 1, "while_speeding": 1, "penalty": 100.0}
     # uncapped: t_o / t = 2.4. score = 0.8 * 2.4 * 100 - 0.7 * 740 = 192 - 518 = -326
     assert p["timeliness"] == 2.4
     assert p["score"] == pytest.approx(-326.0)
-    assert p["made_of"].startswith("-326 = c 0.8 x t_o 24 s / t 10 s x d 100 - gamma 0.7 x "
-                                   "penalties 740; t_o = s 100 m / v_avg 10 m/s x (1 + alpha "
-                                   "0.2) + 1 stops 12 s")  # fmt: skip
+    assert p["made_of"].startswith(
+        "-326 = c 0.8 x t_o 24 s / t 10 s x d 100 - gamma 0.7 x "
+        "penalties 740; t_o = s 100 m / v_avg 10 m/s x (1 + alpha "
+        "0.2) + 1 stops 12 s"
+    )
 
 
 def test_the_capped_time_term_is_an_explicit_variant():
@@ -77,8 +107,7 @@ def test_v_avg_is_the_speed_limit_averaged_over_the_route_not_over_time():
     # 40 m in 8 s under 10 m/s (ticks 0-80), then 40 m in 1.9 s under 20 m/s. Over the route:
     # (40 * 10 + 40 * 20) / 80 = 15 m/s (over time: (81 * 10 + 19 * 20) / 100 = 11.9)
     t, cols = ticks()
-    cols["route_progress"] = np.concatenate([np.linspace(0, 40, 81),
-                                             np.linspace(40, 80, 20)[1:]])  # fmt: skip
+    cols["route_progress"] = np.concatenate([np.linspace(0, 40, 81), np.linspace(40, 80, 20)[1:]])
     cols["speed_limit"] = np.where(np.arange(100) <= 80, 10.0, 20.0)
     cols["route_length"] = np.full(100, 80.0)
     out = score_run([], FORMULAS, t, cols, 0.1, ScoringParams(alpha=0.0, stops=[]))
@@ -90,8 +119,15 @@ def test_v_avg_is_the_speed_limit_averaged_over_the_route_not_over_time():
 
 def test_stops_route_length_and_overrides_are_parameters():
     t, cols = ticks()
-    params = ScoringParams(gamma=1.0, d=10.0, alpha=0.0, route_length=200.0, stops=[12.0, 30.0],
-                           penalties={"red_light": (5.0, 7.0)}, carla={"red_light": 0.5})
+    params = ScoringParams(
+        gamma=1.0,
+        d=10.0,
+        alpha=0.0,
+        route_length=200.0,
+        stops=[12.0, 30.0],
+        penalties={"red_light": (5.0, 7.0)},
+        carla={"red_light": 0.5},
+    )
     events = [event("R", 3.0), event("H", 6.0, 8.0), event("F", 7.0, 9.0)]
     out = score_run(events, FORMULAS, t, cols, 0.1, params)
     p = out["penalty"]
@@ -104,8 +140,10 @@ def test_stops_route_length_and_overrides_are_parameters():
     assert out["carla"]["per_infraction"]["red_light"] == {"events": 1, "coefficient": 0.5}
 
 
-@pytest.mark.parametrize(("key", "value"), [("gamma", 0.0), ("gamma", 1.5), ("alpha", 1.5),
-                                            ("d", 1001.0), ("stop_allowance", -1.0)])
+@pytest.mark.parametrize(
+    ("key", "value"),
+    [("gamma", 0.0), ("gamma", 1.5), ("alpha", 1.5), ("d", 1001.0), ("stop_allowance", -1.0)],
+)
 def test_the_parameters_are_bounded_as_the_thesis_bounds_them(key, value):
     with pytest.raises(ValidationError, match=key):
         ScoringParams(**{key: value})
@@ -120,9 +158,15 @@ def test_leaderboard_collisions_red_light_stop_sign():
     assert c["driving_score"] == pytest.approx(22.4)
     assert c["per_infraction"]["collisions_pedestrian"] == {"events": 1, "coefficient": 0.5}
     # the stream carries none of the other inputs: not scored, never "none"
-    assert set(c["not_scored"]) == {"route_dev", "vehicle_blocked", "route_timeout",
-                                    "scenario_timeouts", "yield_emergency_vehicle_infractions",
-                                    "outside_route_lanes", "min_speed_infractions"}  # fmt: skip
+    assert set(c["not_scored"]) == {
+        "route_dev",
+        "vehicle_blocked",
+        "route_timeout",
+        "scenario_timeouts",
+        "yield_emergency_vehicle_infractions",
+        "outside_route_lanes",
+        "min_speed_infractions",
+    }
     assert "not scored: route_dev" in c["made_of"]
 
 
@@ -137,8 +181,9 @@ def test_leaderboard_counts_the_victims_collisions():
     cols["route_progress"] = np.linspace(0.0, 50.0, 100)
     out = score_run([], FORMULAS, t, cols, 0.1, ScoringParams())
     assert out["carla"]["driving_score"] == pytest.approx(30.0)
-    assert out["carla"]["per_infraction"] == {"collisions_vehicle": {"events": 1,
-                                                                     "coefficient": 0.6}}
+    assert out["carla"]["per_infraction"] == {
+        "collisions_vehicle": {"events": 1, "coefficient": 0.6}
+    }
     assert out["penalty"]["penalty_sum"] == 0.0
 
 
@@ -175,11 +220,16 @@ def test_leaderboard_min_speed_and_yield_match_a_published_result():
     # (1 - 0.3 * (1 - 0.7963)) * 0.7 = 0.93889 * 0.7 = 0.657223
     n = 41
     t = np.round(np.arange(n) * 0.1, 6)
-    cols = {"vehicle_speed": np.full(n, 7.963), "speed_limit": np.full(n, 10.0),
-            "route_progress": np.linspace(0.0, 100.0, n), "route_length": np.full(n, 100.0),
-            "traffic_speed": np.full(n, 10.0),
-            "yield_failed": np.where(t >= 3.0, 1.0, 0.0), "collision_at_fault": np.zeros(n),
-            "collision_victim": np.zeros(n)}  # fmt: skip
+    cols = {
+        "vehicle_speed": np.full(n, 7.963),
+        "speed_limit": np.full(n, 10.0),
+        "route_progress": np.linspace(0.0, 100.0, n),
+        "route_length": np.full(n, 100.0),
+        "traffic_speed": np.full(n, 10.0),
+        "yield_failed": np.where(t >= 3.0, 1.0, 0.0),
+        "collision_at_fault": np.zeros(n),
+        "collision_victim": np.zeros(n),
+    }
     c = score_run([], FORMULAS, t, cols, 0.1, ScoringParams(min_speed_checkpoints=1))["carla"]
     assert c["infraction_penalty"] == pytest.approx(0.657223, abs=1e-6)
 

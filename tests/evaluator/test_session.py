@@ -85,8 +85,12 @@ def test_result_round_trips_through_json(run):
 def test_period_mismatch_is_an_input_error(tmp_path):
     case, spec = api.prepare(write_case(tmp_path / "case.yaml"))
     stream = tmp_path / "s.jsonl"
-    stream.write_text(json.dumps({"header": {"channels": ["lav", "tfuse"], "period": 0.05}})
-                      + "\n" + json.dumps({"t": 0.0, "channels": {}}) + "\n")
+    stream.write_text(
+        json.dumps({"header": {"channels": ["lav", "tfuse"], "period": 0.05}})
+        + "\n"
+        + json.dumps({"t": 0.0, "channels": {}})
+        + "\n"
+    )
     with pytest.raises(InputError, match=r"s.jsonl:1: the stream's period is 0.05 s"):
         evaluate_stream(case, spec, stream)
 
@@ -100,13 +104,16 @@ def test_labels_score_one_tp_one_fp_one_fn(tmp_path):
         t = round(i * 0.1, 6)
         speed = 25.0 if 3.0 <= t <= 3.9 or 7.0 <= t <= 7.4 else 10.0
         ch = {"ego": {"x": t, "y": 0.0, "yaw": 0.0, "length": 4.5, "width": 1.8}}
-        lines.append(json.dumps({"t": t, "channels": {"lav": ch, "tfuse": ch},
-                                 "signals": {"speed": speed}}))
+        lines.append(
+            json.dumps({"t": t, "channels": {"lav": ch, "tfuse": ch}, "signals": {"speed": speed}})
+        )
     stream = tmp_path / "s.jsonl"
     stream.write_text("\n".join(lines) + "\n")
     labels = tmp_path / "labels.jsonl"
-    labels.write_text('{"hazard": "CSn1", "start": 3.5, "end": 4.5}\n'
-                      '{"hazard": "Ego far off the speed limit", "start": 8.5, "end": 9.0}\n')
+    labels.write_text(
+        '{"hazard": "CSn1", "start": 3.5, "end": 4.5}\n'
+        '{"hazard": "Ego far off the speed limit", "start": 8.5, "end": 9.0}\n'
+    )
     result = evaluate_stream(case, spec, stream, RunOptions(labels=labels))
     hazards = [(e.start, e.end) for e in result.episodes if e.kind == "hazard"]
     assert hazards == [(3.0, 3.9), (7.0, 7.4)]

@@ -57,7 +57,8 @@ def test_numpy_engine_equals_rtamt_on_every_tick(formula, data):
     for i in np.flatnonzero(~np.isnan(theirs)):
         a, b = ours[i], theirs[i]
         assert (a == b) if (math.isinf(a) or math.isinf(b)) else abs(a - b) <= 1e-9, (
-            f"tick {i}: numpy {a} != rtamt {b} for {to_rtamt(formula, P)}")
+            f"tick {i}: numpy {a} != rtamt {b} for {to_rtamt(formula, P)}"
+        )
 
 
 def _result(engine: str, path: Path):
@@ -93,10 +94,22 @@ class _Fixed:
 def test_a_disagreement_names_the_formula_and_the_tick() -> None:
     from casewatch.spec.model import CompiledFormula
 
-    formula = CompiledFormula(id="Sn9", node_id="Sn9", node_text="x", kind="spi", source="x",
-                              rtamt="(x >= 0)", signals=["x"], merge_gap=1, min_duration=0)
-    whole = WholeLog({"Sn9": np.array([1.0, 2.0, -np.inf])},
-                     {"Sn9": np.array([0, 2, 3])}, np.array([0.0, 0.1, 0.2, 0.3]))
+    formula = CompiledFormula(
+        id="Sn9",
+        node_id="Sn9",
+        node_text="x",
+        kind="spi",
+        source="x",
+        rtamt="(x >= 0)",
+        signals=["x"],
+        merge_gap=1,
+        min_duration=0,
+    )
+    whole = WholeLog(
+        {"Sn9": np.array([1.0, 2.0, -np.inf])},
+        {"Sn9": np.array([0, 2, 3])},
+        np.array([0.0, 0.1, 0.2, 0.3]),
+    )
     found, counter = [], [0]
     monitor = CheckedMonitor(_Fixed([1.0, 2.5, -np.inf]), formula, whole, found, counter)
     assert [monitor.update(k, []) for k in range(3)] == [1.0, 2.5, -np.inf]
@@ -111,16 +124,28 @@ def test_the_command_line_engines(tmp_path: Path, capsys) -> None:
     codes = {}
     for engine in ("rtamt", "numpy", "both"):
         out = tmp_path / engine
-        codes[engine] = main(["run", str(case), str(stream), "-o", str(out), "--format", "none",
-                              "--quiet", "--stl-engine", engine])  # fmt: skip
+        codes[engine] = main(
+            [
+                "run",
+                str(case),
+                str(stream),
+                "-o",
+                str(out),
+                "--format",
+                "none",
+                "--quiet",
+                "--stl-engine",
+                engine,
+            ]
+        )
     assert codes == {"rtamt": 1, "numpy": 1, "both": 1}
-    episodes = {e: json.loads((tmp_path / e / "result.json").read_text())["episodes"]
-                for e in codes}  # fmt: skip
+    episodes = {
+        e: json.loads((tmp_path / e / "result.json").read_text())["episodes"] for e in codes
+    }
     assert episodes["numpy"] == episodes["rtamt"] == episodes["both"] != []
     with pytest.raises(InputError, match="a live stream on standard input needs"):
         _result("numpy", Path("-"))
-    assert main(["run", str(case), "-", "-o", str(tmp_path / "live"), "--stl-engine",
-                 "numpy"]) == 2  # fmt: skip
+    assert main(["run", str(case), "-", "-o", str(tmp_path / "live"), "--stl-engine", "numpy"]) == 2
     assert "needs --stl-engine rtamt" in capsys.readouterr().err
 
 
@@ -128,11 +153,25 @@ def test_a_fleet_with_the_numpy_engine(tmp_path: Path) -> None:
     logs = tmp_path / "logs"
     logs.mkdir()
     for name in ("urban-grid", "highway-tailgated"):
-        (logs / f"{name}.jsonl.gz").write_bytes((REPO / f"examples/data/{name}.jsonl.gz")
-                                                .read_bytes())  # fmt: skip
-    code = main(["run", str(REPO / "examples/reference-case.yaml"), str(logs), "-o",
-                 str(tmp_path / "out"), "--format", "none", "--quiet", "--stl-engine", "numpy",
-                 "--jobs", "2"])  # fmt: skip
+        (logs / f"{name}.jsonl.gz").write_bytes(
+            (REPO / f"examples/data/{name}.jsonl.gz").read_bytes()
+        )
+    code = main(
+        [
+            "run",
+            str(REPO / "examples/reference-case.yaml"),
+            str(logs),
+            "-o",
+            str(tmp_path / "out"),
+            "--format",
+            "none",
+            "--quiet",
+            "--stl-engine",
+            "numpy",
+            "--jobs",
+            "2",
+        ]
+    )
     assert code == 1
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert [log["ok"] for log in summary["per_log"]] == [True, True]

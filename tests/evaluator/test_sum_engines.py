@@ -78,8 +78,20 @@ def test_the_engines_agree_end_to_end_on_a_case_with_sums(tmp_path: Path) -> Non
     results = {}
     for engine in ("rtamt", "numpy", "both"):
         out = tmp_path / engine
-        code = main(["run", str(case), str(stream), "-o", str(out), "--format", "none",
-                     "--quiet", "--stl-engine", engine])  # fmt: skip
+        code = main(
+            [
+                "run",
+                str(case),
+                str(stream),
+                "-o",
+                str(out),
+                "--format",
+                "none",
+                "--quiet",
+                "--stl-engine",
+                engine,
+            ]
+        )
         assert code in (0, 1), engine  # 3 would be an engine disagreement
         results[engine] = json.loads((out / "result.json").read_text())["episodes"]
     assert results["rtamt"] == results["numpy"] == results["both"] != []
@@ -101,13 +113,28 @@ def test_an_incomplete_sum_window_is_no_data_not_a_violation(tmp_path: Path) -> 
     seen = []
     for engine in ("rtamt", "numpy", "both"):
         out = tmp_path / engine
-        code = main(["run", str(case), str(stream), "-o", str(out), "--format", "none",
-                     "--quiet", "--stl-engine", engine])  # fmt: skip
+        code = main(
+            [
+                "run",
+                str(case),
+                str(stream),
+                "-o",
+                str(out),
+                "--format",
+                "none",
+                "--quiet",
+                "--stl-engine",
+                engine,
+            ]
+        )
         assert code in (0, 1), engine
         result = json.loads((out / "result.json").read_text())
         assert [e for e in result["episodes"] if e["formula_id"] == "Sn1"] == []
-        gaps = [(g["start"], g["end"], g["missing"]) for g in result["data_gaps"]
-                if g["formula_id"] == "Sn1"]  # fmt: skip
+        gaps = [
+            (g["start"], g["end"], g["missing"])
+            for g in result["data_gaps"]
+            if g["formula_id"] == "Sn1"
+        ]
         assert gaps[0] == (0.0, 0.1, ["(sum window filling)"])
         # the dropout (els missing 5.0-5.5 s) and the two ticks of a filling window after it
         # are one gap

@@ -46,8 +46,23 @@ def hazard(when: str, min_duration: float = 0.0, merge_gap: float = 0.0) -> Knob
     condition = parse_formula(when)
     cmp = condition if hasattr(condition, "op") and isinstance(condition.left, Signal) else None
     assert cmp is not None and isinstance(cmp.right, Num)
-    return Knob("H", "H", "h", "hazard", when, condition, (), cmp.left.name, cmp.op, True,
-                cmp.right.value, "min_duration", min_duration, merge_gap, min_duration)
+    return Knob(
+        "H",
+        "H",
+        "h",
+        "hazard",
+        when,
+        condition,
+        (),
+        cmp.left.name,
+        cmp.op,
+        True,
+        cmp.right.value,
+        "min_duration",
+        min_duration,
+        merge_gap,
+        min_duration,
+    )
 
 
 def test_episodes_merge_and_drop_like_the_evaluator_hand_computed():
@@ -62,8 +77,11 @@ def test_episodes_merge_and_drop_like_the_evaluator_hand_computed():
 
 
 @settings(max_examples=200, deadline=None)
-@given(st.lists(st.sampled_from([None, True, False, False]), max_size=40),
-       st.sampled_from([0.0, 0.1, 0.3, 1.0]), st.sampled_from([0.0, 0.1, 0.25, 0.5]))
+@given(
+    st.lists(st.sampled_from([None, True, False, False]), max_size=40),
+    st.sampled_from([0.0, 0.1, 0.3, 1.0]),
+    st.sampled_from([0.0, 0.1, 0.25, 0.5]),
+)
 def test_episodes_equal_the_episode_tracker(ticks, merge_gap, min_duration):
     tracker = EpisodeTracker(merge_gap, min_duration, PERIOD)
     want = []
@@ -93,8 +111,14 @@ def test_sweep_picks_the_threshold_that_separates_and_scores_it_held_out():
     # not the nominal dip (x < 0.7 does not flag 0.7)
     assert result["tuned"]["threshold"] == 0.7
     # held out: each log scored at the point picked on the other two: the same point
-    assert result["heldout"] == {"tp": 3, "fp": 0, "fn": 0, "precision": 1.0, "recall": 1.0,
-                                 "f1": 1.0}  # fmt: skip
+    assert result["heldout"] == {
+        "tp": 3,
+        "fp": 0,
+        "fn": 0,
+        "precision": 1.0,
+        "recall": 1.0,
+        "f1": 1.0,
+    }
 
 
 def test_min_precision_objective_and_unreachable_precision():
@@ -142,16 +166,20 @@ def test_vectorised_episodes_equal_the_evaluators_on_a_bundled_run(tmp_path):
 
     case, spec = api.prepare("examples/reference-case.yaml")
     stream = "examples/data/highway-tailgated.jsonl.gz"
-    result = evaluate_stream(case, spec, stream,
-                             RunOptions(signals_path=tmp_path / "signals.npz"))  # fmt: skip
+    result = evaluate_stream(case, spec, stream, RunOptions(signals_path=tmp_path / "signals.npz"))
     log = load_signals(tmp_path)
     found, _ = knobs(case, spec)
     assert len(found) == len(spec.formulas) >= 17
     for knob in found:
-        mine = [(round(a, 6), round(b, 6)) for a, b in episodes_for(knob, log, knob.value,
-                                                                     knob.duration)]  # fmt: skip
-        theirs = [(round(e.start, 6), round(e.end, 6)) for e in result.episodes
-                  if e.node_id == knob.node_id]  # fmt: skip
+        mine = [
+            (round(a, 6), round(b, 6))
+            for a, b in episodes_for(knob, log, knob.value, knob.duration)
+        ]
+        theirs = [
+            (round(e.start, 6), round(e.end, 6))
+            for e in result.episodes
+            if e.node_id == knob.node_id
+        ]
         assert mine == theirs, knob.formula_id
     assert json.loads(json.dumps([k.parameter for k in found]))  # plain values
 
@@ -213,12 +241,29 @@ def test_violations_follow_run_s_persistence_after_a_restart():
 
     condition = parse_formula("x >= 0.5")
     assert isinstance(condition.left, Signal) and isinstance(condition.right, Num)
-    knob = Knob("Sn1", "Sn1", "s", "spi", ">= 0.5", condition, (), "x", ">=", True, 0.5,
-                "for", 0.3, 0.0, 0.0)
+    knob = Knob(
+        "Sn1",
+        "Sn1",
+        "s",
+        "spi",
+        ">= 0.5",
+        condition,
+        (),
+        "x",
+        ">=",
+        True,
+        0.5,
+        "for",
+        0.3,
+        0.0,
+        0.0,
+    )
     t = np.round(np.concatenate([np.arange(10) * 0.1, 2.0 + np.arange(10) * 0.1]), 6)
     log = SavedSignals("log", t, ["x"], np.full((20, 1), 0.2), PERIOD, 0.5)
     # 3 samples of each segment (the start, and after the 1.1 s gap) are no verdict
-    assert violations(knob, log, 0.5, 0.3).tolist() == [False] * 3 + [True] * 7 + \
-        [False] * 3 + [True] * 7
+    assert (
+        violations(knob, log, 0.5, 0.3).tolist()
+        == [False] * 3 + [True] * 7 + [False] * 3 + [True] * 7
+    )
     # without a `for:` every violated sample counts
     assert violations(knob, log, 0.5, 0.0).all()

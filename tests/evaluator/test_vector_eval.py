@@ -25,8 +25,11 @@ def reference(formula, trace, t, max_gap):
     out = np.full(len(t), np.nan)
     start = None
     for i in range(len(t) + 1):
-        breaks = i == len(t) or not ok[i] or (
-            start is not None and i > 0 and (not ok[i - 1] or t[i] - t[i - 1] > max_gap + 1e-9))
+        breaks = (
+            i == len(t)
+            or not ok[i]
+            or (start is not None and i > 0 and (not ok[i - 1] or t[i] - t[i - 1] > max_gap + 1e-9))
+        )
         if breaks and start is not None:
             seg = {n: [float(v) for v in trace[n][start:i]] for n in SIGNALS}
             ev = ReferenceEvaluator(seg, PERIOD)
@@ -70,8 +73,9 @@ def test_vectorised_equals_the_reference_per_segment(formula, data):
 def test_for_window_and_restart_hand_computed():
     # once[0:0.2] (x >= 1): the best of the last three samples since the restart; x has no
     # value at tick 3, so tick 4 starts again from itself
-    f = Window("once", parse_formula("once[0:0.2] (x >= 1)").interval,
-               Compare(">=", Signal("x"), Num(1.0)))  # fmt: skip
+    f = Window(
+        "once", parse_formula("once[0:0.2] (x >= 1)").interval, Compare(">=", Signal("x"), Num(1.0))
+    )
     x = np.array([0.0, 2.0, 0.5, np.nan, 0.2, 0.4, 0.1, 0.0])
     t = np.round(np.arange(8) * 0.1, 6)
     got = robustness(f, {"x": x}, t, 0.1, 0.5)
@@ -102,5 +106,10 @@ def test_unbounded_future_is_refused():
     from casewatch.spec.ast import Window as W
 
     with pytest.raises(Unsupported, match="unbounded eventually"):
-        robustness(W("eventually", None, parse_formula("x > 0")), {"x": np.zeros(3)},
-                   np.arange(3) * 0.1, 0.1, 0.5)  # fmt: skip
+        robustness(
+            W("eventually", None, parse_formula("x > 0")),
+            {"x": np.zeros(3)},
+            np.arange(3) * 0.1,
+            0.1,
+            0.5,
+        )

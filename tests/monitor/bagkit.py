@@ -36,10 +36,18 @@ def ego_state(x: float, vx: float = 10.0, yaw: float = 0.0, vy: float = 0.0) -> 
 
 def one_object(x: float, pred: np.ndarray | None = None) -> Objects:
     pred = np.zeros((1, 0, 3)) if pred is None else pred[None]
-    return Objects(ids=["7"], cls=["car"], pos=np.array([[x, 3.0]]), yaw=np.zeros(1),
-                   vel=np.array([[5.0, 0.0]]), footprints=box_footprint(4.5, 1.8)[None],
-                   pred=pred, pred_len=np.array([pred.shape[1]]), convex=np.ones(1, bool),
-                   half=np.array([[2.25, 0.9]]))  # fmt: skip
+    return Objects(
+        ids=["7"],
+        cls=["car"],
+        pos=np.array([[x, 3.0]]),
+        yaw=np.zeros(1),
+        vel=np.array([[5.0, 0.0]]),
+        footprints=box_footprint(4.5, 1.8)[None],
+        pred=pred,
+        pred_len=np.array([pred.shape[1]]),
+        convex=np.ones(1, bool),
+        half=np.array([[2.25, 0.9]]),
+    )
 
 
 class BagKit:
@@ -59,38 +67,58 @@ class BagKit:
             if kw:
                 self.conns[topic] = self.writer.add_connection(topic, msgtype, **kw)
             else:
-                self.conns[topic] = self.writer.add_connection(topic, msgtype,
-                                                               typestore=self.store)  # fmt: skip
+                self.conns[topic] = self.writer.add_connection(topic, msgtype, typestore=self.store)
         return self.conns[topic]
 
     def raw(self, topic: str, msgtype: str, raw: bytes, log_ns: int, **kw) -> None:
         self.writer.write(self._conn(topic, msgtype, **kw), log_ns, raw)
 
-    def odometry(self, stamp_ms: float, x: float, log_ms: float | None = None,
-                 topic: str = TOPICS["odometry"]) -> None:  # fmt: skip
+    def odometry(
+        self,
+        stamp_ms: float,
+        x: float,
+        log_ms: float | None = None,
+        topic: str = TOPICS["odometry"],
+    ) -> None:
         stamp = T0 + round(stamp_ms * MS)
         msg = self.build.odometry(stamp, ego_state(x))
-        self.raw(topic, ODOMETRY, self.store.serialize_cdr(msg, ODOMETRY),
-                 T0 + round((stamp_ms if log_ms is None else log_ms) * MS))
+        self.raw(
+            topic,
+            ODOMETRY,
+            self.store.serialize_cdr(msg, ODOMETRY),
+            T0 + round((stamp_ms if log_ms is None else log_ms) * MS),
+        )
 
-    def objects(self, stamp_ms: float, x: float, log_ms: float | None = None,
-                pred: np.ndarray | None = None) -> None:  # fmt: skip
+    def objects(
+        self, stamp_ms: float, x: float, log_ms: float | None = None, pred: np.ndarray | None = None
+    ) -> None:
         topic = TOPICS["objects"]
         stamp = T0 + round(stamp_ms * MS)
         msg = self.build.objects(stamp, one_object(x, pred))
-        self.raw(topic, OBJECTS, self.store.serialize_cdr(msg, OBJECTS),
-                 T0 + round((stamp_ms if log_ms is None else log_ms) * MS))
+        self.raw(
+            topic,
+            OBJECTS,
+            self.store.serialize_cdr(msg, OBJECTS),
+            T0 + round((stamp_ms if log_ms is None else log_ms) * MS),
+        )
 
     def plan(self, stamp_ms: float, plan: np.ndarray, log_ms: float | None = None) -> None:
         stamp = T0 + round(stamp_ms * MS)
         msg = self.build.trajectory(stamp, plan)
-        self.raw(TOPICS["plan"], TRAJECTORY, self.store.serialize_cdr(msg, TRAJECTORY),
-                 T0 + round((stamp_ms if log_ms is None else log_ms) * MS))
+        self.raw(
+            TOPICS["plan"],
+            TRAJECTORY,
+            self.store.serialize_cdr(msg, TRAJECTORY),
+            T0 + round((stamp_ms if log_ms is None else log_ms) * MS),
+        )
 
     def scalar(self, topic: str, log_ms: float, value: float) -> None:
-        self.raw(topic, "std_msgs/msg/Float64",
-                 self.store.serialize_cdr(self.build.scalar(value), "std_msgs/msg/Float64"),
-                 T0 + round(log_ms * MS))
+        self.raw(
+            topic,
+            "std_msgs/msg/Float64",
+            self.store.serialize_cdr(self.build.scalar(value), "std_msgs/msg/Float64"),
+            T0 + round(log_ms * MS),
+        )
 
     def close(self) -> Path:
         self.writer.close()

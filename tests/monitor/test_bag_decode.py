@@ -28,8 +28,11 @@ from casewatch.monitor.bags.types import OBJECTS, ODOMETRY, TRAJECTORY, base_typ
 
 STORE = base_typestore()
 T = STORE.types
-SETTINGS = settings(max_examples=80, deadline=None,
-                    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+SETTINGS = settings(
+    max_examples=80,
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
+)
 
 # -- building rosbags messages ------------------------------------------------------------------
 
@@ -63,41 +66,75 @@ def _twist(v) -> object:
     return T["geometry_msgs/msg/Twist"](linear=_vec(*v[:3]), angular=_vec(*v[3:6]))
 
 
-def _object(uuid: bytes, existence: float, classes, pose7, cov3, twist6, accel6, paths,
-            shape_type: int, points, dims) -> object:
+def _object(
+    uuid: bytes,
+    existence: float,
+    classes,
+    pose7,
+    cov3,
+    twist6,
+    accel6,
+    paths,
+    shape_type: int,
+    points,
+    dims,
+) -> object:
     """A PredictedObject; `classes` are (label, probability), `paths` (poses (n, 7), (sec,
     nanosec), confidence), `points` (n, 3) float32 polygon points."""
     accel = T["geometry_msgs/msg/Accel"](linear=_vec(*accel6[:3]), angular=_vec(*accel6[3:]))
     return T["autoware_perception_msgs/msg/PredictedObject"](
         object_id=T["unique_identifier_msgs/msg/UUID"](uuid=np.frombuffer(uuid, np.uint8).copy()),
         existence_probability=float(existence),
-        classification=[T["autoware_perception_msgs/msg/ObjectClassification"](
-            label=int(label), probability=float(p)) for label, p in classes],
+        classification=[
+            T["autoware_perception_msgs/msg/ObjectClassification"](
+                label=int(label), probability=float(p)
+            )
+            for label, p in classes
+        ],
         kinematics=T["autoware_perception_msgs/msg/PredictedObjectKinematics"](
             initial_pose_with_covariance=T["geometry_msgs/msg/PoseWithCovariance"](
-                pose=_pose(pose7), covariance=np.asarray(cov3[0], dtype=np.float64)),
+                pose=_pose(pose7), covariance=np.asarray(cov3[0], dtype=np.float64)
+            ),
             initial_twist_with_covariance=T["geometry_msgs/msg/TwistWithCovariance"](
-                twist=_twist(twist6), covariance=np.asarray(cov3[1], dtype=np.float64)),
+                twist=_twist(twist6), covariance=np.asarray(cov3[1], dtype=np.float64)
+            ),
             initial_acceleration_with_covariance=T["geometry_msgs/msg/AccelWithCovariance"](
-                accel=accel, covariance=np.asarray(cov3[2], dtype=np.float64)),
-            predicted_paths=[T["autoware_perception_msgs/msg/PredictedPath"](
-                path=[_pose(p) for p in poses], time_step=_duration(*step),
-                confidence=float(conf)) for poses, step, conf in paths]),
+                accel=accel, covariance=np.asarray(cov3[2], dtype=np.float64)
+            ),
+            predicted_paths=[
+                T["autoware_perception_msgs/msg/PredictedPath"](
+                    path=[_pose(p) for p in poses],
+                    time_step=_duration(*step),
+                    confidence=float(conf),
+                )
+                for poses, step, conf in paths
+            ],
+        ),
         shape=T["autoware_perception_msgs/msg/Shape"](
             type=shape_type,
-            footprint=T["geometry_msgs/msg/Polygon"](points=[
-                T["geometry_msgs/msg/Point32"](x=float(p[0]), y=float(p[1]), z=float(p[2]))
-                for p in points]),
-            dimensions=_vec(*dims)),
+            footprint=T["geometry_msgs/msg/Polygon"](
+                points=[
+                    T["geometry_msgs/msg/Point32"](x=float(p[0]), y=float(p[1]), z=float(p[2]))
+                    for p in points
+                ]
+            ),
+            dimensions=_vec(*dims),
+        ),
     )
 
 
 def _plan_point(tfs: tuple[int, int], pose7, floats6) -> object:
     f = [float(a) for a in floats6]
     return T["autoware_planning_msgs/msg/TrajectoryPoint"](
-        time_from_start=_duration(*tfs), pose=_pose(pose7), longitudinal_velocity_mps=f[0],
-        lateral_velocity_mps=f[1], acceleration_mps2=f[2], heading_rate_rps=f[3],
-        front_wheel_angle_rad=f[4], rear_wheel_angle_rad=f[5])
+        time_from_start=_duration(*tfs),
+        pose=_pose(pose7),
+        longitudinal_velocity_mps=f[0],
+        lateral_velocity_mps=f[1],
+        acceleration_mps2=f[2],
+        heading_rate_rps=f[3],
+        front_wheel_angle_rad=f[4],
+        rear_wheel_angle_rad=f[5],
+    )
 
 
 # -- strategies ---------------------------------------------------------------------------------
@@ -117,7 +154,8 @@ def _rows(n_max: int, width: int, elements=F64, dtype=np.float64, min_n: int = 0
     """(n, width) arrays with every element drawn (no fill value: neighbouring values differ,
     so a reader that is off by one field would be seen)."""
     return st.integers(min_n, n_max).flatmap(
-        lambda n: arrays(dtype, (n, width), elements=elements, fill=st.nothing()))
+        lambda n: arrays(dtype, (n, width), elements=elements, fill=st.nothing())
+    )
 
 
 POSE7 = arrays(np.float64, 7, elements=F64, fill=st.nothing())
@@ -129,10 +167,12 @@ def odometries(draw):
     return T[ODOMETRY](
         header=_header(draw(SEC), draw(NSEC), draw(FRAME_ID)),
         child_frame_id=draw(FRAME_ID),
-        pose=T["geometry_msgs/msg/PoseWithCovariance"](pose=_pose(draw(POSE7)),
-                                                       covariance=draw(COV)),
-        twist=T["geometry_msgs/msg/TwistWithCovariance"](twist=_twist(draw(SIX)),
-                                                         covariance=draw(COV)),
+        pose=T["geometry_msgs/msg/PoseWithCovariance"](
+            pose=_pose(draw(POSE7)), covariance=draw(COV)
+        ),
+        twist=T["geometry_msgs/msg/TwistWithCovariance"](
+            twist=_twist(draw(SIX)), covariance=draw(COV)
+        ),
     )
 
 
@@ -141,13 +181,24 @@ def predicted_objects(draw):
     objs = []
     for _ in range(draw(st.integers(0, 6))):
         classes = draw(st.lists(st.tuples(st.integers(0, 11), F32), max_size=3))
-        paths = draw(st.lists(st.tuples(_rows(12, 7), st.tuples(DURATION_SEC, NSEC), F32),
-                              max_size=3))
-        objs.append(_object(
-            draw(st.binary(min_size=16, max_size=16)), draw(F32), classes, draw(POSE7),
-            [draw(COV), draw(COV), draw(COV)], draw(SIX), draw(SIX), paths,
-            draw(st.sampled_from([0, 1, 2])), draw(_rows(6, 3, F32, np.float32)),
-            draw(arrays(np.float64, 3, elements=F64, fill=st.nothing()))))
+        paths = draw(
+            st.lists(st.tuples(_rows(12, 7), st.tuples(DURATION_SEC, NSEC), F32), max_size=3)
+        )
+        objs.append(
+            _object(
+                draw(st.binary(min_size=16, max_size=16)),
+                draw(F32),
+                classes,
+                draw(POSE7),
+                [draw(COV), draw(COV), draw(COV)],
+                draw(SIX),
+                draw(SIX),
+                paths,
+                draw(st.sampled_from([0, 1, 2])),
+                draw(_rows(6, 3, F32, np.float32)),
+                draw(arrays(np.float64, 3, elements=F64, fill=st.nothing())),
+            )
+        )
     return T[OBJECTS](header=_header(draw(SEC), draw(NSEC), draw(FRAME_ID)), objects=objs)
 
 
@@ -163,7 +214,8 @@ def trajectories(draw):
 
 STRATEGIES = {ODOMETRY: odometries(), OBJECTS: predicted_objects(), TRAJECTORY: trajectories()}
 ANY_MESSAGE = st.sampled_from(sorted(STRATEGIES)).flatmap(
-    lambda t: STRATEGIES[t].map(lambda m: (t, m)))
+    lambda t: STRATEGIES[t].map(lambda m: (t, m))
+)
 
 
 # -- comparing records --------------------------------------------------------------------------
@@ -182,8 +234,7 @@ def assert_same_record(fast, generic) -> None:
             assert len(a) == len(b), field.name
             for i, (x, y) in enumerate(zip(a, b, strict=True)):
                 if isinstance(y, np.ndarray):
-                    np.testing.assert_array_equal(x, y, strict=True,
-                                                  err_msg=f"{field.name}[{i}]")
+                    np.testing.assert_array_equal(x, y, strict=True, err_msg=f"{field.name}[{i}]")
                 else:
                     assert type(x) is type(y) and x == y, f"{field.name}[{i}]: {x!r} != {y!r}"
         else:
@@ -239,11 +290,14 @@ ZERO36 = np.zeros(36)
 
 def _odometry(sec: int, nanosec: int, frame_id: str = "map", child: str = "base_link"):
     return T[ODOMETRY](
-        header=_header(sec, nanosec, frame_id), child_frame_id=child,
+        header=_header(sec, nanosec, frame_id),
+        child_frame_id=child,
         pose=T["geometry_msgs/msg/PoseWithCovariance"](
-            pose=_pose([1.5, -2.25, 0.125, 0.0, 0.0, 0.6, 0.8]), covariance=np.arange(36.0)),
+            pose=_pose([1.5, -2.25, 0.125, 0.0, 0.0, 0.6, 0.8]), covariance=np.arange(36.0)
+        ),
         twist=T["geometry_msgs/msg/TwistWithCovariance"](
-            twist=_twist([3.5, -0.5, 0.25, 0.01, 0.02, 0.03]), covariance=-np.arange(36.0)),
+            twist=_twist([3.5, -0.5, 0.25, 0.01, 0.02, 0.03]), covariance=-np.arange(36.0)
+        ),
     )
 
 
@@ -260,8 +314,9 @@ def test_odometry_by_hand():
 def _plan(frame_id: str):
     points = [
         _plan_point((0, 0), [10.0, 20.0, 0.5, 0.0, 0.0, 0.1, 0.9], [5.5, 0.25, -1.0, 0, 0, 0]),
-        _plan_point((0, 500_000_000), [11.0, 21.0, 0.5, 0.0, 0.0, 0.2, 0.8],
-                    [6.0, 0.5, -2.0, 1, 2, 3]),
+        _plan_point(
+            (0, 500_000_000), [11.0, 21.0, 0.5, 0.0, 0.0, 0.2, 0.8], [6.0, 0.5, -2.0, 1, 2, 3]
+        ),
         _plan_point((3, 7), [-12.0, 22.5, 1.5, 0.3, 0.1, 0.2, 0.7], [-0.75, 0, 0, 0, 0, 0]),
     ]
     return T[TRAJECTORY](header=_header(7, 8, frame_id), points=points)
@@ -282,9 +337,17 @@ def _first_point(frame_id: str) -> tuple[int, bool]:
     return p, p % 8 == 4
 
 
-@pytest.mark.parametrize(("frame_id", "padded"), [("", True), ("map", True), ("odom", False),
-                                                  ("base_link", True), ("world", False),
-                                                  ("map_origin_x", False)])
+@pytest.mark.parametrize(
+    ("frame_id", "padded"),
+    [
+        ("", True),
+        ("map", True),
+        ("odom", False),
+        ("base_link", True),
+        ("world", False),
+        ("map_origin_x", False),
+    ],
+)
 def test_trajectory_first_point_padding(frame_id, padded):
     p, pad = _first_point(frame_id)
     assert pad == padded  # the parametrisation covers both cases
@@ -296,9 +359,11 @@ def test_trajectory_first_point_padding(frame_id, padded):
     assert isinstance(rec, TrajectoryRecord)
     assert rec.stamp == 7_000_000_008
     assert rec.time_from_start.tolist() == [0, 500_000_000, 3_000_000_007]
-    assert rec.pose.tolist() == [[10.0, 20.0, 0.5, 0.0, 0.0, 0.1, 0.9],
-                                 [11.0, 21.0, 0.5, 0.0, 0.0, 0.2, 0.8],
-                                 [-12.0, 22.5, 1.5, 0.3, 0.1, 0.2, 0.7]]
+    assert rec.pose.tolist() == [
+        [10.0, 20.0, 0.5, 0.0, 0.0, 0.1, 0.9],
+        [11.0, 21.0, 0.5, 0.0, 0.0, 0.2, 0.8],
+        [-12.0, 22.5, 1.5, 0.3, 0.1, 0.2, 0.7],
+    ]
     assert rec.speed.tolist() == [5.5, 6.0, -0.75]
 
 
@@ -307,11 +372,27 @@ def test_trajectory_padding_cases_both_occur():
     assert {_first_point("x" * n)[1] for n in range(21)} == {True, False}
 
 
-def _simple_object(label_probs, paths, pose7=(1.0, 2.0, 0.0, 0.0, 0.0, 0.0, 1.0), shape_type=0,
-                   points=(), uuid=bytes(range(16))):
-    return _object(uuid, 1.0, label_probs, pose7, [ZERO36] * 3, [4.0, -1.0, 0, 0, 0, 0.5],
-                   [0.0] * 6, paths, shape_type, np.asarray(points, np.float32).reshape(-1, 3),
-                   (4.5, 1.8, 1.5))
+def _simple_object(
+    label_probs,
+    paths,
+    pose7=(1.0, 2.0, 0.0, 0.0, 0.0, 0.0, 1.0),
+    shape_type=0,
+    points=(),
+    uuid=bytes(range(16)),
+):
+    return _object(
+        uuid,
+        1.0,
+        label_probs,
+        pose7,
+        [ZERO36] * 3,
+        [4.0, -1.0, 0, 0, 0, 0.5],
+        [0.0] * 6,
+        paths,
+        shape_type,
+        np.asarray(points, np.float32).reshape(-1, 3),
+        (4.5, 1.8, 1.5),
+    )
 
 
 def test_objects_by_hand():
@@ -319,16 +400,23 @@ def test_objects_by_hand():
     path_a = np.array([[1.0, 2.0, 0, 0, 0, 0, 1], [2.0, 2.0, 0, 0, 0, 0, 1]])
     path_b = np.array([[1.0, 2.0, 0, 0, 0, 0, 1], [1.0, 3.0, 0, 0, 0, 0, 1]])
     objs = [
-        _simple_object([(1, 0.25), (7, 0.5), (2, 0.5)],  # tie at 0.5: pedestrian (7), first
-                       [(np.zeros((0, 7)), (9, 0), 1.0),  # empty, ignored however confident
-                        (path_a, (0, 100_000_000), 0.75),
-                        (path_b, (0, 200_000_000), 0.75)]),  # tie: path_a, first
-        _simple_object([], [], shape_type=2, points=[[0.5, 0.25, 9.0], [-0.5, 0.25, 9.0],
-                                                     [0.0, -0.75, 9.0]],
-                       uuid=b"\xff" * 16),
+        _simple_object(
+            [(1, 0.25), (7, 0.5), (2, 0.5)],  # tie at 0.5: pedestrian (7), first
+            [
+                (np.zeros((0, 7)), (9, 0), 1.0),  # empty, ignored however confident
+                (path_a, (0, 100_000_000), 0.75),
+                (path_b, (0, 200_000_000), 0.75),
+            ],
+        ),  # tie: path_a, first
+        _simple_object(
+            [],
+            [],
+            shape_type=2,
+            points=[[0.5, 0.25, 9.0], [-0.5, 0.25, 9.0], [0.0, -0.75, 9.0]],
+            uuid=b"\xff" * 16,
+        ),
     ]
-    raw = bytes(STORE.serialize_cdr(T[OBJECTS](header=_header(5, 6, "map"), objects=objs),
-                                    OBJECTS))
+    raw = bytes(STORE.serialize_cdr(T[OBJECTS](header=_header(5, 6, "map"), objects=objs), OBJECTS))
     rec = decode_fast(raw, OBJECTS)
     assert isinstance(rec, ObjectsRecord)
     assert rec.stamp == 5_000_000_006
@@ -355,29 +443,33 @@ def test_objects_without_predictions_decode(count, classified):
     (pad) 1016 kinematics (127 float64), 4 path count, 1 type + 3 pad + 4 point count, (pad)
     24 dimensions. The writer gives it one class: 1088 bytes."""
     objs = [_simple_object([(1, 1.0)] if classified else [], []) for _ in range(count)]
-    raw = bytes(STORE.serialize_cdr(T[OBJECTS](header=_header(5, 6, "map"), objects=objs),
-                                    OBJECTS))
+    raw = bytes(STORE.serialize_cdr(T[OBJECTS](header=_header(5, 6, "map"), objects=objs), OBJECTS))
     generic = generic_record(STORE.deserialize_cdr(raw, OBJECTS), OBJECTS)
     assert_same_record(decode_fast(raw, OBJECTS), generic)
 
 
-@pytest.mark.parametrize(("conf", "prob"), [
-    ((-np.inf, -np.inf), (0.5, 0.25)),
-    ((np.nan, 0.5), (0.5, 0.25)),
-    ((0.5, np.nan), (0.5, 0.25)),
-    ((0.5, 0.25), (np.nan, 0.5)),
-    ((0.5, 0.25), (0.5, np.nan)),
-    ((0.5, 0.25), (-np.inf, -np.inf)),
-])
+@pytest.mark.parametrize(
+    ("conf", "prob"),
+    [
+        ((-np.inf, -np.inf), (0.5, 0.25)),
+        ((np.nan, 0.5), (0.5, 0.25)),
+        ((0.5, np.nan), (0.5, 0.25)),
+        ((0.5, 0.25), (np.nan, 0.5)),
+        ((0.5, 0.25), (0.5, np.nan)),
+        ((0.5, 0.25), (-np.inf, -np.inf)),
+    ],
+)
 def test_non_finite_confidence_and_probability_agree(conf, prob):
     """Confidences and probabilities a float32 field can hold but the definitions do not mean
     (NaN, -inf): whatever is picked, both readers pick the same path and class."""
     p = np.array([[1.0, 2.0, 0, 0, 0, 0, 1]])
     q = np.array([[5.0, 6.0, 0, 0, 0, 0, 1]])
-    obj = _simple_object([(3, prob[0]), (7, prob[1])],
-                         [(p, (0, 100), conf[0]), (q, (0, 200), conf[1])])
-    raw = bytes(STORE.serialize_cdr(T[OBJECTS](header=_header(5, 6, "map"), objects=[obj]),
-                                    OBJECTS))
+    obj = _simple_object(
+        [(3, prob[0]), (7, prob[1])], [(p, (0, 100), conf[0]), (q, (0, 200), conf[1])]
+    )
+    raw = bytes(
+        STORE.serialize_cdr(T[OBJECTS](header=_header(5, 6, "map"), objects=[obj]), OBJECTS)
+    )
     generic = generic_record(STORE.deserialize_cdr(raw, OBJECTS), OBJECTS)
     assert_same_record(decode_fast(raw, OBJECTS), generic)
 
@@ -387,10 +479,13 @@ def test_non_finite_confidence_and_probability_agree(conf, prob):
 
 def _sample_objects():
     path = np.array([[1.0, 2.0, 0, 0, 0, 0, 1], [2.0, 2.0, 0, 0, 0, 0, 1]])
-    return T[OBJECTS](header=_header(5, 6, "map"), objects=[
-        _simple_object([(1, 0.9)], [(path, (0, 100_000_000), 1.0)]),
-        _simple_object([(7, 0.9)], [], shape_type=2, points=[[0, 0, 0], [1, 0, 0], [0, 1, 0]]),
-    ])
+    return T[OBJECTS](
+        header=_header(5, 6, "map"),
+        objects=[
+            _simple_object([(1, 0.9)], [(path, (0, 100_000_000), 1.0)]),
+            _simple_object([(7, 0.9)], [], shape_type=2, points=[[0, 0, 0], [1, 0, 0], [0, 1, 0]]),
+        ],
+    )
 
 
 SAMPLES = {ODOMETRY: _odometry(12, 345), OBJECTS: _sample_objects(), TRAJECTORY: _plan("map")}

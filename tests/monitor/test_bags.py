@@ -83,8 +83,14 @@ def test_ticks_take_the_latest_message_of_the_last_period(phased_bag: Path) -> N
 
 
 def test_a_longer_max_age_bridges_the_lost_message_by_choice(phased_bag: Path) -> None:
-    m = mapping(channels={"lav": {"odometry": TOPICS["odometry"],
-                                  "objects": {"topic": TOPICS["objects"], "max_age": "200ms"}}})
+    m = mapping(
+        channels={
+            "lav": {
+                "odometry": TOPICS["odometry"],
+                "objects": {"topic": TOPICS["objects"], "max_age": "200ms"},
+            }
+        }
+    )
     reader, frames = frames_of(phased_bag, m)
     by_t = {f.t: f for f in frames}
     assert by_t[0.5].channels["lav"].objects.pos[0, 0] == pytest.approx(50 + 3.5 + 5 * 0.15)
@@ -98,11 +104,16 @@ def test_poses_move_to_the_tick_with_their_own_velocity_and_yaw_rate(tmp_path: P
     build, store = kit.build, kit.store
     T = build.T
     heading = np.pi / 6
-    msg = build.odometry(T0 + 60 * MS, ego_state(2.0, vx=10 * np.cos(heading), yaw=heading,
-                                                 vy=10 * np.sin(heading)))
+    msg = build.odometry(
+        T0 + 60 * MS, ego_state(2.0, vx=10 * np.cos(heading), yaw=heading, vy=10 * np.sin(heading))
+    )
     msg.twist.twist.angular = T["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.5)
-    kit.raw(TOPICS["odometry"], "nav_msgs/msg/Odometry",
-            store.serialize_cdr(msg, "nav_msgs/msg/Odometry"), T0 + 60 * MS)
+    kit.raw(
+        TOPICS["odometry"],
+        "nav_msgs/msg/Odometry",
+        store.serialize_cdr(msg, "nav_msgs/msg/Odometry"),
+        T0 + 60 * MS,
+    )
     kit.objects(100, x=50.0)
     kit.close()
     _, frames = frames_of(tmp_path / "motion")
@@ -168,7 +179,10 @@ def test_missing_plan_leaves_the_channel_without_a_plan_not_absent(tmp_path: Pat
     kit.close()
     reader, frames = frames_of(tmp_path / "noplan", mapping(with_plan=True))
     assert [f.channels["lav"].plan.tolist() for f in frames] == [
-        [[0.0, 0.0, 0.0], [1.0, 10.0, 0.0]], [[0.9, 10.0, 0.0]], []]
+        [[0.0, 0.0, 0.0], [1.0, 10.0, 0.0]],
+        [[0.9, 10.0, 0.0]],
+        [],
+    ]
     assert reader.dropouts == {"lav": 0}
     assert reader.topic_report()[TOPICS["plan"]]["missing_ticks"] == 1
 
@@ -179,22 +193,36 @@ def test_plans_without_times_are_timed_from_their_velocities(tmp_path: Path) -> 
     kit = BagKit(tmp_path / "velo")
     build, store = kit.build, kit.store
     T = build.T
-    pts = [T["autoware_planning_msgs/msg/TrajectoryPoint"](
-        time_from_start=build.duration(0), pose=build.pose(x, 0.0, 0.0),
-        longitudinal_velocity_mps=v, lateral_velocity_mps=0.0, acceleration_mps2=0.0,
-        heading_rate_rps=0.0, front_wheel_angle_rad=0.0, rear_wheel_angle_rad=0.0)
-        for x, v in [(0.0, 4.0), (10.0, 6.0), (12.0, 0.0), (14.0, 0.0)]]  # fmt: skip
+    pts = [
+        T["autoware_planning_msgs/msg/TrajectoryPoint"](
+            time_from_start=build.duration(0),
+            pose=build.pose(x, 0.0, 0.0),
+            longitudinal_velocity_mps=v,
+            lateral_velocity_mps=0.0,
+            acceleration_mps2=0.0,
+            heading_rate_rps=0.0,
+            front_wheel_angle_rad=0.0,
+            rear_wheel_angle_rad=0.0,
+        )
+        for x, v in [(0.0, 4.0), (10.0, 6.0), (12.0, 0.0), (14.0, 0.0)]
+    ]
     msg = T["autoware_planning_msgs/msg/Trajectory"](header=build.header(T0), points=pts)
     kit.odometry(0, x=0.0)
     kit.objects(0, x=50.0)
-    kit.raw(TOPICS["plan"], "autoware_planning_msgs/msg/Trajectory",
-            store.serialize_cdr(msg, "autoware_planning_msgs/msg/Trajectory"), T0)
+    kit.raw(
+        TOPICS["plan"],
+        "autoware_planning_msgs/msg/Trajectory",
+        store.serialize_cdr(msg, "autoware_planning_msgs/msg/Trajectory"),
+        T0,
+    )
     kit.close()
     _, frames = frames_of(tmp_path / "velo", mapping(with_plan=True))
     # segments: 10 m at (4 + 6) / 2 = 5 m/s -> 2 s; 2 m at (6 + 0) / 2 = 3 m/s -> 2/3 s;
     # then 0 m/s: the plan stops at the third point
-    np.testing.assert_allclose(frames[0].channels["lav"].plan,
-                               [[0.0, 0.0, 0.0], [2.0, 10.0, 0.0], [2.0 + 2 / 3, 12.0, 0.0]])
+    np.testing.assert_allclose(
+        frames[0].channels["lav"].plan,
+        [[0.0, 0.0, 0.0], [2.0, 10.0, 0.0], [2.0 + 2 / 3, 12.0, 0.0]],
+    )
     _, strict = frames_of(tmp_path / "velo", mapping(with_plan=True, plan_time="stamps"))
     assert "lav" not in strict[0].channels  # not increasing, and stamps were asked for
 
@@ -225,14 +253,22 @@ def test_header_stamps_of_zero_are_defects_and_receive_time_reads_them(tmp_path:
         raw = store.serialize_cdr(msg, "nav_msgs/msg/Odometry")
         kit2.raw(TOPICS["odometry"], "nav_msgs/msg/Odometry", raw, T0 + 100 * k * MS)
         obj = build.objects(0, one_object(9))
-        kit2.raw(TOPICS["objects"], "autoware_perception_msgs/msg/PredictedObjects",
-                 store.serialize_cdr(obj, "autoware_perception_msgs/msg/PredictedObjects"),
-                 T0 + 100 * k * MS)
+        kit2.raw(
+            TOPICS["objects"],
+            "autoware_perception_msgs/msg/PredictedObjects",
+            store.serialize_cdr(obj, "autoware_perception_msgs/msg/PredictedObjects"),
+            T0 + 100 * k * MS,
+        )
     kit2.close()
-    m = LoadedMapping(TopicMapping.model_validate(
-        {"ego": {"length": 4, "width": 2}, "channels": {"lav": {"odometry": TOPICS["odometry"],
-                                                                "objects": TOPICS["objects"]}}}),
-        "m")  # fmt: skip
+    m = LoadedMapping(
+        TopicMapping.model_validate(
+            {
+                "ego": {"length": 4, "width": 2},
+                "channels": {"lav": {"odometry": TOPICS["odometry"], "objects": TOPICS["objects"]}},
+            }
+        ),
+        "m",
+    )
     reader, frames = frames_of(tmp_path / "zero2", m)
     assert frames == [] and {d.kind for d in reader.defects} == {"bad-stamp"}
     assert len(reader.defects) == 6
@@ -281,8 +317,9 @@ def test_a_bundled_drive_as_a_bag_gives_the_same_metrics(tmp_path: Path, storage
     for f in frames[100:105]:
         del f.channels["tfuse"]
     signals = sorted({k for f in frames for k in f.signals})
-    m = TopicMapping.model_validate(default_mapping(["lav", "tfuse"], signals, 4.6, 1.9,
-                                                    period=0.1))  # fmt: skip
+    m = TopicMapping.model_validate(
+        default_mapping(["lav", "tfuse"], signals, 4.6, 1.9, period=0.1)
+    )
     write_bag(frames, tmp_path / "drive", m, storage)
     reader = read_bag(tmp_path / "drive", LoadedMapping(m, "m"), ["lav", "tfuse"], 0.1)
     back = list(reader)
@@ -344,9 +381,12 @@ def test_a_mapped_topic_missing_from_the_bag_is_an_error_listing_the_topics(
 
 def test_a_topic_of_the_wrong_type_is_an_error(small_bag: Path) -> None:
     m = mapping(channels={"lav": {"odometry": TOPICS["objects"], "objects": TOPICS["objects"]}})
-    with pytest.raises(BagError, match=r"carries autoware_perception_msgs/msg/PredictedObjects; "
-                                       r"as the odometry of a channel it must carry "
-                                       r"nav_msgs/msg/Odometry"):  # fmt: skip
+    with pytest.raises(
+        BagError,
+        match=r"carries autoware_perception_msgs/msg/PredictedObjects; "
+        r"as the odometry of a channel it must carry "
+        r"nav_msgs/msg/Odometry",
+    ):
         read_bag(small_bag, m, ["lav"], 0.1)
 
 
@@ -354,8 +394,14 @@ def test_an_unknown_message_type_is_an_error(tmp_path: Path) -> None:
     kit = BagKit(tmp_path / "unknown")
     kit.odometry(0, x=0.0)
     kit.objects(0, x=1.0)
-    kit.raw("/lav/speed", "acme_msgs/msg/Speed", b"\x00\x01\x00\x00\x00\x00\x00\x00", T0,
-            msgdef="", rihs01="RIHS01_" + "0" * 64)
+    kit.raw(
+        "/lav/speed",
+        "acme_msgs/msg/Speed",
+        b"\x00\x01\x00\x00\x00\x00\x00\x00",
+        T0,
+        msgdef="",
+        rihs01="RIHS01_" + "0" * 64,
+    )
     kit.close()
     m = mapping(signals={"speed": "/lav/speed"})
     with pytest.raises(BagError, match="acme_msgs/msg/Speed, an unknown message type"):
@@ -415,10 +461,16 @@ def test_a_corrupt_message_is_a_defect_and_a_dropout(tmp_path: Path) -> None:
     for s in stamps_every(100, 0, 300):
         kit.odometry(s, x=s / 100)
         if s == 200:
-            good = kit.store.serialize_cdr(kit.build.objects(T0 + 200 * MS, one_object(1.0)),
-                                           "autoware_perception_msgs/msg/PredictedObjects")
-            kit.raw(TOPICS["objects"], "autoware_perception_msgs/msg/PredictedObjects",
-                    good[:40], T0 + 200 * MS)
+            good = kit.store.serialize_cdr(
+                kit.build.objects(T0 + 200 * MS, one_object(1.0)),
+                "autoware_perception_msgs/msg/PredictedObjects",
+            )
+            kit.raw(
+                TOPICS["objects"],
+                "autoware_perception_msgs/msg/PredictedObjects",
+                good[:40],
+                T0 + 200 * MS,
+            )
         else:
             kit.objects(s, x=50.0)
     kit.close()
@@ -434,31 +486,41 @@ def test_a_corrupt_message_is_a_defect_and_a_dropout(tmp_path: Path) -> None:
 
 def test_mapping_errors_name_file_line_and_key(tmp_path: Path) -> None:
     path = tmp_path / "topics.yaml"
-    path.write_text("ego: {length: 4.6, width: 1.9}\nchannels:\n  lav:\n    odometry: /odom\n"
-                    "    objectz: /objects\n", encoding="utf-8")  # fmt: skip
+    path.write_text(
+        "ego: {length: 4.6, width: 1.9}\nchannels:\n  lav:\n    odometry: /odom\n"
+        "    objectz: /objects\n",
+        encoding="utf-8",
+    )
     with pytest.raises(MappingError) as err:
         load_mapping(path)
     assert str(err.value).startswith(f"{path}:3: channels.lav.objects: required here")
-    path.write_text("ego: {length: -1, width: 1.9}\nchannels: {lav: {odometry: a, objects: b}}\n",
-                    encoding="utf-8")
+    path.write_text(
+        "ego: {length: -1, width: 1.9}\nchannels: {lav: {odometry: a, objects: b}}\n",
+        encoding="utf-8",
+    )
     with pytest.raises(MappingError, match=r":1: ego.length: Input should be greater than 0"):
         load_mapping(path)
-    path.write_text("ego: {length: 4, width: 2}\nchannels: {lav: {odometry: a, objects: b}}\n"
-                    "max_age: soon\n", encoding="utf-8")  # fmt: skip
+    path.write_text(
+        "ego: {length: 4, width: 2}\nchannels: {lav: {odometry: a, objects: b}}\nmax_age: soon\n",
+        encoding="utf-8",
+    )
     with pytest.raises(MappingError, match=r":3: max_age: "):
         load_mapping(path)
 
 
 def test_mapping_defaults_and_durations(tmp_path: Path) -> None:
     path = tmp_path / "topics.yaml"
-    path.write_text("ego: {length: 4.6, width: 1.9}\nmax_age: 150ms\nchannels:\n"
-                    "  lav: {odometry: /o, objects: {topic: /b, max_age: 0.3s}, plan: /p}\n",
-                    encoding="utf-8")  # fmt: skip
+    path.write_text(
+        "ego: {length: 4.6, width: 1.9}\nmax_age: 150ms\nchannels:\n"
+        "  lav: {odometry: /o, objects: {topic: /b, max_age: 0.3s}, plan: /p}\n",
+        encoding="utf-8",
+    )
     m = load_mapping(path).mapping
     lav = m.channels["lav"]
     assert m.age_limit(lav.objects, 0.1) == pytest.approx(0.3)
     assert m.age_limit(lav.odometry, 0.1) == pytest.approx(0.15)
-    bare = TopicMapping.model_validate({"ego": {"length": 4, "width": 2},
-                                        "channels": {"lav": {"odometry": "/o", "objects": "/b"}}})
+    bare = TopicMapping.model_validate(
+        {"ego": {"length": 4, "width": 2}, "channels": {"lav": {"odometry": "/o", "objects": "/b"}}}
+    )
     assert bare.age_limit(bare.channels["lav"].odometry, 0.1) == pytest.approx(0.15)
     assert bare.time == "header" and bare.max_delay == 1.0 and bare.plan_time == "auto"

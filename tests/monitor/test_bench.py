@@ -44,8 +44,15 @@ def test_stream_run_measures_a_recorded_stream(tmp_path, capsys):
     path = tmp_path / "s.jsonl"
     path.write_text("\n".join(json.dumps(d) for d in reference_load_dicts(4, 1)) + "\n")
     rows = stream_run(str(path), limit=3)
-    assert set(rows) == {"resampling", "similarity", "motion_prediction", "comfort", "situation",
-                         "safety_score", "all metrics"}  # fmt: skip
+    assert set(rows) == {
+        "resampling",
+        "similarity",
+        "motion_prediction",
+        "comfort",
+        "situation",
+        "safety_score",
+        "all metrics",
+    }
     assert all(r["p99"] >= r["p50"] > 0 and r["mean"] > 0 for r in rows.values())
     assert main(["--stream", str(path), "--frames", "0"]) == 0
     assert "all metrics" in capsys.readouterr().out

@@ -69,8 +69,9 @@ def test_lateral_acceleration_on_a_circle():
     ang = 0.25 * t
     xy = np.column_stack([40 * np.cos(ang), 40 * np.sin(ang)])
     assert hcs(t, xy, SPAN, W) == pytest.approx(want, abs=1e-3)
-    plan = np.column_stack([np.arange(51) * DT, *(40 * f(0.25 * np.arange(51) * DT)
-                                                  for f in (np.cos, np.sin))])  # fmt: skip
+    plan = np.column_stack(
+        [np.arange(51) * DT, *(40 * f(0.25 * np.arange(51) * DT) for f in (np.cos, np.sin))]
+    )
     assert ppcs(plan, SPAN, W) == pytest.approx(want, abs=1e-3)
 
 
@@ -91,8 +92,9 @@ def test_ppcs_short_plans():
     assert ppcs(plan[:3], SPAN, W) is None  # three points cannot fix a cubic
 
 
-def numpy_reference(times: np.ndarray, xy: np.ndarray, centres: np.ndarray, half: float,
-                    steepness: float) -> float:
+def numpy_reference(
+    times: np.ndarray, xy: np.ndarray, centres: np.ndarray, half: float, steepness: float
+) -> float:
     """Independent formulation: np.polyfit per centre, derivatives of the polynomial."""
     peaks = np.zeros(3)
     for c in centres:
@@ -124,8 +126,7 @@ def test_kernel_equals_numpy_reference(steps, v0, acc, seed):
     """hcs and ppcs against np.polyfit on random irregular series with noise."""
     times = np.concatenate([[0.0], np.cumsum(steps)])
     rng = np.random.default_rng(seed)
-    xy = (np.outer(times, v0) + 0.5 * np.outer(times**2, acc)
-          + rng.normal(0.0, 0.1, (len(times), 2)))  # fmt: skip
+    xy = np.outer(times, v0) + 0.5 * np.outer(times**2, acc) + rng.normal(0.0, 0.1, (len(times), 2))
     span = times[-1] - times[0]
     if span < 0.5 or np.sum(np.abs(times - span / 2) <= span / 2 + 1e-9) < 4:
         return
@@ -144,8 +145,9 @@ def ar1(rng: np.random.Generator, n: int, sigma: float, phi: float) -> np.ndarra
 
 def rolling_hcs(t: np.ndarray, xy: np.ndarray) -> np.ndarray:
     n = round(SPAN / DT) + 1
-    return np.array([hcs(t[i - n + 1 : i + 1], xy[i - n + 1 : i + 1], SPAN, W)
-                     for i in range(n - 1, len(t))])  # fmt: skip
+    return np.array(
+        [hcs(t[i - n + 1 : i + 1], xy[i - n + 1 : i + 1], SPAN, W) for i in range(n - 1, len(t))]
+    )
 
 
 @pytest.mark.parametrize("speed", [0.0, 13.9, 33.3])
@@ -228,8 +230,7 @@ def test_ppcs_on_the_grid_equals_the_general_fit(n, v0, acc, seed):
     it must give the general per-window fit's value (np.polyfit reference)."""
     rng = np.random.default_rng(seed)
     t = np.arange(n) * DT
-    xy = (np.outer(t, v0) + 0.5 * np.outer(t**2, acc)
-          + rng.normal(0.0, 0.05, (n, 2)))  # fmt: skip
+    xy = np.outer(t, v0) + 0.5 * np.outer(t**2, acc) + rng.normal(0.0, 0.05, (n, 2))
     plan = np.column_stack([t, xy])
     inside = (t - SPAN / 2 >= -1e-9) & (t + SPAN / 2 <= t[-1] + 1e-9)
     want = numpy_reference(t, xy, t[inside], SPAN / 2, W)

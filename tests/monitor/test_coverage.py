@@ -24,14 +24,16 @@ def ego_at(x: float = 0.0, y: float = 0.0, yaw: float = 0.0) -> Ego:
 
 def test_inside_hand_computed():
     e = ego_at(10.0, 5.0, math.pi / 2)  # looking along +y
-    pts = np.array([
-        [10.0, 25.0],   # 20 m straight ahead
-        [10.0, -15.0],  # 20 m behind
-        [30.0, 5.0],    # 20 m to the right: bearing -90 deg, outside +-60
-        [10.0, 76.0],   # 71 m ahead: beyond the range
-        # on the +60 deg edge ray at 20 m: 0 m from the edge, in without a margin only
-        [10.0 - 20 * math.sin(math.pi / 3), 5.0 + 20 * math.cos(math.pi / 3)],
-    ])  # fmt: skip
+    pts = np.array(
+        [
+            [10.0, 25.0],  # 20 m straight ahead
+            [10.0, -15.0],  # 20 m behind
+            [30.0, 5.0],  # 20 m to the right: bearing -90 deg, outside +-60
+            [10.0, 76.0],  # 71 m ahead: beyond the range
+            # on the +60 deg edge ray at 20 m: 0 m from the edge, in without a margin only
+            [10.0 - 20 * math.sin(math.pi / 3), 5.0 + 20 * math.cos(math.pi / 3)],
+        ]
+    )
     assert inside(CAMERA, e, pts, 0.0).tolist() == [True, False, False, False, True]
     # a 2 m margin: 20 m at 50 deg from the axis is 20 sin(10 deg) = 3.47 m from the edge
     b = math.radians(50)
@@ -46,14 +48,31 @@ def test_inside_hand_computed():
 
 
 def test_common_view_keeps_what_both_can_see():
-    lidar = frame(0.0, {"a": channel(ego(), objects=[
-        obj(1, 20.0, 0.0), obj(2, -15.0, 0.0), obj(3, 0.0, 30.0), obj(4, 75.0, 0.0),
-        obj(5, 69.0, 0.0)])})  # fmt: skip
+    lidar = frame(
+        0.0,
+        {
+            "a": channel(
+                ego(),
+                objects=[
+                    obj(1, 20.0, 0.0),
+                    obj(2, -15.0, 0.0),
+                    obj(3, 0.0, 30.0),
+                    obj(4, 75.0, 0.0),
+                    obj(5, 69.0, 0.0),
+                ],
+            )
+        },
+    )
     camera = frame(0.0, {"a": channel(ego(0.2, 0.0), objects=[obj(7, 20.3, 0.1)])})
     oa, core_a, ob, core_b = common_view(
-        lidar.channels["a"].objects, lidar.channels["a"].ego, LIDAR,
-        camera.channels["a"].objects, camera.channels["a"].ego, CAMERA, 2.0,
-    )  # fmt: skip
+        lidar.channels["a"].objects,
+        lidar.channels["a"].ego,
+        LIDAR,
+        camera.channels["a"].objects,
+        camera.channels["a"].ego,
+        CAMERA,
+        2.0,
+    )
     # behind (2), to the side (3) and beyond the camera's 70 + 2 m (4) are out of view; 5 is
     # in the camera's range margin (68.8 m from the camera's ego, 68-72 m): kept, not core
     assert oa.ids == ["1", "5"] and core_a.tolist() == [True, False]
@@ -67,16 +86,26 @@ def test_a_car_straddling_the_range_edge_is_neither_dropped_nor_a_disagreement()
     # the lead 68 m ahead: the lidar places it at 68.2 m, the camera at 67.9 m, around the
     # camera's 70 - 2 m core edge. Compared as a pair (one core member): ols = 1 / 1.3
     eng = MetricEngine(MetricParams(), ["a", "b"], {"b": CAMERA})
-    out = eng.step(frame(0.0, {
-        "a": channel(ego(), objects=[obj(1, 68.2, 0.0)]),
-        "b": channel(ego(), objects=[obj(1, 67.9, 0.0)]),
-    }))  # fmt: skip
+    out = eng.step(
+        frame(
+            0.0,
+            {
+                "a": channel(ego(), objects=[obj(1, 68.2, 0.0)]),
+                "b": channel(ego(), objects=[obj(1, 67.9, 0.0)]),
+            },
+        )
+    )
     assert out["ols"] == pytest.approx(1 / 1.3) and out["ocs"] == 1.0
     # both in the margin: nothing to compare, which is agreement, not a gap
-    out = eng.step(frame(0.1, {
-        "a": channel(ego(), objects=[obj(1, 69.2, 0.0)]),
-        "b": channel(ego(), objects=[]),
-    }))  # fmt: skip
+    out = eng.step(
+        frame(
+            0.1,
+            {
+                "a": channel(ego(), objects=[obj(1, 69.2, 0.0)]),
+                "b": channel(ego(), objects=[]),
+            },
+        )
+    )
     assert out["ols"] == 1.0 and out["ocs"] == 1.0
 
 
@@ -86,10 +115,15 @@ def run(coverage: dict[str, Coverage] | None) -> dict[str, float | None]:
     eng = MetricEngine(MetricParams(), ["a", "b"], coverage)
     ahead = obj(1, 20.0, 0.0, prediction=[[0.1 * n, 20.0 + n, 0.0] for n in range(1, 21)])
     behind = obj(2, -12.0, 0.0, prediction=[[0.1 * n, -12.0 + n, 0.0] for n in range(1, 21)])
-    return eng.step(frame(0.0, {
-        "a": channel(ego(), objects=[ahead, behind]),
-        "b": channel(ego(), objects=[ahead]),
-    }))  # fmt: skip
+    return eng.step(
+        frame(
+            0.0,
+            {
+                "a": channel(ego(), objects=[ahead, behind]),
+                "b": channel(ego(), objects=[ahead]),
+            },
+        )
+    )
 
 
 def test_a_camera_blind_behind_is_not_inconsistent():
@@ -113,8 +147,7 @@ def test_coverage_from_case_beats_header():
             channels=["lav", "tfuse"], coverage={"tfuse": ChannelCoverage(fov_deg=90.0)}
         )
 
-    header = Header(channels=["lav", "tfuse"],
-                    coverage={"lav": LIDAR, "tfuse": CAMERA})  # fmt: skip
+    header = Header(channels=["lav", "tfuse"], coverage={"lav": LIDAR, "tfuse": CAMERA})
     got = channel_coverage(CaseLike, header)  # type: ignore[arg-type]
     assert got == {"lav": LIDAR, "tfuse": Coverage(90.0, math.inf)}
     assert channel_coverage(CaseLike, None)["lav"] == Coverage()  # type: ignore[arg-type]

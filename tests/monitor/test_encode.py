@@ -21,8 +21,14 @@ def assert_same(a: Frame, b: Frame) -> None:
     assert (a.t, a.signals, set(a.channels)) == (b.t, b.signals, set(b.channels))
     for name, x in a.channels.items():
         y = b.channels[name]
-        assert (x.ego.x, x.ego.y, x.ego.yaw, x.ego.vx, x.ego.vy, x.ego.half) == \
-            (y.ego.x, y.ego.y, y.ego.yaw, y.ego.vx, y.ego.vy, y.ego.half)  # fmt: skip
+        assert (x.ego.x, x.ego.y, x.ego.yaw, x.ego.vx, x.ego.vy, x.ego.half) == (
+            y.ego.x,
+            y.ego.y,
+            y.ego.yaw,
+            y.ego.vx,
+            y.ego.vy,
+            y.ego.half,
+        )
         np.testing.assert_array_equal(x.ego.footprint, y.ego.footprint)
         np.testing.assert_array_equal(x.plan, y.plan)
         ox, oy = x.objects, y.objects

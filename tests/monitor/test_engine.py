@@ -106,8 +106,9 @@ def test_hcs_window_slides_and_restarts_after_a_gap():
     worst = {"hcs__a": 1.0, "hcs__b": 1.0}
     for k in range(51):
         f = simple(0.1 * k)
-        f["b"] = channel(ego(10 * 0.1 * min(k, 30), 0), plan=straight_plan(0, 0, 10, 0, 10),
-                         objects=[])  # fmt: skip
+        f["b"] = channel(
+            ego(10 * 0.1 * min(k, 30), 0), plan=straight_plan(0, 0, 10, 0, 10), objects=[]
+        )
         out = eng.step(frame(round(0.1 * k, 1), f))
         if out["hcs__b"] is not None:
             assert out["hcs"] == out["hcs__b"]

@@ -23,8 +23,10 @@ def test_area_ignores_padding_and_convexity():
     tri = np.array([[0.0, 0.0], [2.0, 0.0], [0.0, 1.0], [0.0, 1.0]])  # last vertex repeated
     assert polygon_area(tri) == pytest.approx(1.0)  # 2 * 1 / 2
     assert is_convex(tri)
-    u = np.array([[-2, 2.5], [-2, 1.5], [2, 1.5], [2, -1.5], [-2, -1.5], [-2, -2.5], [3, -2.5],
-                  [3, 2.5]], dtype=float)  # fmt: skip
+    u = np.array(
+        [[-2, 2.5], [-2, 1.5], [2, 1.5], [2, -1.5], [-2, -1.5], [-2, -2.5], [3, -2.5], [3, 2.5]],
+        dtype=float,
+    )
     assert not is_convex(u)
     # U area: 5 x 5 outer box minus the 4 x 3 notch = 25 - 12 = 13
     assert polygon_area(u) == pytest.approx(13.0)

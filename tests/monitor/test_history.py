@@ -60,7 +60,7 @@ def test_chpps_compares_paths_not_speed_profiles():
     # The same straight path driven at 10 m/s, then planned to stop within 1 m (a red light):
     # a time-wise comparison puts the plans 19 m apart at 2 s; their paths are one: chpps 1.
     cruise = np.array([[0.1 * n, 1.0 * n, 0.0] for n in range(21)])
-    stopping = np.array([[0.1 * n, min(1.0 * n, 1.0) * (1 - 0.5 ** n), 0.0] for n in range(21)])
+    stopping = np.array([[0.1 * n, min(1.0 * n, 1.0) * (1 - 0.5**n), 0.0] for n in range(21)])
     assert chpps(stopping, [(0.1, cruise)], K) == pytest.approx(1.0)
     assert chpps(cruise, [(0.1, stopping)], K) == pytest.approx(1.0)
     # the path itself swerving: a stored plan along +x, the current one 1 m to the left from

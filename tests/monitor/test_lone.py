@@ -19,8 +19,12 @@ AB = ["a", "b"]
 
 def _lone(ages: LoneAges, t: float, pos: list, vel: list, lone: list | None = None):
     flags = [True] * len(pos) if lone is None else lone
-    return ages.update(t, np.array(pos, float).reshape(-1, 2), np.array(vel, float).reshape(-1, 2),
-                       np.array(flags, bool)).tolist()
+    return ages.update(
+        t,
+        np.array(pos, float).reshape(-1, 2),
+        np.array(vel, float).reshape(-1, 2),
+        np.array(flags, bool),
+    ).tolist()
 
 
 def test_ages_follow_objects_by_position_and_velocity():
@@ -119,8 +123,9 @@ def _straight(offset: float, n: int = 31, speed: float = 10.0) -> np.ndarray:
 def test_plan_lat_reads_a_sideways_shift_not_a_speed_difference():
     a = _straight(0.0)
     # same path 1.5 m to the left: 1.5 whatever the speed
-    assert plan_lateral(a, _straight(1.5, speed=12.0), (0.0, 0.0), (0.0, 0.0), 2.0) \
-        == pytest.approx(1.5)
+    assert plan_lateral(
+        a, _straight(1.5, speed=12.0), (0.0, 0.0), (0.0, 0.0), 2.0
+    ) == pytest.approx(1.5)
     # the same shift when channel b believes the ego is 1.5 m left too: nothing planned apart
     assert plan_lateral(a, _straight(1.5), (0.0, -1.5), (0.0, 0.0), 2.0) == pytest.approx(0.0)
     # the order of the channels does not matter
@@ -143,8 +148,7 @@ def test_plan_lat_of_standing_plans_reads_across_the_ego_heading():
     a = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
     b = np.array([[0.0, 0.3, 0.4], [1.0, 0.3, 0.4]])
     # both egos head +y: across is x: 0.3
-    assert plan_lateral(a, b, (0.0, 0.0), (math.pi / 2, math.pi / 2), 2.0) \
-        == pytest.approx(0.3)
+    assert plan_lateral(a, b, (0.0, 0.0), (math.pi / 2, math.pi / 2), 2.0) == pytest.approx(0.3)
     assert plan_lateral(a, np.zeros((0, 3)), (0.0, 0.0), (0.0, 0.0), 2.0) is None
 
 
@@ -166,8 +170,15 @@ def test_standing_pairs_leave_ots():
 def test_standing_objects_leave_ompv():
     from casewatch.monitor.prediction import ompv
 
-    prev = frame(0.0, {"a": channel(ego(), objects=[
-        obj("m", 0.0, 0.0, prediction=[[0.5, 5.0, 0.0]]), obj("s", 20.0, 0.0)])})
+    prev = frame(
+        0.0,
+        {
+            "a": channel(
+                ego(),
+                objects=[obj("m", 0.0, 0.0, prediction=[[0.5, 5.0, 0.0]]), obj("s", 20.0, 0.0)],
+            )
+        },
+    )
     # the moving car went the other way (a reversed prediction); the standing one stayed
     cur = frame(0.5, {"a": channel(ego(), objects=[obj("m", -5.0, 0.0), obj("s", 20.0, 0.0)])})
     p, c = prev.channels["a"].objects, cur.channels["a"].objects
@@ -181,16 +192,28 @@ def test_standing_objects_leave_ompv():
 def test_standing_ompv_when_everything_is_gone():
     from casewatch.monitor.prediction import ompv
 
-    prev = frame(0.0, {"a": channel(ego(), objects=[
-        obj("m", 0.0, 0.0, prediction=[[0.5, 5.0, 0.0]]), obj("s", 20.0, 0.0)])})
+    prev = frame(
+        0.0,
+        {
+            "a": channel(
+                ego(),
+                objects=[obj("m", 0.0, 0.0, prediction=[[0.5, 5.0, 0.0]]), obj("s", 20.0, 0.0)],
+            )
+        },
+    )
     none = frame(0.5, {"a": channel(ego())}).channels["a"].objects
     # the moving car is gone: existence (lone_age's), not prediction; nothing left to check
     assert ompv(prev.channels["a"].objects, 0.5, none, 1.0, 3.0, standing=0.5) == 1.0
     # the study's reading counts it (and the standing car) as misses
     assert ompv(prev.channels["a"].objects, 0.5, none, 1.0, 3.0) == 0.0
     # a moving car new since: not a miss either
-    new = frame(0.5, {"a": channel(ego(), objects=[
-        obj("n", 9.0, 9.0, prediction=[[0.5, 14.0, 9.0]])])}).channels["a"].objects
+    new = (
+        frame(
+            0.5, {"a": channel(ego(), objects=[obj("n", 9.0, 9.0, prediction=[[0.5, 14.0, 9.0]])])}
+        )
+        .channels["a"]
+        .objects
+    )
     assert ompv(prev.channels["a"].objects, 0.5, new, 1.0, 3.0, standing=0.5) == 1.0
 
 

@@ -157,9 +157,7 @@ def reference_ompv(prev, elapsed, cur, tolerance, gate):
                 used_j.add(j)
                 pairs.append((i, j))
     n1 = sum(
-        1
-        for i, j in pairs
-        if reaches[i] and float(np.hypot(*(moved[i] - cur.pos[j]))) <= tolerance
+        1 for i, j in pairs if reaches[i] and float(np.hypot(*(moved[i] - cur.pos[j]))) <= tolerance
     )
     n_new = n_cur - len({j for _, j in pairs})
     return n1 / (n_prev + n_new)

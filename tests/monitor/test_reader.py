@@ -246,6 +246,7 @@ def test_real_stdin_plain_and_gzip():
         "print([f.t for f in r], [(d.line, d.kind) for d in r.defects], r.dropouts)"
     )
     for payload in (data, gzip.compress(data)):
-        run = subprocess.run([sys.executable, "-c", code], input=payload, capture_output=True,
-                             check=True)  # fmt: skip
+        run = subprocess.run(
+            [sys.executable, "-c", code], input=payload, capture_output=True, check=True
+        )
         assert run.stdout.decode().strip() == (f"[0.0, 0.2] {EXPECTED} {{'lav': 0, 'tfuse': 1}}")

@@ -52,9 +52,11 @@ def test_circle_sampled_coarsely_stays_on_the_circle():
 
 
 def objects_with(pred: list[list[float]] | None, x: float = 0.0, y: float = 0.0) -> Objects:
-    return frame(0.0, {"a": channel(ego(), objects=[obj(1, x, y, prediction=pred)])}).channels[
-        "a"
-    ].objects
+    return (
+        frame(0.0, {"a": channel(ego(), objects=[obj(1, x, y, prediction=pred)])})
+        .channels["a"]
+        .objects
+    )
 
 
 def test_prediction_starts_from_the_current_position():
@@ -71,17 +73,26 @@ def test_prediction_starts_from_the_current_position():
 # -- invariance through the engine -----------------------------------------------------------
 
 
-def motion(v0: float, acc: float, yaw_rate: float, horizon: float, x0: float = 0.0,
-           y0: float = 0.0, yaw0: float = 0.0) -> np.ndarray:
+def motion(
+    v0: float,
+    acc: float,
+    yaw_rate: float,
+    horizon: float,
+    x0: float = 0.0,
+    y0: float = 0.0,
+    yaw0: float = 0.0,
+) -> np.ndarray:
     """[t, x, y] every ms over `horizon`: speed v0 + acc t (never below 0), turning at
     `yaw_rate`."""
     t = np.arange(0.0, horizon + 5e-4, 0.001)
     v = np.maximum(v0 + acc * t, 0.0)
     yaw = yaw0 + yaw_rate * t
-    x = x0 + np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] * np.cos(yaw[1:]) + v[:-1]
-                                                      * np.cos(yaw[:-1])) * 0.001)])  # fmt: skip
-    y = y0 + np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] * np.sin(yaw[1:]) + v[:-1]
-                                                      * np.sin(yaw[:-1])) * 0.001)])  # fmt: skip
+    x = x0 + np.concatenate(
+        [[0.0], np.cumsum(0.5 * (v[1:] * np.cos(yaw[1:]) + v[:-1] * np.cos(yaw[:-1])) * 0.001)]
+    )
+    y = y0 + np.concatenate(
+        [[0.0], np.cumsum(0.5 * (v[1:] * np.sin(yaw[1:]) + v[:-1] * np.sin(yaw[:-1])) * 0.001)]
+    )
     return np.column_stack([t, x, y])
 
 
@@ -105,8 +116,15 @@ SAMPLING = ("0.1s", "0.5s", "1m")
 PLAN_METRICS = ("ets", "crpps", "chpps", "ss", "ots", "ompv", "ppcs")
 
 
-def run_engine(b_sampling: str, b_plan_horizon: float, b_pred_horizon: float, v0: float,
-               acc: float, yaw_rate: float, lead_gap: float) -> dict[str, float | None]:
+def run_engine(
+    b_sampling: str,
+    b_plan_horizon: float,
+    b_pred_horizon: float,
+    v0: float,
+    acc: float,
+    yaw_rate: float,
+    lead_gap: float,
+) -> dict[str, float | None]:
     """Two channels seeing the same ego and lead car; channel a samples every 0.1 s over 5 s
     plans / 4 s predictions, channel b as asked. Returns the last of 12 frames."""
     eng = MetricEngine(MetricParams(), ["a", "b"])
@@ -119,11 +137,20 @@ def run_engine(b_sampling: str, b_plan_horizon: float, b_pred_horizon: float, v0
         plan_fine = ego_path[i0:].copy()
         plan_fine[:, 0] -= t
         yaw = yaw_rate * t
-        lead = motion(v0, 0.0, 0.0, 4.0, now[1] + lead_gap * math.cos(yaw),
-                      now[2] + lead_gap * math.sin(yaw), yaw)  # fmt: skip
+        lead = motion(
+            v0,
+            0.0,
+            0.0,
+            4.0,
+            now[1] + lead_gap * math.cos(yaw),
+            now[2] + lead_gap * math.sin(yaw),
+            yaw,
+        )
         chans = {}
-        for name, how, hp, hq in (("a", "0.1s", 5.0, 4.0),
-                                  ("b", b_sampling, b_plan_horizon, b_pred_horizon)):  # fmt: skip
+        for name, how, hp, hq in (
+            ("a", "0.1s", 5.0, 4.0),
+            ("b", b_sampling, b_plan_horizon, b_pred_horizon),
+        ):
             plan = sample(plan_fine[plan_fine[:, 0] <= hp + 1e-9], how)
             pred = sample(lead[lead[:, 0] <= hq + 1e-9], how)[1:]  # from the first step on
             chans[name] = channel(

@@ -58,10 +58,24 @@ def box_world(draw, times: list[float], plan: list[list[float]]) -> list[dict]:
             speed = draw(st.floats(3, 20))
             head = draw(st.floats(-3.2, 3.2))
             c, s = speed * math.cos(head), speed * math.sin(head)
-            pts = [[t, plan[a][1] + c * (t - plan[a][0] - late),
-                    plan[a][2] + s * (t - plan[a][0] - late)] for t in times]  # fmt: skip
-            objects.append(obj(k, *pts[0][1:], head, draw(st.floats(0.5, 5)),
-                               draw(st.floats(0.5, 2)), prediction=pts))  # fmt: skip
+            pts = [
+                [
+                    t,
+                    plan[a][1] + c * (t - plan[a][0] - late),
+                    plan[a][2] + s * (t - plan[a][0] - late),
+                ]
+                for t in times
+            ]
+            objects.append(
+                obj(
+                    k,
+                    *pts[0][1:],
+                    head,
+                    draw(st.floats(0.5, 5)),
+                    draw(st.floats(0.5, 2)),
+                    prediction=pts,
+                )
+            )
             continue
         if len(plan) > 2 and draw(st.booleans()):
             shift = draw(st.integers(1, len(plan) - 1))
@@ -73,13 +87,21 @@ def box_world(draw, times: list[float], plan: list[list[float]]) -> list[dict]:
             else:  # behind: where the ego was, coming from as far behind
                 pts = [[plan[i + shift][0], *moved[i]] for i in range(len(plan) - shift)]
                 start = [2 * moved[0][0] - moved[shift][0], 2 * moved[0][1] - moved[shift][1]]
-            objects.append(obj(k, *start, draw(st.floats(-3.2, 3.2)),
-                               draw(st.floats(0.5, 5)), draw(st.floats(0.5, 2)),
-                               prediction=pts))  # fmt: skip
+            objects.append(
+                obj(
+                    k,
+                    *start,
+                    draw(st.floats(-3.2, 3.2)),
+                    draw(st.floats(0.5, 5)),
+                    draw(st.floats(0.5, 2)),
+                    prediction=pts,
+                )
+            )
             continue
         ox, oy = draw(st.floats(-25, 25)), draw(st.floats(-25, 25))
-        o = obj(k, ox, oy, draw(st.floats(-3.2, 3.2)), draw(st.floats(0.5, 8)),
-                draw(st.floats(0.5, 3)))  # fmt: skip
+        o = obj(
+            k, ox, oy, draw(st.floats(-3.2, 3.2)), draw(st.floats(0.5, 8)), draw(st.floats(0.5, 3))
+        )
         m = draw(st.integers(0, 12))
         if m:
             start = draw(st.sampled_from([0.0, 0.1, 0.25, 0.4]))
@@ -98,8 +120,9 @@ def box_world(draw, times: list[float], plan: list[list[float]]) -> list[dict]:
 def box_scene(draw) -> tuple[list[np.ndarray], list, list]:
     """Plans on prefixes of one grid (uniform or not), their box egos, box world models."""
     n_long = draw(st.integers(2, 20))
-    steps = draw(st.lists(st.sampled_from([0.1, 0.2, 0.05]), min_size=n_long - 1,
-                          max_size=n_long - 1))  # fmt: skip
+    steps = draw(
+        st.lists(st.sampled_from([0.1, 0.2, 0.05]), min_size=n_long - 1, max_size=n_long - 1)
+    )
     times = [0.0]
     for s in steps:
         times.append(round(times[-1] + s, 2))
@@ -109,8 +132,11 @@ def box_scene(draw) -> tuple[list[np.ndarray], list, list]:
     chans = {}
     first = None
     for c in range(max(n_plans, n_worlds)):
-        plan = draw(path(lengths[c], times, draw(st.booleans()) and draw(st.booleans()))) \
-            if c < n_plans else straight_plan(0, 0, 1, 0, 2)  # fmt: skip
+        plan = (
+            draw(path(lengths[c], times, draw(st.booleans()) and draw(st.booleans())))
+            if c < n_plans
+            else straight_plan(0, 0, 1, 0, 2)
+        )
         first = first or plan
         e = ego(0, 0, draw(st.floats(-3.2, 3.2)), draw(st.floats(1, 6)), draw(st.floats(1, 3)))
         objects = draw(box_world(times, first)) if c < n_worlds else []

@@ -49,8 +49,7 @@ def test_rounding_jitter_of_a_standing_car_is_not_a_heading():
     # length 2.3 m reaching to 0.9 m from the ego's centre line, inside its half width 1.0: a
     # collision now, ss = 0). Segments under 2 cm are standing still: the car keeps its yaw
     still = [[0.0, 0.0, 0.0], [5.0, 0.0, 0.0]]
-    car = obj(1, 0.0, 3.204, 0.0, 4.6, 1.8,
-              prediction=[[0.5 * k, 0.0, 3.2] for k in range(1, 9)])  # fmt: skip
+    car = obj(1, 0.0, 3.204, 0.0, 4.6, 1.8, prediction=[[0.5 * k, 0.0, 3.2] for k in range(1, 9)])
     s = scene([car], plan=still)
     assert safety_matrix(["a"], {"a": s}, PET_REF)[("a", "a")] == 1.0
     ss, ttc, _ = safety_score(s.plan, s.ego, s.objects, PET_REF)
@@ -80,8 +79,11 @@ def test_following_is_no_post_encroachment():
     # lead held 1.0 s later, a PET of 1.0 s (ss 0.5) if read as a crossing. Rear-end
     # encounters (headings under 30 degrees apart) are not PET's (conflict types): ss = 1.
     lead = obj(1, 14.0, 0, 0, 4, 2, prediction=straight_plan(14.0, 0, 10, 0, 31)[1:])
-    assert safety_score(scene([lead]).plan, scene([lead]).ego, scene([lead]).objects,
-                        PET_REF) == (1.0, math.inf, math.inf)  # fmt: skip
+    assert safety_score(scene([lead]).plan, scene([lead]).ego, scene([lead]).objects, PET_REF) == (
+        1.0,
+        math.inf,
+        math.inf,
+    )
     # the same lead standing still: the ego drives into it, TTC as before (gap 10 m at 10 m/s)
     stopped = scene([obj(1, 14.0, 0, 0, 4, 2)])
     ss, ttc, _ = safety_score(stopped.plan, stopped.ego, stopped.objects, PET_REF)
@@ -213,6 +215,7 @@ def brute_force(plan, ego_state, objects, pet_ref):
             )
             for m in range(len(times))
         ]
+
         def rear_end(n, m, k=k):  # conflict types: headings under 30 degrees apart
             return ec[0, n] * cos[k, m] + es[0, n] * sin[k, m] > math.cos(math.radians(30))
 
@@ -317,8 +320,7 @@ def test_prefix_grids_in_one_pass_match_separate_plans(first, second, cut):
             si, sj = f.channels[i], f.channels[j]
             # over the horizon both cover: plan i cut to j's longest prediction
             plan = si.plan[si.plan[:, 0] <= prediction_horizon(sj.objects) + 1e-9]
-            single = safety_score(plan, si.ego, sj.objects, PET_REF)[0] if len(plan) >= 2 \
-                else 1.0
+            single = safety_score(plan, si.ego, sj.objects, PET_REF)[0] if len(plan) >= 2 else 1.0
             assert matrix[(i, j)] == pytest.approx(single, abs=1e-12), (i, j)
 
 

@@ -240,18 +240,27 @@ def reference_objects(a, b, gate: float, decay: float, keep: float = 0.0) -> dic
         oas.append(lo / hi if hi > 0 else 1.0)
         # the common horizon when both predict; an object without prediction (pred_len 0,
         # its current position as a one-point prediction) stays put over the other's
-        both = a.pred_len[i] > 0 and b.pred_len[j] > 0 if a.pred.shape[1] and b.pred.shape[1] \
+        both = (
+            a.pred_len[i] > 0 and b.pred_len[j] > 0
+            if a.pred.shape[1] and b.pred.shape[1]
             else False
+        )
         n = min(la[i], lb[j]) if both else max(la[i], lb[j])
         # predicted motion: each prediction relative to its own object's position
         pa = xa[i][np.minimum(np.arange(n), la[i] - 1)] - a.pos[i]
         pb = xb[j][np.minimum(np.arange(n), lb[j] - 1)] - b.pos[j]
         ots.append(weighted_pointwise(pa[None], pb[None], None, decay)[0])
+
     def with_lone(values: list[float]) -> float:
         return (sum(values) + lone * keep * np.mean(values)) / (len(values) + lone)
 
-    return {**out, "ols": with_lone(ols), "oos": with_lone(oos), "oas": with_lone(oas),
-            "ots": with_lone(ots)}  # fmt: skip
+    return {
+        **out,
+        "ols": with_lone(ols),
+        "oos": with_lone(oos),
+        "oas": with_lone(oas),
+        "ots": with_lone(ots),
+    }
 
 
 @st.composite
@@ -272,23 +281,36 @@ def object_list(draw):
                 [0.1 * m, x + sum(steps[0 : 2 * m + 1 : 2]), y + sum(steps[1 : 2 * m + 2 : 2])]
                 for m in range(n)
             ]
-        o = obj(k, x, y, draw(st.floats(-7, 7)), draw(st.floats(0.1, 6)), draw(st.floats(0.1, 3)),
-                **extra)  # fmt: skip
+        o = obj(
+            k,
+            x,
+            y,
+            draw(st.floats(-7, 7)),
+            draw(st.floats(0.1, 6)),
+            draw(st.floats(0.1, 3)),
+            **extra,
+        )
         if draw(st.booleans()):
             # a polygon footprint instead of the box (its area: the shoelace formula)
             del o["length"], o["width"]
             n_vert = draw(st.integers(3, 5))
             o["polygon"] = draw(
-                st.lists(st.tuples(st.floats(-3, 3), st.floats(-2, 2)), min_size=n_vert,
-                         max_size=n_vert)
-            )  # fmt: skip
+                st.lists(
+                    st.tuples(st.floats(-3, 3), st.floats(-2, 2)), min_size=n_vert, max_size=n_vert
+                )
+            )
         objs.append(o)
     return objs
 
 
 @settings(max_examples=150, deadline=None)
-@given(object_list(), object_list(), st.sampled_from([0.0, 1.5, 3.0]), st.sampled_from([0.5, 0.95]),
-       st.sampled_from([0.0, 0.4, 1.0]))
+@given(
+    object_list(),
+    object_list(),
+    st.sampled_from([0.0, 1.5, 3.0]),
+    st.sampled_from([0.5, 0.95]),
+    st.sampled_from([0.0, 0.4, 1.0]),
+)
 def test_object_kernel_equals_reference(objs_a, objs_b, gate, decay, keep):
     f = frame(0.0, {"a": channel(ego(), objects=objs_a), "b": channel(ego(), objects=objs_b)})
     a, b = f.channels["a"].objects, f.channels["b"].objects

@@ -140,8 +140,9 @@ def segment_distances(path, pos):
     """(K, 2): each point's distance to its nearest and second-nearest path segment."""
     a, b = path[:-1], path[1:]
     ab = b - a
-    t = np.clip(np.einsum("ksi,si->ks", pos[:, None] - a, ab) / np.einsum("si,si->s", ab, ab),
-                0.0, 1.0)  # fmt: skip
+    t = np.clip(
+        np.einsum("ksi,si->ks", pos[:, None] - a, ab) / np.einsum("si,si->s", ab, ab), 0.0, 1.0
+    )
     foot = a + t[..., None] * ab
     dist = np.sort(np.hypot(*(pos[:, None] - foot).transpose(2, 0, 1)), axis=1)
     if dist.shape[1] == 1:  # one segment: nothing to tie with
@@ -151,11 +152,15 @@ def segment_distances(path, pos):
 
 @settings(max_examples=80, deadline=None)
 @given(
-    st.lists(st.tuples(st.floats(-50, 50), st.floats(-50, 50)), min_size=2, max_size=6,
-             unique=True),
-    st.lists(st.tuples(st.floats(-60, 60), st.floats(-60, 60), st.floats(-3.2, 3.2)),
-             min_size=1, max_size=8),
-)  # fmt: skip
+    st.lists(
+        st.tuples(st.floats(-50, 50), st.floats(-50, 50)), min_size=2, max_size=6, unique=True
+    ),
+    st.lists(
+        st.tuples(st.floats(-60, 60), st.floats(-60, 60), st.floats(-3.2, 3.2)),
+        min_size=1,
+        max_size=8,
+    ),
+)
 def test_compiled_nearest_equals_the_numpy_projection(points, objects):
     """The kernel against `project` (numpy) and the gap formula written out."""
     path = np.array(points)
@@ -165,8 +170,9 @@ def test_compiled_nearest_equals_the_numpy_projection(points, objects):
     pos = np.array([(x, y) for x, y, _ in objects])
     yaw = np.array([a for _, _, a in objects])
     hl, hw = np.full(len(pos), 2.2), np.full(len(pos), 0.9)
-    k, gap, _, _ = _nearest(path, pos, yaw, hl, hw, np.zeros((len(pos), 2)), HALF_WIDTH, 2.3, 1.0,
-                            0.0, 0.0, 0.0, False)
+    k, gap, _, _ = _nearest(
+        path, pos, yaw, hl, hw, np.zeros((len(pos), 2)), HALF_WIDTH, 2.3, 1.0, 0.0, 0.0, 0.0, False
+    )
     s, d, tangent = project(path, pos)
     cos = np.abs(np.cos(yaw) * tangent[:, 0] + np.sin(yaw) * tangent[:, 1])
     want = np.maximum(s - 2.3 - (hl * cos + hw * np.sqrt(np.maximum(0, 1 - cos**2))), 0.0)
@@ -239,13 +245,19 @@ def test_a_car_in_the_planned_path_is_no_leader_before_the_ego_is_in_its_lane():
     # 1.41 m to its left, chord 1.08 m off) the car is its leader: gap 14 - 2 - 2 = 10 m.
     from casewatch.monitor.situation import neighbours
 
-    plan = [[0.0, 0.0, 0.0], [0.6, 15.0, 0.7], [1.2, 30.0, 1.9], [1.8, 45.0, 2.3],
-            [4.0, 100.0, 2.3]]  # fmt: skip
+    plan = [
+        [0.0, 0.0, 0.0],
+        [0.6, 15.0, 0.7],
+        [1.2, 30.0, 1.9],
+        [1.8, 45.0, 2.3],
+        [4.0, 100.0, 2.3],
+    ]
     for ego_y, leader in ((0.0, False), (0.9, True)):
         p = [[t, x, y + ego_y] for t, x, y in plan]
         car = obj(1, 14.0, 2.31, 0.0, 4, 2, vx=30.0)
-        s = frame(0.0, {"a": channel(ego(0, ego_y, 0.047, 4, 2, vx=22.5), plan=p,
-                                     objects=[car])}).channels["a"]  # fmt: skip
+        s = frame(
+            0.0, {"a": channel(ego(0, ego_y, 0.047, 4, 2, vx=22.5), plan=p, objects=[car])}
+        ).channels["a"]
         lead, _ = neighbours(s.ego, s.plan, None, s.objects, HALF_WIDTH, 2.0, 250.0)
         assert lead.present is leader, ego_y
         if leader:
@@ -260,11 +272,22 @@ def test_a_leader_around_a_bend_shares_the_lane():
     from casewatch.monitor.situation import neighbours
 
     angles = np.linspace(0.0, 0.6, 31)
-    plan = [[0.1 * k, float(100 * np.sin(a)), float(100 * (1 - np.cos(a)))]
-            for k, a in enumerate(angles)]  # fmt: skip
-    car = obj(1, float(100 * np.sin(0.3)), float(100 * (1 - np.cos(0.3))), 0.3, 4, 2,
-              vx=float(20 * np.cos(0.3)), vy=float(20 * np.sin(0.3)))  # fmt: skip
-    s = frame(0.0, {"a": channel(ego(0, 0, 0.0, 4, 2, vx=20.0), plan=plan,
-                                 objects=[car])}).channels["a"]  # fmt: skip
+    plan = [
+        [0.1 * k, float(100 * np.sin(a)), float(100 * (1 - np.cos(a)))]
+        for k, a in enumerate(angles)
+    ]
+    car = obj(
+        1,
+        float(100 * np.sin(0.3)),
+        float(100 * (1 - np.cos(0.3))),
+        0.3,
+        4,
+        2,
+        vx=float(20 * np.cos(0.3)),
+        vy=float(20 * np.sin(0.3)),
+    )
+    s = frame(
+        0.0, {"a": channel(ego(0, 0, 0.0, 4, 2, vx=20.0), plan=plan, objects=[car])}
+    ).channels["a"]
     lead, _ = neighbours(s.ego, s.plan, None, s.objects, HALF_WIDTH, 2.0, 250.0)
     assert lead.present and lead.gap == pytest.approx(26.0, abs=0.1)

@@ -45,8 +45,12 @@ def test_warm_up_leaves_nothing_to_compile_for_real_streams():
     drive = ROOT / "examples" / "data" / "highway-tailgated.jsonl.gz"
     out = subprocess.run(
         [sys.executable, "-c", PROBE, str(drive)],
-        cwd=ROOT, capture_output=True, text=True, check=True, timeout=600,
-    )  # fmt: skip
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        check=True,
+        timeout=600,
+    )
     got = json.loads(out.stdout.strip().splitlines()[-1])
     before, after = got["before"], got["after"]
     assert before and any(before.values())  # the probe found compiled kernels at all

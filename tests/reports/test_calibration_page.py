@@ -7,22 +7,52 @@ from casewatch.reports.calibration import _plot, render_calibration
 
 
 def point(threshold, duration, episodes, per_hour, detected=None, faults=0, fires=True):
-    return {"threshold": threshold, "for": duration, "episodes": episodes, "per_hour": per_hour,
-            "per_hour_upper": per_hour + 3.0, "detected": detected,
-            "detection": None if detected is None else detected / faults, "fires": fires}
+    return {
+        "threshold": threshold,
+        "for": duration,
+        "episodes": episodes,
+        "per_hour": per_hour,
+        "per_hour_upper": per_hour + 3.0,
+        "detected": detected,
+        "detection": None if detected is None else detected / faults,
+        "fires": fires,
+    }
 
 
 def report(faults: int) -> dict:
     d = (lambda n: n) if faults else (lambda n: None)
-    curve = [point(0.5, 0.0, 1, 1.0, d(1), faults), point(0.6, 0.0, 5, 5.0, d(2), faults),
-             point(0.5, 1.0, 0, 0.0, d(0), faults), point(0.6, 1.0, 1, 1.0, d(1), faults),
-             point(0.9, 0.0, 90, 90.0, d(2), faults)]  # fmt: skip
-    row = {"formula": "Sn1", "parameter": "els >=", "op": ">=", "hours": 1.0, "faults": faults,
-           "original": curve[1], "chosen": curve[3], "status": "calibrated", "reason": "",
-           "original_over_budget": True, "curve": curve}  # fmt: skip
-    return {"case": "c.yaml", "logs": 1, "hours": 1.0, "per_hour": 2.0, "min_hours": 0.5,
-            "margin": 3.0, "faults": faults, "tighten": False, "confidence": 0.95,
-            "spis": [row]}  # fmt: skip
+    curve = [
+        point(0.5, 0.0, 1, 1.0, d(1), faults),
+        point(0.6, 0.0, 5, 5.0, d(2), faults),
+        point(0.5, 1.0, 0, 0.0, d(0), faults),
+        point(0.6, 1.0, 1, 1.0, d(1), faults),
+        point(0.9, 0.0, 90, 90.0, d(2), faults),
+    ]
+    row = {
+        "formula": "Sn1",
+        "parameter": "els >=",
+        "op": ">=",
+        "hours": 1.0,
+        "faults": faults,
+        "original": curve[1],
+        "chosen": curve[3],
+        "status": "calibrated",
+        "reason": "",
+        "original_over_budget": True,
+        "curve": curve,
+    }
+    return {
+        "case": "c.yaml",
+        "logs": 1,
+        "hours": 1.0,
+        "per_hour": 2.0,
+        "min_hours": 0.5,
+        "margin": 3.0,
+        "faults": faults,
+        "tighten": False,
+        "confidence": 0.95,
+        "spis": [row],
+    }
 
 
 def test_the_trade_off_plot_places_each_candidate_by_hand():

@@ -22,8 +22,23 @@ def fleet(tmp_path_factory) -> Path:
         for suffix in (".jsonl.gz", ".labels.jsonl"):
             shutil.copy(DATA / f"{name}{suffix}", logs / f"{name}{suffix}")
     out = tmp_path_factory.mktemp("fleet")
-    assert main(["run", str(REPO / "examples" / "reference-case.yaml"), str(logs),
-                 "--labels", "auto", "--format", "html", "--quiet", "-o", str(out)]) == 1
+    assert (
+        main(
+            [
+                "run",
+                str(REPO / "examples" / "reference-case.yaml"),
+                str(logs),
+                "--labels",
+                "auto",
+                "--format",
+                "html",
+                "--quiet",
+                "-o",
+                str(out),
+            ]
+        )
+        == 1
+    )
     assert main(["report", str(out)]) == 0
     return out
 
@@ -35,7 +50,7 @@ def test_fleet_page_numbers_come_from_the_summary(fleet):
     assert f"{summary['logs']} logs" in html
     hazards = {f["node_id"]: f for f in summary["formulas"] if f["kind"] == "hazard"}
     csn2 = hazards["CSn2"]
-    assert f"<td class=\"left\">CSn2</td><td>{csn2['episodes']}</td>" in html
+    assert f'<td class="left">CSn2</td><td>{csn2["episodes"]}</td>' in html
     assert html.index(">Sn2<") < html.index(">Sn10<")  # natural order
     # every log links its own report, relative to the fleet folder
     for log in summary["per_log"]:
@@ -53,8 +68,9 @@ def test_a_damaged_summary_is_refused(tmp_path, capsys):
 @pytest.mark.skipif(find_chromium() is None, reason="needs Chromium (Debian package chromium)")
 def test_fleet_page_in_chromium(fleet):
     with open_page(fleet / "fleet.html", width=1300) as (page, errors):
-        links = page.evaluate("() => Array.from(document.querySelectorAll('a'))"
-                              ".map(a => a.getAttribute('href'))")  # fmt: skip
+        links = page.evaluate(
+            "() => Array.from(document.querySelectorAll('a')).map(a => a.getAttribute('href'))"
+        )
         tables = page.evaluate("() => document.querySelectorAll('table.fleet').length")
     assert errors == [] and tables == 4
     assert links and all((fleet / link).is_file() for link in links)

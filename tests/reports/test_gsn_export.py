@@ -19,8 +19,11 @@ CASES = [REPO / "examples" / "reference-case.yaml", REPO / "examples" / "study-c
 def _without_marks(value):
     """A model dump with every source position removed (they differ between the files)."""
     if isinstance(value, dict):
-        return {k: _without_marks(v) for k, v in value.items()
-                if k not in ("mark", "key_marks", "ref_marks", "formula_mark")}  # fmt: skip
+        return {
+            k: _without_marks(v)
+            for k, v in value.items()
+            if k not in ("mark", "key_marks", "ref_marks", "formula_mark")
+        }
     if isinstance(value, list):
         return [_without_marks(v) for v in value]
     return value
@@ -33,8 +36,9 @@ def test_export_then_import_gives_the_same_case(tmp_path: Path) -> None:
         assert main(["export-gsn", str(path), "-o", str(out)]) == 0
         (exported,) = out.glob("*.gsn.yaml")
         again = require_case(exported)
-        assert _without_marks(again.model_dump(include={"module", "monitor", "nodes"})) == \
-            _without_marks(case.model_dump(include={"module", "monitor", "nodes"}))  # fmt: skip
+        assert _without_marks(
+            again.model_dump(include={"module", "monitor", "nodes"})
+        ) == _without_marks(case.model_dump(include={"module", "monitor", "nodes"}))
         a, _ = compile_case(case)
         b, _ = compile_case(again)
         assert [f.rtamt for f in a.formulas] == [f.rtamt for f in b.formulas]
@@ -44,9 +48,23 @@ def test_the_export_is_plain_gsn2x(tmp_path: Path) -> None:
     """Only gsn2x's attributes on the nodes; casewatch's own data in the module's
     additionalInformation, which gsn2x prints in the legend and otherwise ignores."""
     doc = gsn_document(require_case(CASES[0]))
-    gsn2x_keys = {"text", "supportedBy", "inContextOf", "challenges", "undeveloped", "url",
-                  "classes", "level", "horizontalIndex", "rankIncrement", "nodeType", "acp",
-                  "defeated", "defeatedRelation", "additionalInformation"}  # fmt: skip
+    gsn2x_keys = {
+        "text",
+        "supportedBy",
+        "inContextOf",
+        "challenges",
+        "undeveloped",
+        "url",
+        "classes",
+        "level",
+        "horizontalIndex",
+        "rankIncrement",
+        "nodeType",
+        "acp",
+        "defeated",
+        "defeatedRelation",
+        "additionalInformation",
+    }
     for node_id, node in doc.items():
         if node_id != "module":
             assert set(node) <= gsn2x_keys, node_id
@@ -60,12 +78,14 @@ def test_the_export_is_plain_gsn2x(tmp_path: Path) -> None:
 def test_a_run_puts_each_node_s_worst_status_in_its_classes(tmp_path: Path, capsys) -> None:
     run = tmp_path / "run"
     drive = REPO / "examples/data/highway-tailgating.jsonl.gz"
-    assert main(["run", str(CASES[0]), str(drive), "-o", str(run), "--format", "none",
-                 "--quiet"]) == 1  # fmt: skip
+    assert (
+        main(["run", str(CASES[0]), str(drive), "-o", str(run), "--format", "none", "--quiet"]) == 1
+    )
     assert main(["export-gsn", str(CASES[0]), str(run), "-o", str(tmp_path / "out")]) == 0
     doc = yaml.safe_load(next((tmp_path / "out").glob("*.gsn.yaml")).read_text())
-    worst = {s["node_id"]: s["worst"] for s in
-             json.loads((run / "result.json").read_text())["status"]}  # fmt: skip
+    worst = {
+        s["node_id"]: s["worst"] for s in json.loads((run / "result.json").read_text())["status"]
+    }
     for node_id, status in worst.items():
         assert doc[node_id]["classes"] == [status_class(status)], node_id
     assert worst["G1"] in ("undermined", "violated")

@@ -140,11 +140,15 @@ def test_a_warm_up_tick_leaves_the_node_satisfied_and_the_share_says_so(
     first = reference_result.status[0].timeline[0]
     total = sum(reference_result.status[0].ticks.values())
     t_end = reference_result.status[0].timeline[-1].end
-    warm = NodeStatus(node_id="Sn8", worst="no-data", ticks={"no-data": 1, "satisfied": total - 1},
-                      timeline=[StatusInterval(status="no-data", start=first.start,
-                                               end=first.start, ticks=1),
-                                StatusInterval(status="satisfied", start=first.start + 0.1,
-                                               end=t_end, ticks=total - 1)])  # fmt: skip
+    warm = NodeStatus(
+        node_id="Sn8",
+        worst="no-data",
+        ticks={"no-data": 1, "satisfied": total - 1},
+        timeline=[
+            StatusInterval(status="no-data", start=first.start, end=first.start, ticks=1),
+            StatusInterval(status="satisfied", start=first.start + 0.1, end=t_end, ticks=total - 1),
+        ],
+    )
     status = [warm if s.node_id == "Sn8" else s for s in reference_result.status]
     html = render_html(reference_result.model_copy(update={"status": status}))
     assert re.search(r'<g class="gsn-node st-satisfied[^"]*" id="diagram-Sn8"', html)
@@ -162,18 +166,29 @@ def test_the_verdict_card_follows_the_root_s_colour_and_names_the_worst_tick(
 
     root = next(s for s in reference_result.status if s.node_id == "G1")
     total, first = sum(root.ticks.values()), root.timeline[0]
-    warm = NodeStatus(node_id="G1", worst="no-data", ticks={"no-data": 1, "satisfied": total - 1},
-                      timeline=[StatusInterval(status="no-data", start=first.start,
-                                               end=first.start, ticks=1),
-                                StatusInterval(status="satisfied", start=first.start + 0.1,
-                                               end=root.timeline[-1].end, ticks=total - 1)])
+    warm = NodeStatus(
+        node_id="G1",
+        worst="no-data",
+        ticks={"no-data": 1, "satisfied": total - 1},
+        timeline=[
+            StatusInterval(status="no-data", start=first.start, end=first.start, ticks=1),
+            StatusInterval(
+                status="satisfied",
+                start=first.start + 0.1,
+                end=root.timeline[-1].end,
+                ticks=total - 1,
+            ),
+        ],
+    )
     status = [warm if s.node_id == "G1" else s for s in reference_result.status]
     run = reference_result.model_copy(update={"status": status, "verdict": "no-data"})
     html = render_html(run)
     card = html.split('<div class="verdict', 1)[1].split('<div class="facts">', 1)[0]
     assert card.startswith(' bg-satisfied">') and '<div class="word">satisfied</div>' in card
-    assert "worst tick: no data (all warm-up), &lt;0.1 % of the run (the verdict in result.json)" \
-        in card  # fmt: skip
+    assert (
+        "worst tick: no data (all warm-up), &lt;0.1 % of the run (the verdict in result.json)"
+        in card
+    )
     assert re.search(r'<g class="gsn-node st-satisfied[^"]*" id="diagram-G1"', html)
     md = render_markdown(run)
     assert "**Top claim G1: SATISFIED**" in md and "Worst tick: no data (all warm-up)" in md

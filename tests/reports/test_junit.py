@@ -17,16 +17,22 @@ def test_well_formed_with_hostile_text_and_control_characters(hostile_result: Ru
     suite = root.find("testsuite")
     assert suite is not None
     assert suite.get("name") == hostile_result.case.module  # markup kept as text, escaped
-    names = [case.get("name") or "" for case in suite.iter("testcase")
-             if not case.get("classname", "").endswith(".stream")]  # fmt: skip
+    names = [
+        case.get("name") or ""
+        for case in suite.iter("testcase")
+        if not case.get("classname", "").endswith(".stream")
+    ]
     assert names and all("<script>alert(1)</script>" in n for n in names)
 
 
 def test_one_case_per_spi_and_hazard_failing_on_episodes(reference_result: RunResult) -> None:
     root = ET.fromstring(render_junit(reference_result))
     suite = root.find("testsuite")
-    cases = {c.get("name", "").split(":")[0]: c for c in suite.iter("testcase")
-             if not c.get("classname", "").endswith(".stream")}  # fmt: skip
+    cases = {
+        c.get("name", "").split(":")[0]: c
+        for c in suite.iter("testcase")
+        if not c.get("classname", "").endswith(".stream")
+    }
     formulas = {f.node_id: f for f in reference_result.formulas}
     assert set(cases) == set(formulas)
     failing = {n for n, c in cases.items() if c.find("failure") is not None}
@@ -43,14 +49,18 @@ def test_a_damaged_log_fails_its_stream_case_under_every_policy(
     clean = reference_result.stream.model_copy(update={"defects": [], "defect_count": 0})
     for policy in ("any", "never"):
         result = reference_result.model_copy(update={"fail_on": policy})
-        stream_cases = [c for c in ET.fromstring(render_junit(result)).iter("testcase")
-                        if c.get("classname", "").endswith(".stream")]  # fmt: skip
+        stream_cases = [
+            c
+            for c in ET.fromstring(render_junit(result)).iter("testcase")
+            if c.get("classname", "").endswith(".stream")
+        ]
         if reference_result.stream.defect_count:
             (case,) = stream_cases
             failure = case.find("failure")
             assert failure is not None and failure.get("type") == "casewatch.damage"
             assert f"{reference_result.stream.defect_count} stream defect(s)" in failure.get(
-                "message")
+                "message"
+            )
         without = render_junit(result.model_copy(update={"stream": clean}))
         assert "casewatch.damage" not in without
 

@@ -31,8 +31,13 @@ def families(value: str) -> list[str]:
 #: the families of `body { font-family: ... }` and `code { ... }` in report.css
 BODY_FONT = families(re.search(r"body \{[^}]*?font-family: ([^;]+);", CSS).group(1))
 CODE_FONT = families(re.search(r"code, \.mono \{ font-family: ([^;]+);", CSS).group(1))
-PAGES = ("fleet/fleet.html", "diff/diff.html", "tune/tuning.html", "odd/odd.html",
-         "compare/compare.html")  # fmt: skip
+PAGES = (
+    "fleet/fleet.html",
+    "diff/diff.html",
+    "tune/tuning.html",
+    "odd/odd.html",
+    "compare/compare.html",
+)
 
 
 @pytest.fixture(scope="module")
@@ -43,16 +48,37 @@ def pages(tmp_path_factory: pytest.TempPathFactory) -> Path:
     logs.mkdir()
     for name in ("clear", "rain"):
         meta = {"odd": {"environment": {"weather": name}}, "agent": name, "scenario": "s"}
-        header = {"header": {"format": "casewatch-frames", "version": 1, "period": 0.1,
-                             "channels": ["lav", "tfuse"], "meta": meta}}  # fmt: skip
+        header = {
+            "header": {
+                "format": "casewatch-frames",
+                "version": 1,
+                "period": 0.1,
+                "channels": ["lav", "tfuse"],
+                "meta": meta,
+            }
+        }
         lines = [json.dumps(header)] + [json.dumps(frame(i)) for i in range(100)]
         (logs / f"{name}.jsonl").write_text("\n".join(lines) + "\n")
         (logs / f"{name}.labels.jsonl").write_text('{"hazard": "CSn1", "start": 1, "end": 2}\n')
     case = root / "case.yaml"
     case.write_text(SMALL_CASE.replace('"speed > 20"', '"speed > 5"'))
     fleet = str(root / "fleet")
-    assert main(["run", str(case), str(logs), "--labels", "auto", "--save-signals", "-o", fleet,
-                 "--quiet"]) == 1  # fmt: skip
+    assert (
+        main(
+            [
+                "run",
+                str(case),
+                str(logs),
+                "--labels",
+                "auto",
+                "--save-signals",
+                "-o",
+                fleet,
+                "--quiet",
+            ]
+        )
+        == 1
+    )
     assert main(["report", fleet]) == 0
     assert main(["diff", fleet, fleet, "-o", str(root / "diff")]) == 0
     assert main(["tune", str(case), fleet, "-o", str(root / "tune")]) == 0
@@ -92,17 +118,39 @@ def test_a_compare_page_of_many_rules_fits_1280_px(tmp_path: Path) -> None:
     table wraps its headers after underscores instead of widening the page to 1615 px."""
     from tests.casewatch.test_compare_cli import STRAIGHT, scores, write_run
 
-    rules = ["broken_no_indicator", "collision", "collision_victim", "double_solid",
-             "neither_light", "no_fog_lights", "no_headlights", "red_light", "solid_line",
-             "speeding_heavy", "speeding_light", "stop_sign", "wrong_way_driving",
-             "unsafe_lane_change"]  # fmt: skip
+    rules = [
+        "broken_no_indicator",
+        "collision",
+        "collision_victim",
+        "double_solid",
+        "neither_light",
+        "no_fog_lights",
+        "no_headlights",
+        "red_light",
+        "solid_line",
+        "speeding_heavy",
+        "speeding_light",
+        "stop_sign",
+        "wrong_way_driving",
+        "unsafe_lane_change",
+    ]
     runs = []
-    for k, (agent, scenario) in enumerate((a, s) for a in ("careful", "hurried", "sloppy")
-                                          for s in ("night-fog", "rear-end", "stop-and-merge",
-                                                    "urban-lights")):  # fmt: skip
+    for k, (agent, scenario) in enumerate(
+        (a, s)
+        for a in ("careful", "hurried", "sloppy")
+        for s in ("night-fog", "rear-end", "stop-and-merge", "urban-lights")
+    ):
         per_rule = {rule: (1 + (k + i) % 3, 250.0 / (1 + i)) for i, rule in enumerate(rules)}
-        runs.append(write_run(tmp_path / "runs" / f"r{k}", {"agent": agent, "scenario": scenario},
-                              60.0, [], STRAIGHT, scores(50.0, 30.0, per_rule)))  # fmt: skip
+        runs.append(
+            write_run(
+                tmp_path / "runs" / f"r{k}",
+                {"agent": agent, "scenario": scenario},
+                60.0,
+                [],
+                STRAIGHT,
+                scores(50.0, 30.0, per_rule),
+            )
+        )
     out = tmp_path / "compare"
     assert main(["compare", *map(str, runs), "--by", "agent,scenario", "-o", str(out)]) == 0
     with open_page(out / "compare.html", width=1280) as (page, errors):

@@ -49,9 +49,16 @@ def test_status_strip_keeps_a_short_violation_visible() -> None:
 
 
 def robustness(values: list[float]) -> Series:
-    return Series(formula_id="CSn2", quantity="robustness", name="robustness", bucket=0.1,
-                  t=[i * 0.1 for i in range(len(values))], lo=values, hi=values,
-                  reference=0.0)  # fmt: skip
+    return Series(
+        formula_id="CSn2",
+        quantity="robustness",
+        name="robustness",
+        bucket=0.1,
+        t=[i * 0.1 for i in range(len(values))],
+        lo=values,
+        hi=values,
+        reference=0.0,
+    )
 
 
 def test_a_saturated_robustness_is_clipped_so_its_dip_below_zero_shows() -> None:

@@ -35,8 +35,9 @@ def test_one_file_per_hazard_event_traced_back(exported):
     result = json.loads((run / "result.json").read_text())
     events = [e for e in result["episodes"] if e["kind"] == "hazard"]
     catalogue = json.loads((out / "scenarios.json").read_text())["scenarios"]
-    assert [(c["node"], c["start"]) for c in catalogue] == [(e["node_id"], e["start"])
-                                                           for e in events]  # fmt: skip
+    assert [(c["node"], c["start"]) for c in catalogue] == [
+        (e["node_id"], e["start"]) for e in events
+    ]
     for c in catalogue:
         assert (out / c["file"]).is_file() and c["entities"][0] == "ego" and len(c["entities"]) > 1
         assert c["trace"][0][0] == c["node"] and c["trace"][0][-1] == "G1"
@@ -63,8 +64,9 @@ def test_every_file_passes_the_xsd_and_the_asam_checker(exported):
         config = Configuration()
         config.set_config_param("InputFile", str(path))
         result = Result()
-        result.register_checker_bundle(name=constants.BUNDLE_NAME, description="",
-                                       version=constants.BUNDLE_VERSION, summary="")  # fmt: skip
+        result.register_checker_bundle(
+            name=constants.BUNDLE_NAME, description="", version=constants.BUNDLE_VERSION, summary=""
+        )
         result.set_result_version(version=constants.BUNDLE_VERSION)
         run_checks(config, result)
         checks = result.get_checker_results(constants.BUNDLE_NAME)
@@ -83,9 +85,14 @@ def test_positions_round_trip_within_a_centimetre(exported):
     vertices = {}
     for group in root.iter("ManeuverGroup"):
         actor = group.find("Actors/EntityRef").get("entityRef")
-        vertices[actor] = [(float(v.get("time")), float(v.find("Position/WorldPosition").get("x")),
-                            float(v.find("Position/WorldPosition").get("y")))
-                           for v in group.iter("Vertex")]  # fmt: skip
+        vertices[actor] = [
+            (
+                float(v.get("time")),
+                float(v.find("Position/WorldPosition").get("x")),
+                float(v.find("Position/WorldPosition").get("y")),
+            )
+            for v in group.iter("Vertex")
+        ]
     truth = {}
     for frame in read_stream(STREAM):
         state = frame.channels.get(entry["channel"])
@@ -124,12 +131,38 @@ def test_an_opendrive_file_is_referenced_not_invented(exported, tmp_path):
     road = tmp_path / "highway.xodr"
     road.write_text("<OpenDRIVE/>\n")
     out = tmp_path / "with-road"
-    assert main(["export-scenarios", str(run), str(STREAM), "-o", str(out), "--event", "1",
-                 "--opendrive", str(road)]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "export-scenarios",
+                str(run),
+                str(STREAM),
+                "-o",
+                str(out),
+                "--event",
+                "1",
+                "--opendrive",
+                str(road),
+            ]
+        )
+        == 0
+    )
     root = ET.parse(next(out.glob("*.xosc"))).getroot()
     assert root.find("RoadNetwork/LogicFile").get("filepath") == str(road)
     assert "no road network" not in root.find("FileHeader").get("description")
     catalogue = json.loads((out / "scenarios.json").read_text())["scenarios"]
     assert catalogue[0]["road_network"] == str(road)
-    assert main(["export-scenarios", str(run), str(STREAM), "-o", str(out), "--opendrive",
-                 str(tmp_path / "missing.xodr")]) == 2  # fmt: skip
+    assert (
+        main(
+            [
+                "export-scenarios",
+                str(run),
+                str(STREAM),
+                "-o",
+                str(out),
+                "--opendrive",
+                str(tmp_path / "missing.xodr"),
+            ]
+        )
+        == 2
+    )

@@ -86,15 +86,18 @@ LOADER_FIXTURES: list[tuple[str, str, int, int | None]] = [
     ),
     (
         "CW008",
-        case("G1: {text: t, supportedBy: Sn1}\nSn1:\n  text: e\n"
-             "  contract: {use: rss_longitudnal}\n"),
+        case(
+            "G1: {text: t, supportedBy: Sn1}\nSn1:\n  text: e\n  contract: {use: rss_longitudnal}\n"
+        ),
         6,
         19,
     ),
     (
         "CW009",
-        case("G1: {text: t, supportedBy: Sn1, inContextOf: C1}\nSn1: {text: e}\nC1:\n"
-             "  text: c\n  odd: {attributes: {weather: [clear]}}\n"),
+        case(
+            "G1: {text: t, supportedBy: Sn1, inContextOf: C1}\nSn1: {text: e}\nC1:\n"
+            "  text: c\n  odd: {attributes: {weather: [clear]}}\n"
+        ),
         7,
         8,
     ),

@@ -66,8 +66,9 @@ def test_supported_by_context_hints_in_context_of() -> None:
 
 
 def test_solution_cannot_have_support() -> None:
-    text = case("G1: {text: top, supportedBy: [Sn1]}\nSn1: {text: e, supportedBy: [Sn2]}\n"
-                "Sn2: {text: f}\n")  # fmt: skip
+    text = case(
+        "G1: {text: top, supportedBy: [Sn1]}\nSn1: {text: e, supportedBy: [Sn2]}\nSn2: {text: f}\n"
+    )
     findings = all_findings(text)
     hit = next(f for f in findings if f.code == "CW032")
     assert hit.line == 4 and "cannot have `supportedBy`" in hit.message

@@ -40,8 +40,10 @@ def robustness(formula: CompiledFormula, rows: list[dict[str, float]]) -> list[f
     """rtamt's robustness of `formula` at each row (one row per 0.1 s tick)."""
     monitor = build_rtamt_monitor(formula, 0.1)
     monitor.reset()
-    return [float(monitor.update(i, [(n, row[n]) for n in formula.signals]))
-            for i, row in enumerate(rows)]  # fmt: skip
+    return [
+        float(monitor.update(i, [(n, row[n]) for n in formula.signals]))
+        for i, row in enumerate(rows)
+    ]
 
 
 def test_lane_keeping_follows_eq_3_25():
@@ -82,10 +84,11 @@ def test_passive_safety_follows_eq_3_18():
     # (||p - o|| > 0) while ||v|| > 0: a moving ego 20 m behind holds by 20 m; at 0 m (contact)
     # it holds by 0, at -0.3 m (overlap) fails; standing (0 m/s) is outside the assumption
     f = compiled("{use: passive_safety}")
-    assert (f.assumption.source, f.source) == ("lead_gap < 199 and ego_speed > 0.1",
-                                               "lead_gap > 0")  # fmt: skip
+    assert (f.assumption.source, f.source) == ("lead_gap < 199 and ego_speed > 0.1", "lead_gap > 0")
     assert robustness(f, [{"lead_gap": 20.0}, {"lead_gap": -0.3}]) == [
-        pytest.approx(20.0), pytest.approx(-0.3)]
+        pytest.approx(20.0),
+        pytest.approx(-0.3),
+    ]
     rows = [{"lead_gap": 20.0, "ego_speed": 10.0}, {"lead_gap": 20.0, "ego_speed": 0.0}]
     # min(199 - 20, 10 - 0.1) = 9.9; standing: min(179, -0.1) = -0.1
     assert robustness(f.assumption, rows) == [pytest.approx(9.9), pytest.approx(-0.1)]
@@ -96,8 +99,10 @@ def test_passive_friendly_safety_follows_eq_3_19():
     # a gap of 20 m holds by 6.667 m, one of 12 m fails by 1.333 m
     f = compiled("{use: passive_friendly_safety}")
     rows = [{"lead_gap": 20.0, "ego_speed": 10.0}, {"lead_gap": 12.0, "ego_speed": 10.0}]
-    assert robustness(f, rows) == [pytest.approx(20.0 - 100.0 / 12.0 - 5.0),
-                                   pytest.approx(12.0 - 100.0 / 12.0 - 5.0)]  # fmt: skip
+    assert robustness(f, rows) == [
+        pytest.approx(20.0 - 100.0 / 12.0 - 5.0),
+        pytest.approx(12.0 - 100.0 / 12.0 - 5.0),
+    ]
     assert f.assumption.source == "lead_gap < 199 and ego_speed > 0.1"
     # no follower clause: the study has none (a follower 1 m behind changes nothing)
     assert "follow" not in f.source
@@ -126,8 +131,12 @@ def test_rss_longitudinal_follows_eqs_3_20_to_3_23():
         # gap 40, braking at 9 m/s^2, harder than a_max,brake: max(-11.3125, 8 - 9) = -1
         {"lead_gap": 40.0, "ego_speed": 20.0, "lead_speed": 15.0, "ego_accel": -9.0},
     ]
-    assert robustness(f, rows) == [pytest.approx(1.0), pytest.approx(-1.3125),
-                                   pytest.approx(0.6875), pytest.approx(-1.0)]  # fmt: skip
+    assert robustness(f, rows) == [
+        pytest.approx(1.0),
+        pytest.approx(-1.3125),
+        pytest.approx(0.6875),
+        pytest.approx(-1.0),
+    ]
 
 
 def test_rss_longitudinal_assumes_the_leaders_acceleration_bounded():
@@ -136,8 +145,10 @@ def test_rss_longitudinal_assumes_the_leaders_acceleration_bounded():
     assert f.assumption.warmup_ticks == 10
 
     def rows(v0: float, v1: float) -> list[dict[str, float]]:
-        return [{"lead_gap": 50.0, "ego_speed": 20.0,
-                 "lead_speed": v0 + (v1 - v0) * k / 10} for k in range(11)]  # fmt: skip
+        return [
+            {"lead_gap": 50.0, "ego_speed": 20.0, "lead_speed": v0 + (v1 - v0) * k / 10}
+            for k in range(11)
+        ]
 
     # 15 -> 10 m/s in 1 s: -5 m/s^2 in [-8, 2]: min(149, 20, 10, -5 + 8, 2 + 5) = 3
     assert robustness(f.assumption, rows(15.0, 10.0))[-1] == pytest.approx(3.0)
@@ -171,8 +182,10 @@ def test_detection_accuracy_follows_eq_3_26():
 
 
 def test_detection_accuracy_against_another_channel_over_three_frames():
-    f = compiled("{use: detection_accuracy, params: {channel: camera, reference: "
-                 "lead_gap__lidar, frames: 3, bound: 2, range: 60}}")  # fmt: skip
+    f = compiled(
+        "{use: detection_accuracy, params: {channel: camera, reference: "
+        "lead_gap__lidar, frames: 3, bound: 2, range: 60}}"
+    )
     assert f.source == "sum[0:0.2](abs(lead_gap__camera - lead_gap__lidar)) < 2.0"
     assert f.assumption.source == "lead_gap__lidar < 60.0"
 
@@ -180,12 +193,16 @@ def test_detection_accuracy_against_another_channel_over_three_frames():
 def test_every_entry_names_its_source_and_every_variant_its_deviation():
     sources = {name: t.source for name, t in library().items()}
     assert sources == {
-        "lane_keeping": "eq. 3.25", "lane_keeping_body": "casewatch",
-        "detection_accuracy": "eq. 3.26 (3.16)", "static_safety": "eq. 3.17",
-        "passive_safety": "eq. 3.18", "passive_friendly_safety": "eq. 3.19",
-        "passive_friendly_follower": "casewatch", "rss_longitudinal": "eqs. 3.20-3.23",
+        "lane_keeping": "eq. 3.25",
+        "lane_keeping_body": "casewatch",
+        "detection_accuracy": "eq. 3.26 (3.16)",
+        "static_safety": "eq. 3.17",
+        "passive_safety": "eq. 3.18",
+        "passive_friendly_safety": "eq. 3.19",
+        "passive_friendly_follower": "casewatch",
+        "rss_longitudinal": "eqs. 3.20-3.23",
         "rss_safe_distance": "casewatch",
-    }  # fmt: skip
+    }
     for name, template in library().items():
         assert bool(template.deviation) == (template.source == "casewatch"), name
 
@@ -193,7 +210,10 @@ def test_every_entry_names_its_source_and_every_variant_its_deviation():
 def test_a_hand_written_contract_and_an_override():
     f = compiled('{assume: "lane_width > 3", guarantee: "abs(lane_offset) < 0.5"}')
     assert (f.assumption.source, f.source, f.contract_use) == (
-        "lane_width > 3", "abs(lane_offset) < 0.5", None)
+        "lane_width > 3",
+        "abs(lane_offset) < 0.5",
+        None,
+    )
     g = compiled('{use: lane_keeping_body, assume: "lane_width > 3.2"}')
     assert g.assumption.source == "lane_width > 3.2"
     assert g.source == "abs(lane_offset) < (lane_width - 1.9) / 2"
@@ -220,20 +240,36 @@ def test_every_library_parameter_has_bounds_or_a_kind():
     ("contract", "code", "col", "words"),
     [
         ("{use: rss_longitudnal}", "CW008", 19, "did you mean 'rss_longitudinal'"),
-        ("{use: rss_longitudinal, params: {response_tim: 1}}", "CW008", 46,
-         "no parameter 'response_tim'"),
-        ("{use: rss_longitudinal, params: {response_time: 9}}", "CW008", 61,
-         "must lie in [0, 5] s"),
+        (
+            "{use: rss_longitudinal, params: {response_tim: 1}}",
+            "CW008",
+            46,
+            "no parameter 'response_tim'",
+        ),
+        (
+            "{use: rss_longitudinal, params: {response_time: 9}}",
+            "CW008",
+            61,
+            "must lie in [0, 5] s",
+        ),
         ("{use: detection_accuracy}", "CW008", 19, "needs `params.channel`"),
-        ("{use: detection_accuracy, params: {channel: radar}}", "CW008", 57,
-         "one of the case's channels (lidar, camera)"),
-        ("{use: detection_accuracy, params: {channel: camera, frames: 2.5}}", "CW008", 73,
-         "whole number"),
+        (
+            "{use: detection_accuracy, params: {channel: radar}}",
+            "CW008",
+            57,
+            "one of the case's channels (lidar, camera)",
+        ),
+        (
+            "{use: detection_accuracy, params: {channel: camera, frames: 2.5}}",
+            "CW008",
+            73,
+            "whole number",
+        ),
         ("{params: {margin: 1}}", "CW018", None, "add `use`"),
-        ("{assume: \"ego_speed > 1\"}", "CW018", None, "needs `guarantee`"),
+        ('{assume: "ego_speed > 1"}', "CW018", None, "needs `guarantee`"),
         ("{use: static_safety, severity: high}", "CW013", None, "unknown key 'severity'"),
     ],
-)  # fmt: skip
+)
 def test_contract_errors(contract: str, code: str, col: int | None, words: str):
     result = load_text(HEAD + f"  contract: {contract}\n", "case.yaml")
     assert result.case is None
@@ -245,8 +281,9 @@ def test_contract_errors(contract: str, code: str, col: int | None, words: str):
 
 
 def test_a_contract_needing_an_undeclared_signal_says_what_to_declare():
-    text = HEAD.replace("  signals: {gt_lead_gap: true gap, lane_offset: offset, "
-                        "lane_width: width}\n", "")  # fmt: skip
+    text = HEAD.replace(
+        "  signals: {gt_lead_gap: true gap, lane_offset: offset, lane_width: width}\n", ""
+    )
     result = load_text(text + "  contract: {use: lane_keeping}\n", "case.yaml")
     (f,) = [f for f in result.findings if f.code == "CW008"]
     assert "lane_offset, lane_width" in f.message and "monitor.signals" in f.message
@@ -254,15 +291,25 @@ def test_a_contract_needing_an_undeclared_signal_says_what_to_declare():
 
 
 def test_spi_and_contract_on_one_node_and_misplaced_keys():
-    both = load_text(HEAD + "  spi: {signal: els, threshold: '>= 0.6'}\n"
-                     "  contract: {use: static_safety}\n", "case.yaml")  # fmt: skip
+    both = load_text(
+        HEAD + "  spi: {signal: els, threshold: '>= 0.6'}\n  contract: {use: static_safety}\n",
+        "case.yaml",
+    )
     assert [f.code for f in both.findings] == ["CW018"] and both.findings[0].line == 12
-    goal = load_text(HEAD.replace("  supportedBy: [Sn1]\n", "  supportedBy: [Sn1]\n"
-                                  "  contract: {use: static_safety}\n"), "case.yaml")  # fmt: skip
+    goal = load_text(
+        HEAD.replace(
+            "  supportedBy: [Sn1]\n", "  supportedBy: [Sn1]\n  contract: {use: static_safety}\n"
+        ),
+        "case.yaml",
+    )
     assert "CW021" in [f.code for f in goal.findings]
-    odd_goal = load_text(HEAD.replace("  supportedBy: [Sn1]\n", "  supportedBy: [Sn1]\n"
-                                      "  odd: {attributes: {road.type: [highway]}}\n"),
-                         "case.yaml")  # fmt: skip
+    odd_goal = load_text(
+        HEAD.replace(
+            "  supportedBy: [Sn1]\n",
+            "  supportedBy: [Sn1]\n  odd: {attributes: {road.type: [highway]}}\n",
+        ),
+        "case.yaml",
+    )
     assert "CW009" in [f.code for f in odd_goal.findings]
 
 
@@ -277,13 +324,15 @@ ODD_HEAD = HEAD.replace("  supportedBy: [Sn1]\n", "  supportedBy: [Sn1]\n  inCon
         ("{attributes: {environment.weather: []}}", "no accepted value"),
         ("{attributes: {ego_speed: {}}}", "needs `min`, `max` or both"),
         ("{attributes: {ego_speed: {min: 5, max: 1}}}", "min 5 > max 1"),
-        ("{attributes: {road.type: [urban]}, combinations: [{road.lanes: 2}]}",
-         "a combination names layered conditions the ODD lists"),
+        (
+            "{attributes: {road.type: [urban]}, combinations: [{road.lanes: 2}]}",
+            "a combination names layered conditions the ODD lists",
+        ),
         ("{attributes: {}}", "at least one attribute"),
         ("{atributes: {road.type: [urban]}}", "atributes"),
         ("no-such-odd.yaml", "cannot read the ODD specification"),
     ],
-)  # fmt: skip
+)
 def test_odd_errors(odd: str, words: str):
     text = ODD_HEAD + "  spi: {signal: els, threshold: '>= 0.6'}\nC1:\n  text: the ODD\n"
     result = load_text(text + f"  odd: {odd}\n", "case.yaml")
@@ -294,11 +343,13 @@ def test_odd_errors(odd: str, words: str):
 
 def test_an_odd_file_is_read_relative_to_the_case(tmp_path):
     (tmp_path / "domain.yaml").write_text(
-        "odd:\n  name: highway\n  attributes:\n    road.type: [highway]\n"
-        "    ego_speed: {max: 30}\n")  # fmt: skip
+        "odd:\n  name: highway\n  attributes:\n    road.type: [highway]\n    ego_speed: {max: 30}\n"
+    )
     case = tmp_path / "case.yaml"
-    case.write_text(ODD_HEAD + "  spi: {signal: els, threshold: '>= 0.6'}\nC1:\n"
-                    "  text: the ODD\n  odd: domain.yaml\n")  # fmt: skip
+    case.write_text(
+        ODD_HEAD + "  spi: {signal: els, threshold: '>= 0.6'}\nC1:\n"
+        "  text: the ODD\n  odd: domain.yaml\n"
+    )
     result = load_text(case.read_text(), str(case))
     assert result.case is not None, [f.format() for f in result.findings]
     odd = result.case.nodes["C1"].odd

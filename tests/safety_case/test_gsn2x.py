@@ -66,25 +66,41 @@ def test_a_plain_gsn2x_file_checks_as_a_pure_argument(tmp_path: Path) -> None:
     assert case.nodes["G-TopLevelGoal"].type is NodeType.GOAL
     assert case.nodes["C_A_certain_context"].type is NodeType.CONTEXT
     assert case.nodes["Top"].type is NodeType.GOAL
-    assert case.nodes["G-TopLevelGoal"].gsn == {"classes": ["important", "reviewed"],
-                                                "level": "top"}  # fmt: skip
+    assert case.nodes["G-TopLevelGoal"].gsn == {
+        "classes": ["important", "reviewed"],
+        "level": "top",
+    }
     assert case.nodes["S1"].gsn == {"horizontalIndex": {"relative": -1}, "rankIncrement": 2}
     assert case.nodes["CG1"].gsn == {"defeated": True}
-    assert case.module.gsn["additionalInformation"] == {"v1": "Changed line 2",
-                                                        "v2": "Added line 4"}  # fmt: skip
+    assert case.module.gsn["additionalInformation"] == {
+        "v1": "Changed line 2",
+        "v2": "Added line 4",
+    }
     assert case.monitor.channels == []
 
 
 def test_modules_over_files(tmp_path: Path) -> None:
     """main uses a and b; both use shared (loaded once); an error in a used file is reported
     in that file, on its own line."""
-    write(tmp_path, "main.gsn.yaml", "module:\n  name: main\n  brief: top\n"
-          "  uses: [a.gsn.yaml, b.gsn.yaml]\nG1:\n  text: top\n  supportedBy: [S1]\n"
-          "S1:\n  text: over parts\n  supportedBy: [G-A, G-B]\n")  # fmt: skip
-    write(tmp_path, "a.gsn.yaml", "module: {name: a, brief: part a, uses: [shared.gsn.yaml]}\n"
-          "G-A:\n  text: part a\n  supportedBy: [G-Shared]\n")  # fmt: skip
-    write(tmp_path, "b.gsn.yaml", "module: {name: b, brief: part b, uses: [shared.gsn.yaml]}\n"
-          "G-B:\n  text: part b\n  supportedBy: [G-Shared]\n")  # fmt: skip
+    write(
+        tmp_path,
+        "main.gsn.yaml",
+        "module:\n  name: main\n  brief: top\n"
+        "  uses: [a.gsn.yaml, b.gsn.yaml]\nG1:\n  text: top\n  supportedBy: [S1]\n"
+        "S1:\n  text: over parts\n  supportedBy: [G-A, G-B]\n",
+    )
+    write(
+        tmp_path,
+        "a.gsn.yaml",
+        "module: {name: a, brief: part a, uses: [shared.gsn.yaml]}\n"
+        "G-A:\n  text: part a\n  supportedBy: [G-Shared]\n",
+    )
+    write(
+        tmp_path,
+        "b.gsn.yaml",
+        "module: {name: b, brief: part b, uses: [shared.gsn.yaml]}\n"
+        "G-B:\n  text: part b\n  supportedBy: [G-Shared]\n",
+    )
     write(tmp_path, "shared.gsn.yaml", "G-Shared:\n  text: shared\n  undeveloped: true\n")
     case, findings = check_file(tmp_path / "main.gsn.yaml")
     assert [f.code for f in findings] == ["CW011"]
@@ -100,11 +116,19 @@ def test_modules_over_files(tmp_path: Path) -> None:
 
 
 def test_module_errors(tmp_path: Path) -> None:
-    write(tmp_path, "main.gsn.yaml", "module:\n  name: main\n  brief: top\n"
-          "  uses: [a.gsn.yaml, missing.gsn.yaml]\nG1:\n  text: top\n  supportedBy: [G2]\n"
-          "G2:\n  text: twice\n  undeveloped: true\n")  # fmt: skip
-    write(tmp_path, "a.gsn.yaml", "module: {name: a, brief: b, uses: [main.gsn.yaml]}\n"
-          "G2:\n  text: again\n  undeveloped: true\n")  # fmt: skip
+    write(
+        tmp_path,
+        "main.gsn.yaml",
+        "module:\n  name: main\n  brief: top\n"
+        "  uses: [a.gsn.yaml, missing.gsn.yaml]\nG1:\n  text: top\n  supportedBy: [G2]\n"
+        "G2:\n  text: twice\n  undeveloped: true\n",
+    )
+    write(
+        tmp_path,
+        "a.gsn.yaml",
+        "module: {name: a, brief: b, uses: [main.gsn.yaml]}\n"
+        "G2:\n  text: again\n  undeveloped: true\n",
+    )
     case, findings = check_file(tmp_path / "main.gsn.yaml")
     assert case is None
     found = {(f.code, Path(f.path).name, f.line) for f in findings}
@@ -112,17 +136,24 @@ def test_module_errors(tmp_path: Path) -> None:
     assert ("CW028", "a.gsn.yaml", 1) in found  # a uses main again: a cycle
     assert ("CW029", "a.gsn.yaml", 2) in found  # G2 in both files
     text = next(f.message for f in findings if f.code == "CW029")
-    assert text == "node G2 is defined in a.gsn.yaml and already in " \
-                   f"{tmp_path / 'main.gsn.yaml'}:8"  # fmt: skip
+    assert text == f"node G2 is defined in a.gsn.yaml and already in {tmp_path / 'main.gsn.yaml'}:8"
 
 
 def test_a_used_module_s_own_monitor_is_ignored_with_a_warning(tmp_path: Path) -> None:
-    write(tmp_path, "main.yaml", "module: {name: main, brief: top, uses: [rules.yaml]}\n"
-          "monitor: {channels: [a, b], period: 0.1s}\nG1:\n  text: top\n"
-          "  supportedBy: [G2]\n")  # fmt: skip
-    write(tmp_path, "rules.yaml", "module: {name: rules, brief: b}\n"
-          "monitor: {channels: [x, y], period: 0.2s}\nG2:\n  text: rules\n"
-          "  undeveloped: true\n")  # fmt: skip
+    write(
+        tmp_path,
+        "main.yaml",
+        "module: {name: main, brief: top, uses: [rules.yaml]}\n"
+        "monitor: {channels: [a, b], period: 0.1s}\nG1:\n  text: top\n"
+        "  supportedBy: [G2]\n",
+    )
+    write(
+        tmp_path,
+        "rules.yaml",
+        "module: {name: rules, brief: b}\n"
+        "monitor: {channels: [x, y], period: 0.2s}\nG2:\n  text: rules\n"
+        "  undeveloped: true\n",
+    )
     case, findings = check_file(tmp_path / "main.yaml")
     assert case is not None  # a warning: the case still runs, with its own monitor
     assert case.monitor.channels == ["a", "b"]
@@ -133,10 +164,14 @@ def test_a_used_module_s_own_monitor_is_ignored_with_a_warning(tmp_path: Path) -
 
 def test_kept_bindings_and_used_files_that_cannot_be_read(tmp_path: Path) -> None:
     (tmp_path / "latin1.gsn.yaml").write_bytes(b"G-X:\n  text: caf\xe9\n  undeveloped: true\n")
-    write(tmp_path, "main.gsn.yaml", "module:\n  name: m\n  brief: b\n  uses: [latin1.gsn.yaml]\n"
-          "  additionalInformation:\n    casewatch:\n      bindings:\n"
-          "        Sn7: {spi: {signal: els, threshold: '>= 0.6'}}\n"
-          "G1: {text: top, undeveloped: true}\n")  # fmt: skip
+    write(
+        tmp_path,
+        "main.gsn.yaml",
+        "module:\n  name: m\n  brief: b\n  uses: [latin1.gsn.yaml]\n"
+        "  additionalInformation:\n    casewatch:\n      bindings:\n"
+        "        Sn7: {spi: {signal: els, threshold: '>= 0.6'}}\n"
+        "G1: {text: top, undeveloped: true}\n",
+    )
     case, findings = check_file(tmp_path / "main.gsn.yaml")
     assert case is None
     found = {(f.code, f.line) for f in findings}
@@ -161,9 +196,17 @@ def test_contracts_and_odds_survive_an_export_to_gsn2x(tmp_path: Path) -> None:
         other = again.nodes[node_id]
         assert (other.contract is None) == (node.contract is None), node_id
         if node.contract is not None:
-            assert (other.contract.use, other.contract.params, other.contract.assume,
-                    other.contract.guarantee) == (node.contract.use, node.contract.params,
-                                                  node.contract.assume, node.contract.guarantee)
+            assert (
+                other.contract.use,
+                other.contract.params,
+                other.contract.assume,
+                other.contract.guarantee,
+            ) == (
+                node.contract.use,
+                node.contract.params,
+                node.contract.assume,
+                node.contract.guarantee,
+            )
         if node.odd is not None:
             assert other.odd.attributes == node.odd.attributes
             assert other.odd.combinations == node.odd.combinations

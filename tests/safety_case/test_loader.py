@@ -238,9 +238,23 @@ def test_reference_case_loads_cleanly() -> None:
     spis = {n.spi.signal for n in result.case.nodes.values() if n.spi is not None}
     # every judged SPI of spi-reference (ocs is observed, not judged)
     assert spis == {
-        "els", "els_var", "eos", "ols", "oos", "oas", "ots", "ets", "crpps",
-        "chpps", "hcs", "ppcs", "ompv", "ss", "lone_age", "plan_lat",
-    }  # fmt: skip
+        "els",
+        "els_var",
+        "eos",
+        "ols",
+        "oos",
+        "oas",
+        "ots",
+        "ets",
+        "crpps",
+        "chpps",
+        "hcs",
+        "ppcs",
+        "ompv",
+        "ss",
+        "lone_age",
+        "plan_lat",
+    }
     hazards = {n.id: n.hazard.when for n in result.case.nodes.values() if n.hazard is not None}
     assert hazards["CSn2"] == "lead_thw < 1.0 and ego_speed > 5.0"
     assert result.case.nodes["G1"].text == "EGO vehicle goes from Point A to Point B safely"

@@ -14,10 +14,32 @@ FUZZ = settings(max_examples=150, deadline=None, suppress_health_check=[HealthCh
 
 IDS = st.sampled_from(["G1", "G2", "S1", "Sn1", "Sn2", "C1", "A1", "J1", "CG1", "CSn1", "X1"])
 KEYS = st.sampled_from(
-    ["text", "supportedBy", "inContextOf", "challenges", "undeveloped", "url", "spi", "hazard",
-     "signal", "threshold", "for", "stl", "when", "merge_gap", "min_duration", "channels",
-     "period", "metrics", "signals", "name", "brief", "pairing_gate", "junk"]
-)  # fmt: skip
+    [
+        "text",
+        "supportedBy",
+        "inContextOf",
+        "challenges",
+        "undeveloped",
+        "url",
+        "spi",
+        "hazard",
+        "signal",
+        "threshold",
+        "for",
+        "stl",
+        "when",
+        "merge_gap",
+        "min_duration",
+        "channels",
+        "period",
+        "metrics",
+        "signals",
+        "name",
+        "brief",
+        "pairing_gate",
+        "junk",
+    ]
+)
 SCALARS = st.one_of(
     st.none(),
     st.booleans(),

@@ -53,9 +53,12 @@ def test_absurd_values_are_cw012_at_the_value(name: str, raw: str) -> None:
 
 @pytest.mark.parametrize(
     ("metrics", "bounds"),
-    [("{max_gap: .inf}", "(0, 60]"), ("{els_window: 1000000000000}", "[2, 10000]"),
-     ("{pairing_gate: 1e5000}", "(0, 100]")],
-)  # fmt: skip
+    [
+        ("{max_gap: .inf}", "(0, 60]"),
+        ("{els_window: 1000000000000}", "[2, 10000]"),
+        ("{pairing_gate: 1e5000}", "(0, 100]"),
+    ],
+)
 def test_issue_23_examples_are_refused_with_their_bounds(metrics: str, bounds: str) -> None:
     (finding,) = cw012(metrics)
     assert f"must be a number in {bounds}" in finding.message and finding.line == 5

@@ -76,14 +76,18 @@ def test_speeding_bands_last_half_a_second():
 
 
 def test_markings_indicator_and_lights():
-    ticks = [{"marking": m, "indicator": i} for m, i in
-             [(0, 0), (1, 0), (1, 0), (0, 0), (1, 1), (2, 1), (3, 0), (0, 0)]]  # fmt: skip
+    ticks = [
+        {"marking": m, "indicator": i}
+        for m, i in [(0, 0), (1, 0), (1, 0), (0, 0), (1, 1), (2, 1), (3, 0), (0, 0)]
+    ]
     assert events("{use: broken_no_indicator}", ticks) == [(0.1, 0.2)]
     assert events("{use: solid_line}", ticks) == [(0.5, 0.5)]
     assert events("{use: double_solid}", ticks) == [(0.6, 0.6)]
-    night = [{"night": 1, "fog": 0, "low_beam": 0, "vehicle_speed": 5}] * 6 + [
-        {"night": 1, "fog": 0, "low_beam": 1, "vehicle_speed": 5}] * 4 + [
-        {"night": 0, "fog": 0, "low_beam": 0, "vehicle_speed": 5}] * 4
+    night = (
+        [{"night": 1, "fog": 0, "low_beam": 0, "vehicle_speed": 5}] * 6
+        + [{"night": 1, "fog": 0, "low_beam": 1, "vehicle_speed": 5}] * 4
+        + [{"night": 0, "fog": 0, "low_beam": 0, "vehicle_speed": 5}] * 4
+    )
     assert events("{use: no_headlights}", night) == [(0.0, 0.5)]
 
 
@@ -91,9 +95,11 @@ def test_low_beam_in_fog():
     # table A.3 "No beams" and sec. 6.2.2: in fog, as at night, the low beam must be on.
     # Fog by day without the low beam for 0.6 s (6 ticks), then with it: one event 0-0.5 s;
     # standing (0.3 m/s, below `moving` 0.5) without it is none
-    fog = [{"night": 0, "fog": 1, "low_beam": 0, "vehicle_speed": 5}] * 6 + [
-        {"night": 0, "fog": 1, "low_beam": 1, "vehicle_speed": 5}] * 4 + [
-        {"night": 0, "fog": 1, "low_beam": 0, "vehicle_speed": 0.3}] * 6
+    fog = (
+        [{"night": 0, "fog": 1, "low_beam": 0, "vehicle_speed": 5}] * 6
+        + [{"night": 0, "fog": 1, "low_beam": 1, "vehicle_speed": 5}] * 4
+        + [{"night": 0, "fog": 1, "low_beam": 0, "vehicle_speed": 0.3}] * 6
+    )
     assert events("{use: no_headlights}", fog) == [(0.0, 0.5)]
 
 
@@ -102,8 +108,10 @@ def test_the_indicator_must_point_the_way_of_a_broken_line_crossing():
     # line crossed to the left with the left indicator (fine), to the right with the left one
     # (wrong: an event), to the right with none (broken_no_indicator's, not this rule's).
     # crossing_side is a built-in world signal: nothing to declare
-    ticks = [{"marking": m, "indicator": i, "crossing_side": c} for m, i, c in
-             [(0, 0, 0), (1, 1, 1), (0, 1, 0), (1, 1, 2), (1, 1, 2), (0, 0, 0), (1, 0, 2)]]
+    ticks = [
+        {"marking": m, "indicator": i, "crossing_side": c}
+        for m, i, c in [(0, 0, 0), (1, 1, 1), (0, 1, 0), (1, 1, 2), (1, 1, 2), (0, 0, 0), (1, 0, 2)]
+    ]
     result = load_text(HEAD + "  hazard: {use: broken_wrong_indicator}\n", "rules.yaml")
     assert result.case is not None, [f.format() for f in result.findings]
     spec, _ = compile_case(result.case)
@@ -117,31 +125,42 @@ def test_the_indicator_must_point_the_way_of_a_broken_line_crossing():
     head = HEAD.replace("merge_gap: 1s}", "merge_gap: 1s, signals: {crossing_side: side}}")
     declared = load_text(head + "  hazard: {use: broken_wrong_indicator}\n", "rules.yaml")
     assert declared.case is None
-    assert any("'crossing_side' has the name of a built-in" in f.message
-               for f in declared.findings)
+    assert any("'crossing_side' has the name of a built-in" in f.message for f in declared.findings)
 
 
 def test_fog_lights_in_fog():
     # fog, moving, no fog lights for 0.7 s, then with them; clear weather without: none
-    ticks = [{"fog": 1, "fog_lights": 0, "vehicle_speed": 5}] * 7 + [
-        {"fog": 1, "fog_lights": 1, "vehicle_speed": 5}] * 3 + [
-        {"fog": 0, "fog_lights": 0, "vehicle_speed": 5}] * 6
+    ticks = (
+        [{"fog": 1, "fog_lights": 0, "vehicle_speed": 5}] * 7
+        + [{"fog": 1, "fog_lights": 1, "vehicle_speed": 5}] * 3
+        + [{"fog": 0, "fog_lights": 0, "vehicle_speed": 5}] * 6
+    )
     assert events("{use: no_fog_lights}", ticks) == [(0.0, 0.6)]
 
 
 def test_the_penalties_are_table_a3():
     """Table A.3 of the CARLA safety-monitor thesis, copied by hand: (not speeding, speeding)."""
     table = {
-        "speeding_light": [1, 1], "speeding_heavy": [3, 3], "red_light": [50, 100],
-        "stop_sign": [40, 80], "solid_line": [20, 60], "double_solid": [40, 100],
-        "broken_no_indicator": [10, 30], "broken_wrong_indicator": [10, 30],
-        "no_headlights": [30, 30], "no_fog_lights": [10, 10], "collision_victim": [0, 0],
-    }  # fmt: skip
+        "speeding_light": [1, 1],
+        "speeding_heavy": [3, 3],
+        "red_light": [50, 100],
+        "stop_sign": [40, 80],
+        "solid_line": [20, 60],
+        "double_solid": [40, 100],
+        "broken_no_indicator": [10, 30],
+        "broken_wrong_indicator": [10, 30],
+        "no_headlights": [30, 30],
+        "no_fog_lights": [10, 10],
+        "collision_victim": [0, 0],
+    }
     rules = library(RULES)
     assert {name: rules[name].data["penalty"] for name in table} == table
     assert rules["collision"].data["penalty_by_party"] == {
-        "pedestrian": [600, 1200], "vehicle": [250, 500], "two_wheeler": [400, 800],
-        "object": [150, 300]}  # fmt: skip
+        "pedestrian": [600, 1200],
+        "vehicle": [250, 500],
+        "two_wheeler": [400, 800],
+        "object": [150, 300],
+    }
 
 
 def test_every_rule_names_its_source():
@@ -156,7 +175,7 @@ def test_unknown_rules_and_parameters():
     assert (f.line, f.col) == (10, 17)
     result = load_text(HEAD + "  hazard: {use: stop_sign, params: {zone: 0}}\n", "rules.yaml")
     assert "must lie in [0.5, 50] m" in result.findings[0].message
-    result = load_text(HEAD + "  hazard: {use: red_light, when: \"x > 1\"}\n", "rules.yaml")
+    result = load_text(HEAD + '  hazard: {use: red_light, when: "x > 1"}\n', "rules.yaml")
     assert result.findings[0].code == "CW018"
 
 
@@ -175,9 +194,11 @@ def test_the_traffic_rules_module_is_included_by_name(tmp_path):
     from casewatch import api
 
     case = tmp_path / "case.yaml"
-    case.write_text("module: {name: drive, uses: [traffic-rules]}\n"
-                    "monitor: {channels: [lav, tfuse], period: 50ms}\n"
-                    "G1:\n  text: The ego drives safely\n  supportedBy: [G_traffic_rules]\n")
+    case.write_text(
+        "module: {name: drive, uses: [traffic-rules]}\n"
+        "monitor: {channels: [lav, tfuse], period: 50ms}\n"
+        "G1:\n  text: The ego drives safely\n  supportedBy: [G_traffic_rules]\n"
+    )
     c, spec = api.prepare(case)
     rules = {f.rule for f in spec.formulas}
     # every rule of the library, broken_wrong_indicator too (crossing_side is built in)
@@ -195,17 +216,22 @@ def test_the_traffic_rules_module_is_included_by_name(tmp_path):
 @pytest.mark.parametrize(
     ("scoring", "code", "words"),
     [
-        ("{gamma: 1.5}", "CW012", "`scoring.gamma` should be less than or equal to 1, got the "
-         "number 1.5"),
+        (
+            "{gamma: 1.5}",
+            "CW012",
+            "`scoring.gamma` should be less than or equal to 1, got the number 1.5",
+        ),
         ("{alpha: 2}", "CW012", "`scoring.alpha` should be less than or equal to 1"),
         ("{d: 2000}", "CW012", "`scoring.d` should be less than or equal to 1000"),
         ("{stops: [12, -3]}", "CW012", "`scoring.stops[1]` should be greater than or equal to 0"),
         ("{c: 100}", "CW013", "unknown key 'c'"),
     ],
-)  # fmt: skip
+)
 def test_scoring_parameters_are_bounded_as_the_thesis_bounds_them(scoring, code, words):
-    text = HEAD.replace("monitor: {channels: [lav, tfuse], merge_gap: 1s}",
-                        f"monitor: {{channels: [lav, tfuse], scoring: {scoring}}}")
+    text = HEAD.replace(
+        "monitor: {channels: [lav, tfuse], merge_gap: 1s}",
+        f"monitor: {{channels: [lav, tfuse], scoring: {scoring}}}",
+    )
     result = load_text(text + "  hazard: {use: red_light}\n", "rules.yaml")
     assert result.case is None
     found = [f for f in result.findings if f.code == code]

@@ -33,9 +33,17 @@ def test_threshold_with_digit_separators_says_so() -> None:
 
 @pytest.mark.parametrize(
     ("raw", "seconds"),
-    [("0.5s", 0.5), ("300ms", 0.3), ("1min", 60.0), ("2", 2.0), (2, 2.0), (0.25, 0.25),
-     ("1.5 s", 1.5), ("1h", 3600.0)],
-)  # fmt: skip
+    [
+        ("0.5s", 0.5),
+        ("300ms", 0.3),
+        ("1min", 60.0),
+        ("2", 2.0),
+        (2, 2.0),
+        (0.25, 0.25),
+        ("1.5 s", 1.5),
+        ("1h", 3600.0),
+    ],
+)
 def test_durations(raw: object, seconds: float) -> None:
     assert parse_duration(raw) == pytest.approx(seconds)
 

@@ -64,6 +64,10 @@ def test_helpers() -> None:
 
 def test_case_without_root_goal_has_no_traces() -> None:
     # a supportedBy cycle leaves no root goal (CW035); formula checks still ask for traces
-    value = load(case("G1: {text: a, supportedBy: [G2]}\nG2: {text: b, supportedBy: [G1, Sn1]}\n"
-                      "Sn1: {text: e}\n"))
+    value = load(
+        case(
+            "G1: {text: a, supportedBy: [G2]}\nG2: {text: b, supportedBy: [G1, Sn1]}\n"
+            "Sn1: {text: e}\n"
+        )
+    )
     assert traces_to_root(value, "Sn1") == []

@@ -29,8 +29,10 @@ def _labels(name: str) -> list[dict]:
 
 ORIGINAL = ["highway-tailgating", "highway-tailgated", "urban-grid"]
 REALSTACK = ["highway-realstack", "urban-realstack", "highway-close-realstack"]
-COVERAGE = {"lav": {"fov_deg": 360.0, "range_m": 80.0},
-            "tfuse": {"fov_deg": 120.0, "range_m": 70.0}}
+COVERAGE = {
+    "lav": {"fov_deg": 360.0, "range_m": 80.0},
+    "tfuse": {"fov_deg": 120.0, "range_m": 70.0},
+}
 
 
 def test_index_lists_six_scenarios_with_files() -> None:
@@ -86,10 +88,12 @@ def test_localization_labels_are_where_els_var_exceeds_reference_threshold(name:
     reference hazard is els_var > 0.05. It must fire inside each CSn1 label and nowhere else."""
     frames = _rows(DATA / f"{name}.jsonl.gz")[1:]
     t = np.array([f["t"] for f in frames])
-    a = np.array([[f["channels"]["lav"]["ego"]["x"], f["channels"]["lav"]["ego"]["y"]]
-                  for f in frames])
-    b = np.array([[f["channels"]["tfuse"]["ego"]["x"], f["channels"]["tfuse"]["ego"]["y"]]
-                  for f in frames])
+    a = np.array(
+        [[f["channels"]["lav"]["ego"]["x"], f["channels"]["lav"]["ego"]["y"]] for f in frames]
+    )
+    b = np.array(
+        [[f["channels"]["tfuse"]["ego"]["x"], f["channels"]["tfuse"]["ego"]["y"]] for f in frames]
+    )
     els = 1.0 / (1.0 + np.hypot(*(a - b).T))
     windows = np.lib.stride_tricks.sliding_window_view(els, 5)
     var = windows.var(axis=1, ddof=1)
@@ -104,8 +108,10 @@ def test_localization_labels_are_where_els_var_exceeds_reference_threshold(name:
     assert var[~inside].max() < 0.05
 
 
-ORIGINAL_COVERAGE = {"lav": {"fov_deg": 360.0, "range_m": 60.0},
-                     "tfuse": {"fov_deg": 200.0, "range_m": 50.0}}
+ORIGINAL_COVERAGE = {
+    "lav": {"fov_deg": 360.0, "range_m": 60.0},
+    "tfuse": {"fov_deg": 200.0, "range_m": 50.0},
+}
 
 
 @pytest.mark.parametrize("name", NAMES)
@@ -143,8 +149,10 @@ def test_plans_keep_the_standstill_gap_to_their_own_predicted_lead(name: str) ->
     1.0 m of the plan point's line (well inside the corridor); 5 cm tolerance for rounding and
     for measuring along the plan's heading rather than the lead's."""
     frames = _rows(DATA / f"{name}.jsonl.gz")
-    gap = {ch: p["plan_standstill_gap"]
-           for ch, p in frames[0]["header"]["meta"]["channel_params"].items()}
+    gap = {
+        ch: p["plan_standstill_gap"]
+        for ch, p in frames[0]["header"]["meta"]["channel_params"].items()
+    }
     checked = 0
     for f in frames[1:]:
         for ch, rep in f["channels"].items():
@@ -154,13 +162,15 @@ def test_plans_keep_the_standstill_gap_to_their_own_predicted_lead(name: str) ->
             if len(plan) < 2 or not objs or np.isnan(head).all():
                 continue
             le = rep["ego"]["length"]
-            o = np.array([[b["x"], b["y"], b["vx"], b["vy"], b["yaw"], b["length"]]
-                          for b in objs])
+            o = np.array([[b["x"], b["y"], b["vx"], b["vy"], b["yaw"], b["length"]] for b in objs])
             u0 = np.array([np.cos(head[0]), np.sin(head[0])])
             r0 = o[:, :2] - plan[0, 1:]
             turn0 = np.abs((o[:, 4] - head[0] + np.pi) % (2 * np.pi) - np.pi)
-            lead = ((r0 @ u0 > le / 2) & (np.abs(r0 @ [-u0[1], u0[0]]) <= 1.75)
-                    & (turn0 <= np.radians(30.0)))
+            lead = (
+                (r0 @ u0 > le / 2)
+                & (np.abs(r0 @ [-u0[1], u0[0]]) <= 1.75)
+                & (turn0 <= np.radians(30.0))
+            )
             for i in range(1, len(plan)):
                 if not lead.any() or np.hypot(*(plan[i, 1:] - plan[0, 1:])) < 1e-3:
                     continue
@@ -211,8 +221,12 @@ def test_real_stack_localisation_difference_is_the_two_ar1_processes(name: str) 
     lag-1 correlation (0.7 * 0.06^2 + 0.6 * 0.12^2) / 0.134^2 = 0.62."""
     frames = _rows(DATA / f"{name}.jsonl.gz")[1:]
     t = np.array([f["t"] for f in frames])
-    d = np.array([[f["channels"]["lav"]["ego"][k] - f["channels"]["tfuse"]["ego"][k]
-                   for k in ("x", "y")] for f in frames])
+    d = np.array(
+        [
+            [f["channels"]["lav"]["ego"][k] - f["channels"]["tfuse"]["ego"][k] for k in ("x", "y")]
+            for f in frames
+        ]
+    )
     faults = [lab for lab in _labels(name) if lab["hazard"] == "CSn1"]
     assert len(faults) == 1
     before = t < faults[0]["start"] - 0.05

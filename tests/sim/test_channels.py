@@ -20,10 +20,23 @@ from examples.sim.channels import (
 from examples.sim.scenarios import LocalizationFault
 from examples.sim.simulate import GroundTruth, sumo_to_centre
 
-QUIET = {"pos_sigma": 0.0, "pos_white": 0.0, "yaw_sigma": 0.0, "speed_sigma": 0.0,
-         "lat_speed_sigma": 0.0, "size_sigma": 0.0, "p_miss": 0.0, "ghost_rate": 0.0,
-         "p_id_switch": 0.0, "loc_sigma": 0.0, "loc_drift": 0.0, "loc_yaw_sigma": 0.0,
-         "ego_speed_sigma": 0.0, "plan_lateral": 0.0, "plan_longitudinal": 0.0}
+QUIET = {
+    "pos_sigma": 0.0,
+    "pos_white": 0.0,
+    "yaw_sigma": 0.0,
+    "speed_sigma": 0.0,
+    "lat_speed_sigma": 0.0,
+    "size_sigma": 0.0,
+    "p_miss": 0.0,
+    "ghost_rate": 0.0,
+    "p_id_switch": 0.0,
+    "loc_sigma": 0.0,
+    "loc_drift": 0.0,
+    "loc_yaw_sigma": 0.0,
+    "ego_speed_sigma": 0.0,
+    "plan_lateral": 0.0,
+    "plan_longitudinal": 0.0,
+}
 
 
 def _truth() -> GroundTruth:
@@ -34,12 +47,26 @@ def _truth() -> GroundTruth:
     x = x0[None, :] + 10.0 * t[:, None]
     n = (len(t), 4)
     return GroundTruth(
-        scenario="hand", times=t, ids=["ego", "ahead", "behind", "far"], cls=["car"] * 4,
-        length=np.full(4, 4.5), width=np.full(4, 1.8), min_gap=np.full(n, 2.5), x=x,
-        y=np.zeros(n), yaw=np.zeros(n), speed=np.full(n, 10.0), lane=np.zeros(n, dtype=int),
-        lane_pos=x + 2.25, lane_ids=["hw_1"], speed_limit=np.full(len(t), 33.3),
-        sumo_leader=[None] * len(t), sumo_leader_gap=np.full(len(t), np.nan),
-        ego_min_gap=np.full(len(t), 2.5), ssm_file=Path("unused"), ego_index=0,
+        scenario="hand",
+        times=t,
+        ids=["ego", "ahead", "behind", "far"],
+        cls=["car"] * 4,
+        length=np.full(4, 4.5),
+        width=np.full(4, 1.8),
+        min_gap=np.full(n, 2.5),
+        x=x,
+        y=np.zeros(n),
+        yaw=np.zeros(n),
+        speed=np.full(n, 10.0),
+        lane=np.zeros(n, dtype=int),
+        lane_pos=x + 2.25,
+        lane_ids=["hw_1"],
+        speed_limit=np.full(len(t), 33.3),
+        sumo_leader=[None] * len(t),
+        sumo_leader_gap=np.full(len(t), np.nan),
+        ego_min_gap=np.full(len(t), 2.5),
+        ssm_file=Path("unused"),
+        ego_index=0,
     )
 
 
@@ -141,8 +168,12 @@ def test_fault_offsets_jump_by_the_amplitude_only_inside_the_fault() -> None:
 def test_sumo_front_bumper_and_heading_convert_to_centre_and_yaw() -> None:
     # angle 0 = north: yaw = pi/2; centre = front - 2 m along +y -> (10, 18)
     # angle 90 = east: yaw = 0; centre = (8, 20); angle 180 = south: centre = (10, 22)
-    cx, cy, yaw = sumo_to_centre(np.array([10.0, 10.0, 10.0]), np.array([20.0, 20.0, 20.0]),
-                                 np.array([0.0, 90.0, 180.0]), np.array(4.0))
+    cx, cy, yaw = sumo_to_centre(
+        np.array([10.0, 10.0, 10.0]),
+        np.array([20.0, 20.0, 20.0]),
+        np.array([0.0, 90.0, 180.0]),
+        np.array(4.0),
+    )
     np.testing.assert_allclose(cx, [10.0, 8.0, 10.0], atol=1e-9)
     np.testing.assert_allclose(cy, [18.0, 20.0, 22.0], atol=1e-9)
     np.testing.assert_allclose(yaw, [np.pi / 2, 0.0, -np.pi / 2], atol=1e-9)

@@ -13,14 +13,31 @@ from examples.sim.inject import InjectedFault, Injector
 def report(t: float = 0.0) -> dict:
     """A channel's report: ego at (10 t, 0) heading +x at 10 m/s, two cars, a straight plan."""
     x = 10.0 * t
-    car = {"id": "1", "cls": "car", "x": x + 20.0, "y": 0.0, "yaw": 0.0, "vx": 8.0, "vy": 0.0,
-           "length": 4.5, "width": 1.8, "prediction": [[0.5, x + 24.0, 0.0], [1.0, x + 28.0, 0.0]]}
-    parked = {**car, "id": "2", "x": x + 30.0, "y": 5.0, "vx": 0.0,
-              "prediction": [[0.5, x + 30.0, 5.0]]}
-    return {"ego": {"x": x, "y": 0.0, "yaw": 0.0, "vx": 10.0, "vy": 0.0, "length": 4.5,
-                    "width": 1.8},
-            "plan": [[0.0, x, 0.0], [1.0, x + 10.0, 0.0], [2.0, x + 20.0, 0.0]],
-            "objects": [car, parked]}
+    car = {
+        "id": "1",
+        "cls": "car",
+        "x": x + 20.0,
+        "y": 0.0,
+        "yaw": 0.0,
+        "vx": 8.0,
+        "vy": 0.0,
+        "length": 4.5,
+        "width": 1.8,
+        "prediction": [[0.5, x + 24.0, 0.0], [1.0, x + 28.0, 0.0]],
+    }
+    parked = {
+        **car,
+        "id": "2",
+        "x": x + 30.0,
+        "y": 5.0,
+        "vx": 0.0,
+        "prediction": [[0.5, x + 30.0, 5.0]],
+    }
+    return {
+        "ego": {"x": x, "y": 0.0, "yaw": 0.0, "vx": 10.0, "vy": 0.0, "length": 4.5, "width": 1.8},
+        "plan": [[0.0, x, 0.0], [1.0, x + 10.0, 0.0], [2.0, x + 20.0, 0.0]],
+        "objects": [car, parked],
+    }
 
 
 REPORTED = np.array([4, 7])  # true vehicle index of each object
@@ -48,27 +65,29 @@ def test_phantom_is_15_m_ahead_and_drives_along() -> None:
 
 
 def test_plan_shift_whole_and_diverging() -> None:
-    whole = InjectedFault("plan_lateral", "a", 0, 19,
-                          {"offset_m": 1.5, "side": "left", "ramp_s": 0.0})
+    whole = InjectedFault(
+        "plan_lateral", "a", 0, 19, {"offset_m": 1.5, "side": "left", "ramp_s": 0.0}
+    )
     out = Injector([whole]).apply(0, "a", report(), REPORTED)
     assert [p[2] for p in out["plan"]] == [1.5, 1.5, 1.5]
-    ramp = InjectedFault("plan_lateral", "a", 0, 19,
-                         {"offset_m": 2.0, "side": "right", "ramp_s": 2.0})
+    ramp = InjectedFault(
+        "plan_lateral", "a", 0, 19, {"offset_m": 2.0, "side": "right", "ramp_s": 2.0}
+    )
     out = Injector([ramp]).apply(0, "a", report(), REPORTED)
     assert [p[2] for p in out["plan"]] == [0.0, -1.0, -2.0]
 
 
 def test_reversed_predictions_point_back_for_moving_objects_only() -> None:
     out = Injector([InjectedFault("prediction_reversed", "a", 0, 19)]).apply(
-        0, "a", report(), REPORTED)
+        0, "a", report(), REPORTED
+    )
     moving, parked = out["objects"]
     assert moving["prediction"] == [[0.5, 16.0, 0.0], [1.0, 12.0, 0.0]]
     assert parked["prediction"] == [[0.5, 30.0, 5.0]]
 
 
 def test_drift_moves_everything_the_channel_places() -> None:
-    fault = InjectedFault("localisation_drift", "a", 10, 39,
-                          {"rate_m_s": 1.0, "heading_deg": 90.0})
+    fault = InjectedFault("localisation_drift", "a", 10, 39, {"rate_m_s": 1.0, "heading_deg": 90.0})
     # tick 14 is the fifth of the fault: 0.5 s of drift at 1 m/s, straight up (+y)
     out = Injector([fault]).apply(14, "a", report(1.4), REPORTED)
     assert out["ego"]["y"] == pytest.approx(0.5)

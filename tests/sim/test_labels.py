@@ -50,12 +50,26 @@ def _truth(ahead_x: float, behind_x: float) -> GroundTruth:
     x = np.array([0.0, ahead_x, behind_x])[None, :] + 10.0 * t[:, None]
     n = x.shape
     return GroundTruth(
-        scenario="hand", times=t, ids=["ego", "ahead", "behind"], cls=["car"] * 3,
-        length=np.full(3, 4.5), width=np.full(3, 1.8), min_gap=np.full(n, 2.5), x=x,
-        y=np.zeros(n), yaw=np.zeros(n), speed=np.full(n, 10.0), lane=np.zeros(n, dtype=int),
-        lane_pos=x + 2.25, lane_ids=["hw_1"], speed_limit=np.full(len(t), 33.3),
-        sumo_leader=[None] * len(t), sumo_leader_gap=np.full(len(t), np.nan),
-        ego_min_gap=np.full(len(t), 2.5), ssm_file=Path("unused"), ego_index=0,
+        scenario="hand",
+        times=t,
+        ids=["ego", "ahead", "behind"],
+        cls=["car"] * 3,
+        length=np.full(3, 4.5),
+        width=np.full(3, 1.8),
+        min_gap=np.full(n, 2.5),
+        x=x,
+        y=np.zeros(n),
+        yaw=np.zeros(n),
+        speed=np.full(n, 10.0),
+        lane=np.zeros(n, dtype=int),
+        lane_pos=x + 2.25,
+        lane_ids=["hw_1"],
+        speed_limit=np.full(len(t), 33.3),
+        sumo_leader=[None] * len(t),
+        sumo_leader_gap=np.full(len(t), np.nan),
+        ego_min_gap=np.full(len(t), 2.5),
+        ssm_file=Path("unused"),
+        ego_index=0,
     )
 
 
@@ -73,7 +87,9 @@ def test_geometry_labels_flag_close_following_both_ways() -> None:
     # lead gap 10 - 4.5 = 5.5 m -> 0.55 s; follower gap 8 - 4.5 = 3.5 m -> 0.35 s: both < 1 s
     labels = geometry_labels(_truth(10.0, -8.0), duration=6.0)
     assert [(x["hazard"], x["start"], x["end"]) for x in labels] == [
-        ("CSn2", 0.0, 6.0), ("CSn3", 0.0, 6.0)]
+        ("CSn2", 0.0, 6.0),
+        ("CSn3", 0.0, 6.0),
+    ]
     assert labels[0]["vehicles"] == ["ahead"] and labels[1]["min_time_gap"] == 0.35
     # 1.55 s and 1.05 s: nothing
     assert geometry_labels(_truth(20.0, -15.0), duration=6.0) == []
@@ -112,7 +128,10 @@ def test_ssm_conflicts_become_labels(tmp_path: Path) -> None:
     # conflict 1: TTC < 3 at 1.2, 1.3, 1.4 -> [1.2, 1.4], type 2 (ego follows) -> CSn2
     # conflict 2: DRAC > 3 at 4.0 -> [4.0, 4.0] crossing; PET 1.2 < 2 at 4.5 -> point label
     assert [(x["hazard"], x["start"], x["end"]) for x in labels] == [
-        ("CSn2", 1.2, 1.4), ("ssm-conflict", 4.0, 4.0), ("ssm-conflict", 4.5, 4.5)]
+        ("CSn2", 1.2, 1.4),
+        ("ssm-conflict", 4.0, 4.0),
+        ("ssm-conflict", 4.5, 4.5),
+    ]
     assert labels[0]["min_ttc"] == 2.5 and labels[1]["max_drac"] == 3.5
     assert labels[2]["pet"] == 1.2
 

@@ -52,8 +52,10 @@ def _rows(path: Path) -> list[dict]:
 
 #: The cells the generator degrades (on purpose: docs/odd-grid.md)
 DEGRADED_CELLS = {("rain", "medium", "night")} | {
-    (w, lv, li) for w, lv in (("rain", "heavy"), ("fog", "medium"), ("fog", "heavy"))
-    for li in ("day", "sunset", "night")}
+    (w, lv, li)
+    for w, lv in (("rain", "heavy"), ("fog", "medium"), ("fog", "heavy"))
+    for li in ("day", "sunset", "night")
+}
 
 
 def test_a_clear_day_changes_nothing() -> None:
@@ -66,20 +68,25 @@ def test_effects_by_hand() -> None:
     the interaction), the shorter range cap wins."""
     # rain 50: camera noise between (40, 2.0) and (60, 2.5), miss 1 + 2 * 0.5; lidar 1 + 0.3 *
     # 0.5 and 1 + 0.5 * 0.5
-    assert effects("rain", 50.0, "day") == {"camera": ChannelEffect(2.25, 2.0, None),
-                                            "lidar": ChannelEffect(1.15, 1.25, None)}
+    assert effects("rain", 50.0, "day") == {
+        "camera": ChannelEffect(2.25, 2.0, None),
+        "lidar": ChannelEffect(1.15, 1.25, None),
+    }
     # x night (1.8, 1.5) x rain+night at 50 (2.8 + 0.2 * 10 / 60 = 2.833; 4.0)
     rn = effects("rain", 50.0, "night")["camera"]
-    assert (rn.noise, rn.miss, rn.range_m) == pytest.approx((2.25 * 1.8 * 2.833, 12.0, None),
-                                                           abs=1e-4)
+    assert (rn.noise, rn.miss, rn.range_m) == pytest.approx(
+        (2.25 * 1.8 * 2.833, 12.0, None), abs=1e-4
+    )
     assert effects("rain", 50.0, "night")["lidar"] == ChannelEffect(1.15, 1.25, None)
     # fog 90: camera noise between (80, 14) and (100, 18), miss 4 + 2 * 50 / 60, range between
     # (80, 25) and (100, 20); lidar 1 + 0.6 * 0.9, 1 + 0.5 * 0.9, 200 - 130 * 0.9
     fog = effects("fog", 90.0, "day")
-    assert (fog["camera"].noise, fog["camera"].miss, fog["camera"].range_m) == \
-        pytest.approx((16.0, 5.667, 22.5))
-    assert (fog["lidar"].noise, fog["lidar"].miss, fog["lidar"].range_m) == \
-        pytest.approx((1.54, 1.45, 83.0))
+    assert (fog["camera"].noise, fog["camera"].miss, fog["camera"].range_m) == pytest.approx(
+        (16.0, 5.667, 22.5)
+    )
+    assert (fog["lidar"].noise, fog["lidar"].miss, fog["lidar"].range_m) == pytest.approx(
+        (1.54, 1.45, 83.0)
+    )
     # light fog: a cap beyond the camera's own 70 m
     assert effects("fog", 10.0, "day")["camera"] == ChannelEffect(1.4, 1.2, 148.0)
     # cloud cover: 1 + 0.3 * 0.5; at sunset x 1.4 (miss 1.2)
@@ -102,8 +109,14 @@ def test_table_names_only_known_conditions_and_channels() -> None:
 
 
 def test_the_studys_bins() -> None:
-    assert [level_of(x) for x in (0.0, 30.0, 30.1, 70.0, 70.1, 100.0)] == \
-        ["light", "light", "medium", "medium", "heavy", "heavy"]
+    assert [level_of(x) for x in (0.0, 30.0, 30.1, 70.0, 70.1, 100.0)] == [
+        "light",
+        "light",
+        "medium",
+        "medium",
+        "heavy",
+        "heavy",
+    ]
     for level, (lo, hi) in LEVEL_DRAW.items():
         assert level_of(lo) == level_of(hi) == level
         drawn = draw_intensity(level, 123)
@@ -128,17 +141,24 @@ def test_degraded_cells() -> None:
     for w, lv, li in cells():
         lo, hi = LEVEL_DRAW[lv]
         # the whole draw range of a level is on one side of the thresholds
-        assert is_degraded(w, lo, li) == is_degraded(w, hi, li) == \
-            ((w, lv, li) in DEGRADED_CELLS), (w, lv, li)
+        assert (
+            is_degraded(w, lo, li) == is_degraded(w, hi, li) == ((w, lv, li) in DEGRADED_CELLS)
+        ), (w, lv, li)
     # the thresholds: noise 6, range 45 m
     assert not is_degraded("rain", 60.0, "day")  # noise 2.5
     assert is_degraded("rain", 80.0, "day")  # noise 9
     assert is_degraded("fog", 40.0, "day")  # range 40 m (noise 8)
     # the camera is hit much harder in every degraded cell than in any other
-    worst_ok = max(effects(w, LEVEL_DRAW[lv][1], li)["camera"].noise
-                   for w, lv, li in cells() if (w, lv, li) not in DEGRADED_CELLS)
-    best_bad = min(effects(w, LEVEL_DRAW[lv][0], li)["camera"].noise
-                   for w, lv, li in cells() if (w, lv, li) in DEGRADED_CELLS)
+    worst_ok = max(
+        effects(w, LEVEL_DRAW[lv][1], li)["camera"].noise
+        for w, lv, li in cells()
+        if (w, lv, li) not in DEGRADED_CELLS
+    )
+    best_bad = min(
+        effects(w, LEVEL_DRAW[lv][0], li)["camera"].noise
+        for w, lv, li in cells()
+        if (w, lv, li) in DEGRADED_CELLS
+    )
     assert best_bad >= 2.0 * worst_ok
 
 
@@ -162,7 +182,8 @@ def test_odd_truth_carries_the_applied_effects() -> None:
     truth = odd_truth("rain", 50.0, "night")
     assert truth["degraded"] is True and truth["degraded_channels"] == ["camera"]
     assert truth["channel_effects"]["camera"] == pytest.approx(
-        {"noise": 11.4737, "miss": 12.0, "range_m": None})
+        {"noise": 11.4737, "miss": 12.0, "range_m": None}
+    )
     assert odd_truth("rain", 50.0, "day")["degraded"] is False
     assert odd_truth("rain", 50.0, "day")["degraded_channels"] == []
 
@@ -220,8 +241,11 @@ def test_index_matches_the_files() -> None:
         assert LEVEL_DRAW[level][0] <= intensity <= LEVEL_DRAW[level][1]
         assert e["scenario"] == cell_name(weather, level, light)
         assert e["stream"] == f"{e['scenario']}-r{e['run']}.jsonl.gz"
-        assert e["degraded"] == is_degraded(weather, intensity, light) == \
-            ((weather, level, light) in DEGRADED_CELLS)
+        assert (
+            e["degraded"]
+            == is_degraded(weather, intensity, light)
+            == ((weather, level, light) in DEGRADED_CELLS)
+        )
         ci = cells().index((weather, level, light))
         assert e["seed"] in {run_seed(INDEX["seed"], ci, e["run"], a) for a in range(ATTEMPTS)}
         assert e["bytes"] == (DATA / e["stream"]).stat().st_size
@@ -267,8 +291,9 @@ def test_bundled_drives_read_without_defects() -> None:
         reader = read_stream(str(DATA / e["stream"]), channels=["lidar", "camera"], period=0.1)
         assert sum(1 for _ in reader) == e["frames"]
         assert reader.defects == [] and reader.header is not None
-        assert reader.header.meta["odd"]["environment"]["weather"] == \
-            e["odd"]["environment.weather"]
+        assert (
+            reader.header.meta["odd"]["environment"]["weather"] == e["odd"]["environment.weather"]
+        )
 
 
 def test_one_drive_regenerates_identically(tmp_path: Path) -> None:
@@ -277,7 +302,15 @@ def test_one_drive_regenerates_identically(tmp_path: Path) -> None:
 
     (entry,) = [e for e in DRIVES if e["stream"] == "odd-rain-medium-night-r1.jsonl.gz"]
     weather, _, light = _conditions(entry)
-    again = write_drive(weather, entry["level"], light, entry["run"], entry["seed"],
-                        INDEX["duration"], tmp_path, tmp_path / "work")  # fmt: skip
+    again = write_drive(
+        weather,
+        entry["level"],
+        light,
+        entry["run"],
+        entry["seed"],
+        INDEX["duration"],
+        tmp_path,
+        tmp_path / "work",
+    )
     assert again == entry
     assert (tmp_path / entry["stream"]).read_bytes() == (DATA / entry["stream"]).read_bytes()

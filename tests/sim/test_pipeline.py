@@ -78,8 +78,11 @@ def test_tailgating_labels_agree_with_sumo_time_gap(short: Generated) -> None:
     with np.errstate(invalid="ignore"):
         mask = (log.tgap[keep] < lab.TIME_GAP_THRESHOLD) & (speed > lab.MIN_SPEED)
     sumo = lab.intervals(t, mask)
-    ours = [(x["start"], x["end"]) for x in lab.geometry_labels(gt, HIGHWAY_SHORT.duration)
-            if x["hazard"] == lab.HAZARD_TAILGATING]
+    ours = [
+        (x["start"], x["end"])
+        for x in lab.geometry_labels(gt, HIGHWAY_SHORT.duration)
+        if x["hazard"] == lab.HAZARD_TAILGATING
+    ]
     assert len(ours) == len(sumo) >= 1
     for (a, b), (c, d) in zip(ours, sumo, strict=True):
         assert abs(a - c) <= 0.1 + 1e-9 and abs(b - d) <= 0.1 + 1e-9

@@ -51,8 +51,10 @@ def test_generation_is_deterministic(runs: tuple[Generated, Generated]) -> None:
 
 def test_header_coverage_and_reader(short: Generated) -> None:
     head = _rows(short)[0]["header"]
-    assert head["coverage"] == {"lav": {"fov_deg": 360.0, "range_m": 80.0},
-                                "tfuse": {"fov_deg": 120.0, "range_m": 70.0}}
+    assert head["coverage"] == {
+        "lav": {"fov_deg": 360.0, "range_m": 80.0},
+        "tfuse": {"fov_deg": 120.0, "range_m": 70.0},
+    }
     assert head["meta"]["channel_params"]["lav"]["profile"] == "LIDAR_STACK"
     reader = read_stream(short.stream)
     assert sum(1 for _ in reader) == 201
@@ -99,8 +101,9 @@ def test_localisation_offsets_are_ar1_with_the_configured_values(short: Generate
     t = np.array([f["t"] for f in frames])
     fault = next(x for x in SC.faults)
     for ch, params in (("lav", LIDAR_STACK), ("tfuse", CAMERA_STACK)):
-        ego = np.array([[f["channels"][ch]["ego"]["x"], f["channels"][ch]["ego"]["y"]]
-                        for f in frames])
+        ego = np.array(
+            [[f["channels"][ch]["ego"]["x"], f["channels"][ch]["ego"]["y"]] for f in frames]
+        )
         off = ego - np.column_stack([motion.x[: len(t)], motion.y[: len(t)]])
         if fault.channel == ch:
             keep = (t < fault.start - 0.05) | (t > fault.end + 0.05)

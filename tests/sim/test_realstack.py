@@ -29,10 +29,23 @@ from examples.sim.frames import header
 from examples.sim.scenarios import HIGHWAY_REALSTACK, URBAN_GRID, URBAN_REALSTACK
 from examples.sim.simulate import GroundTruth
 
-QUIET = {"pos_sigma": 0.0, "pos_white": 0.0, "yaw_sigma": 0.0, "speed_sigma": 0.0,
-         "lat_speed_sigma": 0.0, "size_sigma": 0.0, "p_miss": 0.0, "ghost_rate": 0.0,
-         "p_id_switch": 0.0, "loc_sigma": 0.0, "loc_drift": 0.0, "loc_yaw_sigma": 0.0,
-         "ego_speed_sigma": 0.0, "plan_lateral": 0.0, "plan_longitudinal": 0.0}
+QUIET = {
+    "pos_sigma": 0.0,
+    "pos_white": 0.0,
+    "yaw_sigma": 0.0,
+    "speed_sigma": 0.0,
+    "lat_speed_sigma": 0.0,
+    "size_sigma": 0.0,
+    "p_miss": 0.0,
+    "ghost_rate": 0.0,
+    "p_id_switch": 0.0,
+    "loc_sigma": 0.0,
+    "loc_drift": 0.0,
+    "loc_yaw_sigma": 0.0,
+    "ego_speed_sigma": 0.0,
+    "plan_lateral": 0.0,
+    "plan_longitudinal": 0.0,
+}
 
 
 def _truth(ego_x: np.ndarray, others: list[tuple[float, float]] | None = None) -> GroundTruth:
@@ -50,13 +63,26 @@ def _truth(ego_x: np.ndarray, others: list[tuple[float, float]] | None = None) -
     speed[:, 0] = np.gradient(ego_x, 0.1)
     n = (n_t, n_v)
     return GroundTruth(
-        scenario="hand", times=t, ids=["ego"] + [f"car{j}" for j in range(1, n_v)],
-        cls=["car"] * n_v, length=np.full(n_v, 4.5), width=np.full(n_v, 1.8),
-        min_gap=np.full(n, 2.5), x=x, y=y, yaw=np.zeros(n), speed=speed,
-        lane=np.zeros(n, dtype=int), lane_pos=x + 2.25, lane_ids=["hw_1"],
-        speed_limit=np.full(n_t, 33.3), sumo_leader=[None] * n_t,
-        sumo_leader_gap=np.full(n_t, np.nan), ego_min_gap=np.full(n_t, 2.5),
-        ssm_file=Path("unused"), ego_index=0,
+        scenario="hand",
+        times=t,
+        ids=["ego"] + [f"car{j}" for j in range(1, n_v)],
+        cls=["car"] * n_v,
+        length=np.full(n_v, 4.5),
+        width=np.full(n_v, 1.8),
+        min_gap=np.full(n, 2.5),
+        x=x,
+        y=y,
+        yaw=np.zeros(n),
+        speed=speed,
+        lane=np.zeros(n, dtype=int),
+        lane_pos=x + 2.25,
+        lane_ids=["hw_1"],
+        speed_limit=np.full(n_t, 33.3),
+        sumo_leader=[None] * n_t,
+        sumo_leader_gap=np.full(n_t, np.nan),
+        ego_min_gap=np.full(n_t, 2.5),
+        ssm_file=Path("unused"),
+        ego_index=0,
     )
 
 
@@ -160,15 +186,30 @@ def test_original_profiles_keep_the_smooth_localisation() -> None:
 
 def test_forward_camera_sees_only_within_sixty_degrees_and_seventy_metres() -> None:
     # parked cars around the ego at x = 0 (heading east): bearing (deg) and range (m)
-    spots = {(0, 30): True, (50, 30): True, (-50, 30): True, (59, 30): True, (61, 30): False,
-             (-70, 30): False, (90, 20): False, (135, 20): False, (180, 15): False,
-             (0, 65): True, (0, 72): False, (20, 69): True, (180, 75): False}
+    spots = {
+        (0, 30): True,
+        (50, 30): True,
+        (-50, 30): True,
+        (59, 30): True,
+        (61, 30): False,
+        (-70, 30): False,
+        (90, 20): False,
+        (135, 20): False,
+        (180, 15): False,
+        (0, 65): True,
+        (0, 72): False,
+        (20, 69): True,
+        (180, 75): False,
+    }
     others = [(r * np.cos(np.radians(b)), r * np.sin(np.radians(b))) for b, r in spots]
     gt = _truth(np.zeros(80), others)
-    seen = {(round(o["x"], 3), round(o["y"], 3))
-            for o in ChannelModel(gt, replace(CAMERA_STACK, **QUIET), (), seed=1).objects(0)}
-    expect = {(round(x, 3), round(y, 3)) for (x, y), v in zip(others, spots.values(),
-                                                               strict=True) if v}
+    seen = {
+        (round(o["x"], 3), round(o["y"], 3))
+        for o in ChannelModel(gt, replace(CAMERA_STACK, **QUIET), (), seed=1).objects(0)
+    }
+    expect = {
+        (round(x, 3), round(y, 3)) for (x, y), v in zip(others, spots.values(), strict=True) if v
+    }
     assert seen == expect
     # the LiDAR stack sees all round to 80 m: everything here
     lidar = ChannelModel(gt, replace(LIDAR_STACK, **QUIET), (), seed=1).objects(0)
@@ -189,8 +230,7 @@ def test_forward_camera_ghosts_stay_inside_its_field_of_view() -> None:
 
 
 def test_header_coverage_matches_the_profiles_for_every_drive() -> None:
-    cov = {"lav": {"fov_deg": 360.0, "range_m": 80.0},
-           "tfuse": {"fov_deg": 120.0, "range_m": 70.0}}
+    cov = {"lav": {"fov_deg": 360.0, "range_m": 80.0}, "tfuse": {"fov_deg": 120.0, "range_m": 70.0}}
     for sc in (HIGHWAY_REALSTACK, URBAN_REALSTACK):
         head = header(sc)["header"]
         assert head["coverage"] == cov
@@ -204,8 +244,10 @@ def test_header_coverage_matches_the_profiles_for_every_drive() -> None:
         assert params["tfuse"]["plan_step"] == 0.5
     # the original profiles carry it too (360 deg / 60 m, 200 deg / 50 m), and every parameter
     old = header(URBAN_GRID)["header"]
-    assert old["coverage"] == {"lav": {"fov_deg": 360.0, "range_m": 60.0},
-                               "tfuse": {"fov_deg": 200.0, "range_m": 50.0}}
+    assert old["coverage"] == {
+        "lav": {"fov_deg": 360.0, "range_m": 60.0},
+        "tfuse": {"fov_deg": 200.0, "range_m": 50.0},
+    }
     for p in (LAV, TFUSE):
         assert set(p.meta()) == {f.name for f in fields(ChannelParams)} - set(SAMPLER_FIELDS)
         assert p.meta()["plan_standstill_gap"] == 2.0

@@ -125,11 +125,18 @@ def test_near_misses_are_in_the_bundle() -> None:
         frames = _rows(DATA / d["stream"])[1:]
         for a, b in pairwise(frames):
             ta, tb = a["world"].get("traffic_light"), b["world"].get("traffic_light")
-            if ta and tb and ta["distance"] <= 0 < ta["distance"] + 2.5 \
-                    and ta["state"] == "yellow" and tb["state"] == "red":
+            if (
+                ta
+                and tb
+                and ta["distance"] <= 0 < ta["distance"] + 2.5
+                and ta["state"] == "yellow"
+                and tb["state"] == "red"
+            ):
                 red_after += 1
-            if a["world"].get("marking") == "broken" and \
-                    a["world"]["indicator"] == a["world"]["crossing"]:
+            if (
+                a["world"].get("marking") == "broken"
+                and a["world"]["indicator"] == a["world"]["crossing"]
+            ):
                 signalled += 1
         for f in frames:
             s = f["world"].get("stop_sign")
@@ -144,7 +151,9 @@ def test_one_drive_regenerates_identically(tmp_path: Path) -> None:
     pytest.importorskip("sumolib", reason="SUMO not installed: pip install -e .[sim]")
     from examples.sim.rules_drives import main
 
-    assert main(["--seed", str(INDEX["seed"]), "--out", str(tmp_path),
-                 "--only", "night-fog-sloppy"]) == 0
+    assert (
+        main(["--seed", str(INDEX["seed"]), "--out", str(tmp_path), "--only", "night-fog-sloppy"])
+        == 0
+    )
     for name in ("night-fog-sloppy.jsonl.gz", "night-fog-sloppy.labels.jsonl"):
         assert (tmp_path / name).read_bytes() == (DATA / name).read_bytes()

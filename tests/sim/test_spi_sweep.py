@@ -32,14 +32,16 @@ def sweep(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict]:
 
 def test_faults_are_placed_and_labelled(sweep: tuple[Path, dict]) -> None:
     out, _ = sweep
-    faults = read_fault_labels(out / f"s{SEED}" / "mixed" /
-                               "highway-tailgating-faults.fault-labels.jsonl")
+    faults = read_fault_labels(
+        out / f"s{SEED}" / "mixed" / "highway-tailgating-faults.fault-labels.jsonl"
+    )
     families = {f.fault for f in faults}
     assert {"object_drop", "phantom", "plan_lateral", "localisation_drift"} <= families
     # the faulted and the clean drive have the same frames, ticks and labels
     clean = out / f"s{SEED}" / "mixed" / "highway-tailgating.labels.jsonl"
-    assert clean.read_text() == clean.with_name(
-        "highway-tailgating-faults.labels.jsonl").read_text()
+    assert (
+        clean.read_text() == clean.with_name("highway-tailgating-faults.labels.jsonl").read_text()
+    )
 
 
 def test_every_spi_quiet_and_every_fault_found(sweep: tuple[Path, dict]) -> None:

@@ -13,7 +13,7 @@ from examples.sim.stacks import PROFILE_LEVELS, min_coverage, sample_pair
 PAIRS = [(seed, profile) for seed in range(30) for profile in PROFILE_LEVELS]
 
 
-@pytest.mark.parametrize(("seed", "profile"), PAIRS[:: 7])
+@pytest.mark.parametrize(("seed", "profile"), PAIRS[::7])
 def test_same_arguments_same_stacks(seed: int, profile: str) -> None:
     assert sample_pair(seed, profile) == sample_pair(seed, profile)
 

@@ -139,11 +139,29 @@ def test_declared_signals_listed_even_unused() -> None:
 
 # One hand-made sample for the reference case, and each formula's robustness by hand.
 REFERENCE_SAMPLE = {
-    "els": 0.7, "els_var": 0.01, "eos": 0.9, "ocs": 1.0, "ols": 0.2, "oos": 0.65, "oas": 0.5,
-    "ots": 0.6, "ompv": 0.75, "ets": 0.55, "crpps": 0.8, "chpps": 0.72, "hcs": 0.85,
-    "ppcs": 0.85, "ss": 0.95, "ego_dist": 0.3, "lead_thw": 0.8, "ego_speed": 20.0,
-    "follow_thw": 2.5, "follow_speed": 10.0, "lone_age": 0.4, "plan_lat": 0.2,
-}  # fmt: skip
+    "els": 0.7,
+    "els_var": 0.01,
+    "eos": 0.9,
+    "ocs": 1.0,
+    "ols": 0.2,
+    "oos": 0.65,
+    "oas": 0.5,
+    "ots": 0.6,
+    "ompv": 0.75,
+    "ets": 0.55,
+    "crpps": 0.8,
+    "chpps": 0.72,
+    "hcs": 0.85,
+    "ppcs": 0.85,
+    "ss": 0.95,
+    "ego_dist": 0.3,
+    "lead_thw": 0.8,
+    "ego_speed": 20.0,
+    "follow_thw": 2.5,
+    "follow_speed": 10.0,
+    "lone_age": 0.4,
+    "plan_lat": 0.2,
+}
 REFERENCE_EXPECTED = {
     "Sn1": 0.1,  # els >= 0.6: 0.7 - 0.6
     "Sn2": 0.04,  # els_var <= 0.05: 0.05 - 0.01

@@ -197,9 +197,16 @@ def test_build_rtamt_monitor_declares_signals_and_period() -> None:
 
 def _compiled(rtamt_text: str, signals: list[str]) -> CompiledFormula:
     return CompiledFormula(
-        id="F", node_id="F", node_text="random", kind="spi", source=rtamt_text,
-        rtamt=rtamt_text, signals=signals, merge_gap=0.0, min_duration=0.0,
-    )  # fmt: skip
+        id="F",
+        node_id="F",
+        node_text="random",
+        kind="spi",
+        source=rtamt_text,
+        rtamt=rtamt_text,
+        signals=signals,
+        merge_gap=0.0,
+        min_duration=0.0,
+    )
 
 
 @settings(max_examples=120, deadline=None)

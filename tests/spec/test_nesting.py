@@ -16,8 +16,10 @@ def _found(*nodes) -> list[tuple[str, str]]:
 def test_a_2001_term_conjunction_is_a_finding_not_a_recursion_error() -> None:
     ((code, message),) = _found(stl_node("Sn1", " and ".join(["els > 0"] * 2001)))
     assert code == "CW051"
-    assert message.startswith("formula of node Sn1 is nested too deeply: the formula nests "
-                              f"more than {MAX_NESTING} operators")  # fmt: skip
+    assert message.startswith(
+        "formula of node Sn1 is nested too deeply: the formula nests "
+        f"more than {MAX_NESTING} operators"
+    )
 
 
 def test_the_nesting_limit_is_exact() -> None:

@@ -47,9 +47,10 @@ def test_parse_and_canonical_text_round_trip() -> None:
     assert parse_term("sum[0s:400ms](x)") == parse_term("sum[0:0.4](x)")
     # a number: arithmetic and comparisons take it, it takes any number
     assert parse_term("2 * sum[0.1:0.2](x + 1) - y") == Arith(
-        "-", Arith("*", Num(2.0), Sum(window("0.1", "0.2"), Arith("+", x, Num(1.0)))),
+        "-",
+        Arith("*", Num(2.0), Sum(window("0.1", "0.2"), Arith("+", x, Num(1.0)))),
         Signal("y"),
-    )  # fmt: skip
+    )
     assert parse_term("sum[0:0.1](sum[0:0.2](x))") == Sum(
         window("0", "0.1"), Sum(window("0", "0.2"), x)
     )
@@ -90,9 +91,7 @@ def test_rtamt_text_is_a_nested_chain_of_prev() -> None:
     assert emitted("sum[0.1:0.2](x) <= 10") == "((prev (x + (prev x))) <= 10.0)"
     assert emitted("sum[0.2:0.2](x) <= 10") == "((prev (prev x)) <= 10.0)"
     assert emitted("sum[0:0](x) <= 10") == "(x <= 10.0)"
-    assert emitted("sum[0:0.1](abs(x - y)) > 1") == (
-        "((abs((x - y)) + (prev abs((x - y)))) > 1.0)"
-    )
+    assert emitted("sum[0:0.1](abs(x - y)) > 1") == ("((abs((x - y)) + (prev abs((x - y)))) > 1.0)")
     with pytest.raises(ValueError, match="needs the sampling period"):
         to_rtamt(parse_formula("sum[0:0.2](x) <= 10"))
     assert to_rtamt(parse_formula("x <= 10")) == "(x <= 10.0)"  # no sum: no period needed
@@ -115,9 +114,17 @@ def test_hand_computed_through_rtamt() -> None:
     for text, want in cases:
         formula = parse_formula(text)
         assert same(reference_robustness(formula, X, 0.1), want), text
-        compiled = CompiledFormula(id="F", node_id="F", node_text="", kind="spi", source=text,
-                                   rtamt=to_rtamt(formula, P), signals=["x"], merge_gap=0,
-                                   min_duration=0)  # fmt: skip
+        compiled = CompiledFormula(
+            id="F",
+            node_id="F",
+            node_text="",
+            kind="spi",
+            source=text,
+            rtamt=to_rtamt(formula, P),
+            signals=["x"],
+            merge_gap=0,
+            min_duration=0,
+        )
         monitor = build_rtamt_monitor(compiled, 0.1)
         got = [monitor.update(i, [("x", v)]) for i, v in enumerate(X["x"])]
         assert same(got, want), (text, got)
@@ -125,9 +132,17 @@ def test_hand_computed_through_rtamt() -> None:
 
 def test_a_reset_empties_the_window() -> None:
     formula = parse_formula("sum[0:0.2](x) <= 10")
-    compiled = CompiledFormula(id="F", node_id="F", node_text="", kind="spi", source="",
-                               rtamt=to_rtamt(formula, P), signals=["x"], merge_gap=0,
-                               min_duration=0)  # fmt: skip
+    compiled = CompiledFormula(
+        id="F",
+        node_id="F",
+        node_text="",
+        kind="spi",
+        source="",
+        rtamt=to_rtamt(formula, P),
+        signals=["x"],
+        merge_gap=0,
+        min_duration=0,
+    )
     monitor = build_rtamt_monitor(compiled, 0.1)
     got = [monitor.update(i, [("x", v)]) for i, v in enumerate([1.0, 2.0, 4.0])]
     monitor.reset()
@@ -209,7 +224,11 @@ def test_compiled_formula_carries_the_warmup() -> None:
     assert findings == [] and spec is not None
     by_id = {f.id: f for f in spec.formulas}
     assert {i: f.warmup_ticks for i, f in by_id.items()} == {
-        "Sn1": 4, "Sn2": 15, "Sn3": 0, "CSn1": 2}  # fmt: skip
+        "Sn1": 4,
+        "Sn2": 15,
+        "Sn3": 0,
+        "CSn1": 2,
+    }
     sn1 = by_id["Sn1"]
     assert math.isclose(sn1.horizon, 0.4) and sn1.signals == ["gap", "gap_gt"]
     assert sn1.rtamt.count("prev") == 4
@@ -241,8 +260,9 @@ def test_a_sum_of_more_than_100_samples_is_cw049() -> None:
     assert _codes("sum[0:0](sum[0:20s](y)) <= 1") == [("CW049", 20, 10)]
     # not a whole number of periods: CW043 only (no sample count to judge)
     assert [c for c, _l, _c in _codes("sum[0:0.25](y) <= 1")] == ["CW043"]
-    _spec, findings = compile_case(make_case(stl_node("Sn1", "sum[0:10s](y) <= 1"),
-                                             signals={"y": "a declared signal"}))  # fmt: skip
+    _spec, findings = compile_case(
+        make_case(stl_node("Sn1", "sum[0:10s](y) <= 1"), signals={"y": "a declared signal"})
+    )
     (finding,) = findings
     assert finding.severity == "error"
     assert "adds 101 samples" in finding.message and "at most 100" in finding.message

@@ -19,18 +19,21 @@ from tests.spec.strategies import PERIOD, past_formulas, traces
 P = Fraction(1, 10)
 
 
-@pytest.mark.parametrize(("text", "ticks"), [
-    ("once[1s:2s] (x >= 0.6)", list(range(10))),
-    ("once[0:2s] (x >= 0.6)", []),
-    ("historically[1s:2s] (x >= 0.6)", []),  # +inf: holds vacuously
-    ("not historically[0.3:1] (x >= 0.6)", [0, 1, 2]),
-    ("not prev (x >= 0)", [0]),
-    ("x > 0 since[0.2:1] y > 0", [0, 1]),
-    ("once[0.1:0.1] once[0.2:0.3] (x > 0)", [0, 1, 2]),
-    ("x > 0 and once[0.2:0.2] (y > 0)", [0, 1]),
-    ("x > 0 or once[0.2:0.2] (y > 0)", []),  # depends on x
-    ("once[0.2:0.4] (x > 0) implies y > 0", []),  # -inf premise: holds
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("text", "ticks"),
+    [
+        ("once[1s:2s] (x >= 0.6)", list(range(10))),
+        ("once[0:2s] (x >= 0.6)", []),
+        ("historically[1s:2s] (x >= 0.6)", []),  # +inf: holds vacuously
+        ("not historically[0.3:1] (x >= 0.6)", [0, 1, 2]),
+        ("not prev (x >= 0)", [0]),
+        ("x > 0 since[0.2:1] y > 0", [0, 1]),
+        ("once[0.1:0.1] once[0.2:0.3] (x > 0)", [0, 1, 2]),
+        ("x > 0 and once[0.2:0.2] (y > 0)", [0, 1]),
+        ("x > 0 or once[0.2:0.2] (y > 0)", []),  # depends on x
+        ("once[0.2:0.4] (x > 0) implies y > 0", []),  # -inf premise: holds
+    ],
+)
 def test_vacant_ticks_by_hand(text: str, ticks: list[int]) -> None:
     assert vacant_ticks(parse_formula(text), P) == ticks
 
@@ -50,16 +53,25 @@ def test_check_warns_on_the_issue_reproductions() -> None:
         hazard_node("CSn1", "historically[1s:2s] (els < 1.0 and ess > 5.0)"),
         spi_node("Sn2", "els", ">=", 0.6, for_seconds=1.0),  # once[0:1s]: no finding
     )
-    found = sorted((f.code, f.severity, f.message) for f in check_formulas(case)
-                   if f.code == "CW050")  # fmt: skip
+    found = sorted(
+        (f.code, f.severity, f.message) for f in check_formulas(case) if f.code == "CW050"
+    )
     assert found == [
-        ("CW050", "warning", "the hazard of node CSn1 reads as present at the first 10 sample(s) "
-         "(1s) of every stream and after every data gap, whatever the data: a window there "
-         "reads no sample yet (robustness -inf)"),
-        ("CW050", "warning", "the spi of node Sn1 is violated at the first 10 sample(s) (1s) of "
-         "every stream and after every data gap, whatever the data: a window there reads no "
-         "sample yet (robustness -inf)"),
-    ]  # fmt: skip
+        (
+            "CW050",
+            "warning",
+            "the hazard of node CSn1 reads as present at the first 10 sample(s) "
+            "(1s) of every stream and after every data gap, whatever the data: a window there "
+            "reads no sample yet (robustness -inf)",
+        ),
+        (
+            "CW050",
+            "warning",
+            "the spi of node Sn1 is violated at the first 10 sample(s) (1s) of "
+            "every stream and after every data gap, whatever the data: a window there reads no "
+            "sample yet (robustness -inf)",
+        ),
+    ]
 
 
 def test_check_prints_the_warning_with_its_position_and_exits_0(tmp_path, capsys) -> None:
@@ -67,7 +79,7 @@ def test_check_prints_the_warning_with_its_position_and_exits_0(tmp_path, capsys
     case.write_text(
         "module: {name: t}\nmonitor: {channels: [lav, tfuse]}\n"
         "G1: {text: a, supportedBy: [Sn1]}\n"
-        "Sn1:\n  text: e\n  spi: {stl: \"once[1s:2s] (els >= 0.6)\"}\n"
+        'Sn1:\n  text: e\n  spi: {stl: "once[1s:2s] (els >= 0.6)"}\n'
     )
     assert main(["check", str(case)]) == 0
     out = capsys.readouterr().out

@@ -64,12 +64,12 @@ def _finite(values: np.ndarray, what: str) -> None:
     if not np.isfinite(values).all():
         raise RecordDefect("non-finite", f"{what}: NaN or infinity in a pose or velocity")
     if values.size and np.abs(values).max() > MAX_MAGNITUDE:  # as a stream's (monitor.parse)
-        raise RecordDefect("out-of-range", f"{what}: a pose or velocity beyond "
-                           f"±{MAX_MAGNITUDE:g}")  # fmt: skip
+        raise RecordDefect("out-of-range", f"{what}: a pose or velocity beyond ±{MAX_MAGNITUDE:g}")
 
 
-def ego_state(rec: OdometryRecord, footprint: np.ndarray, stamp_ns: int, tick_ns: int,
-              at_tick: bool = True) -> Ego:  # fmt: skip
+def ego_state(
+    rec: OdometryRecord, footprint: np.ndarray, stamp_ns: int, tick_ns: int, at_tick: bool = True
+) -> Ego:
     """The ego at the tick (or as stamped when not `at_tick`); `stamp_ns` is the time the
     message is taken to describe (its header stamp, or its recording time)."""
     _finite(rec.pose, "odometry")
@@ -80,8 +80,16 @@ def ego_state(rec: OdometryRecord, footprint: np.ndarray, stamp_ns: int, tick_ns
     age = (tick_ns - stamp_ns) / 1e9 if at_tick else 0.0
     if age:
         x, y, yaw = x + float(vx) * age, y + float(vy) * age, yaw + float(rec.twist[2]) * age
-    return Ego(x=x, y=y, yaw=yaw, vx=float(vx), vy=float(vy), footprint=footprint, convex=True,
-               half=(float(footprint[0, 0]), float(footprint[0, 1])))  # fmt: skip
+    return Ego(
+        x=x,
+        y=y,
+        yaw=yaw,
+        vx=float(vx),
+        vy=float(vy),
+        footprint=footprint,
+        convex=True,
+        half=(float(footprint[0, 0]), float(footprint[0, 1])),
+    )
 
 
 def _from_tick(times: np.ndarray, shift: float) -> np.ndarray:
@@ -101,8 +109,11 @@ def plan_state(rec: TrajectoryRecord, stamp_ns: int, tick_ns: int, plan_time: st
     if plan_time == "velocity" or (plan_time == "auto" and not increasing):
         tfs, xy = _timed_by_speed(xy, rec.speed)
     elif not increasing:
-        raise RecordDefect("bad-trajectory", "plan time_from_start does not increase strictly "
-                           "(plan_time: auto times such plans from their velocities)")
+        raise RecordDefect(
+            "bad-trajectory",
+            "plan time_from_start does not increase strictly "
+            "(plan_time: auto times such plans from their velocities)",
+        )
     if len(tfs) and tfs[0] < 0:
         raise RecordDefect("bad-trajectory", f"plan time_from_start {tfs[0]:g} s is negative")
     shift = (stamp_ns - tick_ns) / 1e9
@@ -130,8 +141,7 @@ def _timed_by_speed(xy: np.ndarray, speed: np.ndarray) -> tuple[np.ndarray, np.n
     return times[keep[:end]], xy[:end][keep[:end]]
 
 
-def objects_state(rec: ObjectsRecord, stamp_ns: int, tick_ns: int,
-                  at_tick: bool = True) -> Objects:  # fmt: skip
+def objects_state(rec: ObjectsRecord, stamp_ns: int, tick_ns: int, at_tick: bool = True) -> Objects:
     """The objects at the tick (or as stamped when not `at_tick`), predictions from the tick."""
     k = len(rec.uuids)
     if k == 0:
@@ -168,8 +178,12 @@ def _predictions(rec: ObjectsRecord, shift: float) -> tuple[np.ndarray, np.ndarr
     predictor usually makes them so), else object by object."""
     k = len(rec.paths)
     lengths = np.fromiter((len(p) for p in rec.paths), dtype=np.int64, count=k)
-    if (lengths[0] > 1 and (lengths == lengths[0]).all()
-            and (rec.steps == rec.steps[0]).all() and rec.steps[0] > 0):  # fmt: skip
+    if (
+        lengths[0] > 1
+        and (lengths == lengths[0]).all()
+        and (rec.steps == rec.steps[0]).all()
+        and rec.steps[0] > 0
+    ):
         n = int(lengths[0])
         times = (np.arange(n, dtype=np.int64) * int(rec.steps[0])) / 1e9
         keep = _from_tick(times, shift)
@@ -187,8 +201,10 @@ def _predictions(rec: ObjectsRecord, shift: float) -> tuple[np.ndarray, np.ndarr
             preds.append(np.zeros((0, 3)))
             continue
         if rec.steps[i] <= 0 and n > 1:
-            raise RecordDefect("bad-trajectory", f"objects[{i}]: predicted path with a time "
-                               f"step of {rec.steps[i]} ns")  # fmt: skip
+            raise RecordDefect(
+                "bad-trajectory",
+                f"objects[{i}]: predicted path with a time step of {rec.steps[i]} ns",
+            )
         times = (np.arange(n, dtype=np.int64) * int(rec.steps[i])) / 1e9
         keep = _from_tick(times, shift)
         p = np.empty((int(keep.sum()), 3))
@@ -215,8 +231,11 @@ def _footprints(rec: ObjectsRecord) -> tuple[np.ndarray, np.ndarray, np.ndarray]
         half = 0.5 * rec.dims[:, :2]
         if not (half > 0).all():
             i = int(np.argmin((half > 0).all(axis=1)))
-            raise RecordDefect("bad-footprint", f"objects[{i}]: shape dimensions "
-                               f"{rec.dims[i, 0]:g} x {rec.dims[i, 1]:g} m are not positive")
+            raise RecordDefect(
+                "bad-footprint",
+                f"objects[{i}]: shape dimensions "
+                f"{rec.dims[i, 0]:g} x {rec.dims[i, 1]:g} m are not positive",
+            )
         fp = np.empty((k, 4, 2))
         fp[:, :, 0] = half[:, :1] * _BOX_SIGNS[:, 0]
         fp[:, :, 1] = half[:, 1:] * _BOX_SIGNS[:, 1]
@@ -230,18 +249,27 @@ def _footprints(rec: ObjectsRecord) -> tuple[np.ndarray, np.ndarray, np.ndarray]
             length = rec.dims[i, 0]
             width = rec.dims[i, 1] if kind == BOUNDING_BOX else rec.dims[i, 0]
             if not (length > 0 and width > 0):
-                raise RecordDefect("bad-footprint", f"objects[{i}]: shape dimensions "
-                                   f"{length:g} x {width:g} m are not positive")  # fmt: skip
+                raise RecordDefect(
+                    "bad-footprint",
+                    f"objects[{i}]: shape dimensions {length:g} x {width:g} m are not positive",
+                )
             polys.append(box_footprint(length, width))
             half[i] = (0.5 * length, 0.5 * width)
         else:
             poly = rec.footprints[i]
             if len(poly) < 3 or not np.isfinite(poly).all():
-                raise RecordDefect("bad-footprint", f"objects[{i}]: a polygon shape needs at "
-                                   f"least 3 finite points, got {len(poly)}")  # fmt: skip
+                raise RecordDefect(
+                    "bad-footprint",
+                    f"objects[{i}]: a polygon shape needs at "
+                    f"least 3 finite points, got {len(poly)}",
+                )
             polys.append(poly)
             convex[i] = is_convex(poly)
     vmax = max(len(p) for p in polys)
-    fp = np.stack([p if len(p) == vmax else np.concatenate([p, np.repeat(p[-1:], vmax - len(p), 0)])
-                   for p in polys])  # fmt: skip
+    fp = np.stack(
+        [
+            p if len(p) == vmax else np.concatenate([p, np.repeat(p[-1:], vmax - len(p), 0)])
+            for p in polys
+        ]
+    )
     return fp, half, convex

@@ -20,20 +20,31 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from casewatch.errors import CasewatchError
 from casewatch.monitor.bags.types import OBJECTS, ODOMETRY, TRAJECTORY
 from casewatch.monitor.jit import kernel
 
 #: Autoware `ObjectClassification.label` -> casewatch object class.
 CLASS_NAMES: dict[int, str] = {
-    0: "unknown", 1: "car", 2: "truck", 3: "bus", 4: "trailer", 5: "motorcycle", 6: "bicycle",
-    7: "pedestrian", 8: "animal", 9: "hazard", 10: "over_drivable", 11: "under_drivable",
-}  # fmt: skip
+    0: "unknown",
+    1: "car",
+    2: "truck",
+    3: "bus",
+    4: "trailer",
+    5: "motorcycle",
+    6: "bicycle",
+    7: "pedestrian",
+    8: "animal",
+    9: "hazard",
+    10: "over_drivable",
+    11: "under_drivable",
+}
 
 #: `Shape.type` values.
 BOUNDING_BOX, CYLINDER, POLYGON = 0, 1, 2
 
 
-class DecodeError(ValueError):
+class DecodeError(CasewatchError, ValueError):
     """A message whose bytes do not hold what its type promises (truncated, corrupt)."""
 
 
@@ -88,8 +99,15 @@ _BASE = 4  # alignment counts from the end of the encapsulation header
 _STAMP = struct.Struct("<iI")
 _U32 = struct.Struct("<I")
 _F32 = struct.Struct("<f")
-_TRAJ_POINT = np.dtype([("sec", "<i4"), ("nsec", "<u4"), ("pose", "<f8", (7,)),
-                        ("speed", "<f4"), ("rest", "<f4", (5,))])  # fmt: skip
+_TRAJ_POINT = np.dtype(
+    [
+        ("sec", "<i4"),
+        ("nsec", "<u4"),
+        ("pose", "<f8", (7,)),
+        ("speed", "<f4"),
+        ("rest", "<f4", (5,)),
+    ]
+)
 
 
 def _rank(value: float) -> float:
@@ -152,8 +170,9 @@ def _f32(buf, o):  # pragma: no cover - compiled
 
 
 @kernel
-def _walk_objects(buf, fill, uuid_at, pose, twist, label, shape, dims, path_len, steps,
-                  paths, poly_len, poly):  # fmt: skip  # pragma: no cover - compiled
+def _walk_objects(
+    buf, fill, uuid_at, pose, twist, label, shape, dims, path_len, steps, paths, poly_len, poly
+):  # pragma: no cover - compiled
     """One pass over the CDR bytes of a PredictedObjects message.
 
     With `fill` False it only checks the bytes and counts (objects, path poses, polygon
@@ -290,8 +309,20 @@ def fast_objects(raw) -> ObjectsRecord:
     stamp = header_stamp(raw)
     buf = np.frombuffer(raw, np.uint8)
     status, k, n_poses, n_points = _walk_objects(
-        buf, False, _NONE_I, _NONE_7, _NONE_3, _NONE_I, _NONE_I, _NONE_3, _NONE_I, _NONE_I,
-        _NONE_7, _NONE_I, _NONE_2)  # fmt: skip
+        buf,
+        False,
+        _NONE_I,
+        _NONE_7,
+        _NONE_3,
+        _NONE_I,
+        _NONE_I,
+        _NONE_3,
+        _NONE_I,
+        _NONE_I,
+        _NONE_7,
+        _NONE_I,
+        _NONE_2,
+    )
     if status == -2:
         raise DecodeError(f"claims {k} objects in {len(raw)} bytes")
     if status < 0:
@@ -301,8 +332,9 @@ def fast_objects(raw) -> ObjectsRecord:
     label, shape = np.zeros(k, dtype=np.int64), np.empty(k, dtype=np.int64)
     path_len, steps, poly_len = (np.zeros(k, dtype=np.int64) for _ in range(3))
     paths, poly = np.empty((n_poses, 7)), np.empty((n_points, 2))
-    _walk_objects(buf, True, uuid_at, pose, twist, label, shape, dims, path_len, steps, paths,
-                  poly_len, poly)  # fmt: skip
+    _walk_objects(
+        buf, True, uuid_at, pose, twist, label, shape, dims, path_len, steps, paths, poly_len, poly
+    )
     path_ends = np.cumsum(path_len).tolist()
     poly_ends = np.cumsum(poly_len).tolist()
     path_starts = [0, *path_ends[:-1]] if k else []
@@ -324,8 +356,7 @@ def fast_objects(raw) -> ObjectsRecord:
 def warm_up() -> None:
     """Compile (or load from the cache) the objects walker before a bag's first message: an
     empty PredictedObjects message (stamp 0, frame_id "", no objects)."""
-    fast_objects(b"\x00\x01\x00\x00" + bytes(8) + b"\x01\x00\x00\x00\x00" + bytes(3)
-                 + bytes(4))  # fmt: skip
+    fast_objects(b"\x00\x01\x00\x00" + bytes(8) + b"\x01\x00\x00\x00\x00" + bytes(3) + bytes(4))
 
 
 def fast_trajectory(raw) -> TrajectoryRecord:
@@ -372,8 +403,15 @@ def decode_fast(raw, msgtype: str) -> Record:
 
 
 def _pose(p) -> list[float]:
-    return [p.position.x, p.position.y, p.position.z,
-            p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w]  # fmt: skip
+    return [
+        p.position.x,
+        p.position.y,
+        p.position.z,
+        p.orientation.x,
+        p.orientation.y,
+        p.orientation.z,
+        p.orientation.w,
+    ]
 
 
 def _ns(t) -> int:
@@ -385,8 +423,9 @@ def generic_record(msg, msgtype: str) -> Record:
     reader needs is missing from the bag's definition)."""
     if msgtype == ODOMETRY:
         lin, ang = msg.twist.twist.linear, msg.twist.twist.angular
-        return OdometryRecord(_ns(msg.header.stamp), np.array(_pose(msg.pose.pose)),
-                              np.array([lin.x, lin.y, ang.z]))  # fmt: skip
+        return OdometryRecord(
+            _ns(msg.header.stamp), np.array(_pose(msg.pose.pose)), np.array([lin.x, lin.y, ang.z])
+        )
     if msgtype == TRAJECTORY:
         pts = msg.points
         return TrajectoryRecord(
@@ -397,14 +436,24 @@ def generic_record(msg, msgtype: str) -> Record:
         )
     objs = msg.objects
     k = len(objs)
-    rec = ObjectsRecord(_ns(msg.header.stamp), [], np.empty((k, 7)), np.empty((k, 3)),
-                        np.zeros(k, dtype=np.int64), np.empty(k, dtype=np.int64),
-                        np.empty((k, 3)), [], [], np.zeros(k, dtype=np.int64))  # fmt: skip
+    rec = ObjectsRecord(
+        _ns(msg.header.stamp),
+        [],
+        np.empty((k, 7)),
+        np.empty((k, 3)),
+        np.zeros(k, dtype=np.int64),
+        np.empty(k, dtype=np.int64),
+        np.empty((k, 3)),
+        [],
+        [],
+        np.zeros(k, dtype=np.int64),
+    )
     for i, ob in enumerate(objs):
         rec.uuids.append(bytes(np.asarray(ob.object_id.uuid, dtype=np.uint8)))
         if len(ob.classification):
-            rec.label[i] = ob.classification[_first_best(np.array(
-                [c.probability for c in ob.classification], dtype=float))].label
+            rec.label[i] = ob.classification[
+                _first_best(np.array([c.probability for c in ob.classification], dtype=float))
+            ].label
         kin = ob.kinematics
         rec.pose[i] = _pose(kin.initial_pose_with_covariance.pose)
         twist = kin.initial_twist_with_covariance.twist
@@ -417,8 +466,9 @@ def generic_record(msg, msgtype: str) -> Record:
         else:
             rec.paths.append(np.zeros((0, 7)))
         rec.shape[i] = ob.shape.type
-        rec.footprints.append(np.array([[p.x, p.y] for p in ob.shape.footprint.points],
-                                       dtype=float).reshape(-1, 2))  # fmt: skip
+        rec.footprints.append(
+            np.array([[p.x, p.y] for p in ob.shape.footprint.points], dtype=float).reshape(-1, 2)
+        )
         d = ob.shape.dimensions
         rec.dims[i] = (d.x, d.y, d.z)
     return rec

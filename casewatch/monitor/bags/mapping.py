@@ -20,11 +20,12 @@ from pydantic import (
 )
 from pydantic_core import PydanticCustomError
 
+from casewatch.errors import CasewatchError
 from casewatch.safety_case.schema import parse_duration
 from casewatch.safety_case.yamltree import YNode, compose, to_plain
 
 
-class MappingError(ValueError):
+class MappingError(CasewatchError, ValueError):
     """A topic mapping that cannot be used; the message is `FILE:LINE: key: what is wrong`."""
 
 
@@ -114,8 +115,9 @@ class TopicMapping(BaseModel):
     def _coverage_of_mapped_channels(self) -> TopicMapping:
         extra = [c for c in self.coverage if c not in self.channels]
         if extra:
-            raise ValueError(f"coverage names channel(s) {', '.join(extra)} that channels: "
-                             "does not map")  # fmt: skip
+            raise ValueError(
+                f"coverage names channel(s) {', '.join(extra)} that channels: does not map"
+            )
         return self
 
     def age_limit(self, ref: TopicRef, period: float) -> float:
@@ -171,8 +173,10 @@ def load_mapping(path: str | Path, key: tuple[str, ...] = ()) -> LoadedMapping:
         node = node.entries()[part].value
     if node is None or node.kind != "map":
         line = node.mark.line if node is not None else 1
-        raise MappingError(f"{path}:{line}: a topic mapping must be a YAML mapping "
-                           "(ego:, channels:, ...; see docs/bags.md)")  # fmt: skip
+        raise MappingError(
+            f"{path}:{line}: a topic mapping must be a YAML mapping "
+            "(ego:, channels:, ...; see docs/bags.md)"
+        )
     try:
         mapping = TopicMapping.model_validate(to_plain(node))
     except ValidationError as exc:
@@ -202,9 +206,11 @@ def _explain(err: dict) -> str:
     if kind == "missing":
         return "required here and missing"
     if kind == "extra_forbidden":
-        return ("unknown key (allowed: ego, channels, signals, time, max_age, max_delay, "
-                "plan_time, poses_at_tick, coverage, meta; per channel: odometry, objects, "
-                "plan)")
+        return (
+            "unknown key (allowed: ego, channels, signals, time, max_age, max_delay, "
+            "plan_time, poses_at_tick, coverage, meta; per channel: odometry, objects, "
+            "plan)"
+        )
     return str(err["msg"])
 
 

@@ -27,6 +27,7 @@ from rosbags.typesys import Stores, get_types_from_idl, get_types_from_msg, get_
 from rosbags.typesys.base import TypesysError
 from rosbags.typesys.store import Typestore
 
+from casewatch.errors import CasewatchError
 from casewatch.monitor.bags.assemble import RecordDefect, ego_state, objects_state, plan_state
 from casewatch.monitor.bags.decode import (
     DecodeError,
@@ -58,7 +59,7 @@ MAX_JUMP_NS = 3600 * 1_000_000_000
 _NO_PLAN = np.zeros((0, 3))
 
 
-class BagError(ValueError):
+class BagError(CasewatchError, ValueError):
     """A bag that cannot be read with this mapping (the message says why and what to do)."""
 
 
@@ -120,9 +121,16 @@ class BagReader:
     the bag and raises `BagError`; problems with single messages become defects."""
 
     #: The defect kinds a bag can have (docs/bags.md documents each).
-    DEFECT_KINDS = ("bad-message", "bad-stamp", "late-message", "truncated-bag", "non-finite",
-                    "out-of-range",
-                    "bad-trajectory", "bad-footprint")  # fmt: skip
+    DEFECT_KINDS = (
+        "bad-message",
+        "bad-stamp",
+        "late-message",
+        "truncated-bag",
+        "non-finite",
+        "out-of-range",
+        "bad-trajectory",
+        "bad-footprint",
+    )
 
     def __init__(
         self,
@@ -144,10 +152,15 @@ class BagReader:
         self.dropouts: dict[str, int] = {c: 0 for c in self.channels}
         self.frames_read = 0
         self.origin_ns: int | None = None
-        self.header = Header(channels=list(self.channels), period=period,
-                             meta={"source": "rosbag2", **self.mapping.meta},
-                             coverage={c: Coverage(v.fov_deg, v.range_m or math.inf)
-                                       for c, v in self.mapping.coverage.items()})  # fmt: skip
+        self.header = Header(
+            channels=list(self.channels),
+            period=period,
+            meta={"source": "rosbag2", **self.mapping.meta},
+            coverage={
+                c: Coverage(v.fov_deg, v.range_m or math.inf)
+                for c, v in self.mapping.coverage.items()
+            },
+        )
         self._started = False
         self._footprint = box_footprint(self.mapping.ego.length, self.mapping.ego.width)
         self._bag = self._open()
@@ -162,20 +175,23 @@ class BagReader:
         mapped = list(self.mapping.channels)
         extra = [c for c in mapped if c not in self.channels]
         if extra:
-            raise BagError(f"{self.mapping_source}: channel(s) {', '.join(extra)} are not "
-                           f"channels of the case (monitor.channels: {', '.join(self.channels)})")
+            raise BagError(
+                f"{self.mapping_source}: channel(s) {', '.join(extra)} are not "
+                f"channels of the case (monitor.channels: {', '.join(self.channels)})"
+            )
         absent = [c for c in self.channels if c not in mapped]
         if absent:
-            raise BagError(f"{self.mapping_source}: the case's channel(s) {', '.join(absent)} "
-                           "have no topics; map them under channels: (odometry, objects, plan)")
+            raise BagError(
+                f"{self.mapping_source}: the case's channel(s) {', '.join(absent)} "
+                "have no topics; map them under channels: (odometry, objects, plan)"
+            )
 
     def _open(self) -> RosbagsStorage | McapScan:
         try:
             bag = open_storage(self.path)
         except StorageError as exc:
             raise BagError(f"{self.name}: {exc}") from None
-        mcap = self.path.suffix == ".mcap" or (self.path.is_dir()
-                                               and any(self.path.glob("*.mcap")))  # fmt: skip
+        mcap = self.path.suffix == ".mcap" or (self.path.is_dir() and any(self.path.glob("*.mcap")))
         self.header.meta["storage"] = "mcap" if mcap else "sqlite3"
         return bag
 
@@ -188,10 +204,14 @@ class BagReader:
             have = "\n".join(f"  {c.topic}  ({c.msgtype})" for c in conns.values()) or "  (none)"
             self._bag.close()
             if self._bag.recovered:
-                raise BagError(f"{self.name}: the MCAP file is cut short before it names "
-                               f"topic(s) {', '.join(missing)}; what it holds:\n{have}")
-            raise BagError(f"{self.name}: topic(s) {', '.join(missing)} from {self.mapping_source}"
-                           f" are not in the bag; it has:\n{have}")
+                raise BagError(
+                    f"{self.name}: the MCAP file is cut short before it names "
+                    f"topic(s) {', '.join(missing)}; what it holds:\n{have}"
+                )
+            raise BagError(
+                f"{self.name}: topic(s) {', '.join(missing)} from {self.mapping_source}"
+                f" are not in the bag; it has:\n{have}"
+            )
         self._check_roles(conns)  # before the definitions are parsed: the clearest message
         store = self._typestore([conns[t] for t in roles])
         base = base_typestore()
@@ -205,16 +225,24 @@ class BagReader:
                 want = ROLE_TYPES[role]
                 if conn.msgtype != want:
                     self._bag.close()
-                    raise BagError(f"{self.name}: topic {ref.topic} carries {conn.msgtype}; as "
-                                   f"the {role} of a channel it must carry {want}")
+                    raise BagError(
+                        f"{self.name}: topic {ref.topic} carries {conn.msgtype}; as "
+                        f"the {role} of a channel it must carry {want}"
+                    )
                 fast = field_layout(store, want) == field_layout(base, want)
-                topics[ref.topic] = _Topic(ref.topic, role, want, _ns(self.mapping.age_limit(
-                    ref, self.period)), fast)  # fmt: skip
+                topics[ref.topic] = _Topic(
+                    ref.topic, role, want, _ns(self.mapping.age_limit(ref, self.period)), fast
+                )
         for sig in self.mapping.signals.values():
             conn = conns[sig.topic]
-            topics[sig.topic] = _Topic(sig.topic, "signal", conn.msgtype,
-                                       _ns(self.mapping.age_limit(sig, self.period)), False,
-                                       sig.field)  # fmt: skip
+            topics[sig.topic] = _Topic(
+                sig.topic,
+                "signal",
+                conn.msgtype,
+                _ns(self.mapping.age_limit(sig, self.period)),
+                False,
+                sig.field,
+            )
         self._store = store
         return topics
 
@@ -229,30 +257,41 @@ class BagReader:
                 have, want = conns[ref.topic].msgtype, ROLE_TYPES[role]
                 if have != want:
                     self._bag.close()
-                    old = (" (the older autoware_auto_* messages are not read: record with "
-                           "autoware_msgs 1.x, or convert the bag)"
-                           if "autoware_auto" in have else "")  # fmt: skip
-                    raise BagError(f"{self.name}: topic {ref.topic} carries {have}; as the "
-                                   f"{role} of a channel it must carry {want}{old}")  # fmt: skip
+                    old = (
+                        " (the older autoware_auto_* messages are not read: record with "
+                        "autoware_msgs 1.x, or convert the bag)"
+                        if "autoware_auto" in have
+                        else ""
+                    )
+                    raise BagError(
+                        f"{self.name}: topic {ref.topic} carries {have}; as the "
+                        f"{role} of a channel it must carry {want}{old}"
+                    )
 
     def _typestore(self, conns: list[BagTopic]) -> Typestore:
         """The shipped types, overridden by the definitions the bag carries for its topics."""
         try:
-            store = typestore_for(tuple((c.msgtype, c.definition_format, c.definition)
-                                        for c in conns))  # fmt: skip
+            store = typestore_for(
+                tuple((c.msgtype, c.definition_format, c.definition) for c in conns)
+            )
         except (TypesysError, ValueError, IndexError) as exc:
             self._bag.close()
-            named = ", ".join(sorted({f"{c.msgtype} (topic {c.topic})" for c in conns
-                                      if c.definition}))  # fmt: skip
-            raise BagError(f"{self.name}: the bag's message definitions cannot be parsed "
-                           f"({exc}); defined in the bag: {named}") from None
+            named = ", ".join(
+                sorted({f"{c.msgtype} (topic {c.topic})" for c in conns if c.definition})
+            )
+            raise BagError(
+                f"{self.name}: the bag's message definitions cannot be parsed "
+                f"({exc}); defined in the bag: {named}"
+            ) from None
         for c in conns:
             if c.msgtype not in store.fielddefs:
                 self._bag.close()
-                raise BagError(f"{self.name}: topic {c.topic} carries {c.msgtype}, an unknown "
-                               "message type: the bag has no definition of it and casewatch "
-                               "ships none (it reads nav_msgs/Odometry, autoware_perception_msgs"
-                               "/PredictedObjects and autoware_planning_msgs/Trajectory)")
+                raise BagError(
+                    f"{self.name}: topic {c.topic} carries {c.msgtype}, an unknown "
+                    "message type: the bag has no definition of it and casewatch "
+                    "ships none (it reads nav_msgs/Odometry, autoware_perception_msgs"
+                    "/PredictedObjects and autoware_planning_msgs/Trajectory)"
+                )
         return store
 
     # -- reading --------------------------------------------------------------------------
@@ -284,9 +323,13 @@ class BagReader:
             try:
                 item = next(messages, None)
             except StorageBreak as exc:
-                self._defect(number + 1, "truncated-bag", f"the bag breaks off after message "
-                             f"{number} ({exc}); the frames before were judged, nothing after "
-                             "could be read")  # fmt: skip
+                self._defect(
+                    number + 1,
+                    "truncated-bag",
+                    f"the bag breaks off after message "
+                    f"{number} ({exc}); the frames before were judged, nothing after "
+                    "could be read",
+                )
                 break
             if item is None:
                 break
@@ -302,13 +345,21 @@ class BagReader:
                     self._defect(number, "bad-message", f"{name}: {exc}")
                     continue
                 if stamp <= 0:
-                    self._defect(number, "bad-stamp", f"{name}: header stamp {stamp} ns "
-                                 "is not a time (time: receive uses the recording time)")
+                    self._defect(
+                        number,
+                        "bad-stamp",
+                        f"{name}: header stamp {stamp} ns "
+                        "is not a time (time: receive uses the recording time)",
+                    )
                     continue
                 if newest is not None and stamp - newest > MAX_JUMP_NS:
-                    self._defect(number, "bad-stamp", f"{name}: stamped {(stamp - newest) / 1e9:g}"
-                                 " s after every message before it: a stack on another clock? "
-                                 "(time: receive aligns on the recording time)")  # fmt: skip
+                    self._defect(
+                        number,
+                        "bad-stamp",
+                        f"{name}: stamped {(stamp - newest) / 1e9:g}"
+                        " s after every message before it: a stack on another clock? "
+                        "(time: receive aligns on the recording time)",
+                    )
                     continue
             if tick is not None and tick > (self.origin_ns or 0) and stamp <= tick - period:
                 topic.late += 1  # a tick it belonged to was built without it
@@ -329,9 +380,13 @@ class BagReader:
                 tick += period
         for t in topics.values():
             if t.late:
-                self._defect(0, "late-message", f"{t.name}: {t.late} message(s) arrived more "
-                             f"than max_delay ({self.mapping.max_delay:g} s) after later stamps;"
-                             " ticks built before they arrived went without them")  # fmt: skip
+                self._defect(
+                    0,
+                    "late-message",
+                    f"{t.name}: {t.late} message(s) arrived more "
+                    f"than max_delay ({self.mapping.max_delay:g} s) after later stamps;"
+                    " ticks built before they arrived went without them",
+                )
 
     def _frame(self, tick: int) -> Frame:
         channels: dict[str, ChannelState] = {}
@@ -345,18 +400,38 @@ class BagReader:
             if odom is not None and objs is not None:
                 try:
                     at_tick = self.mapping.poses_at_tick
-                    ego = ego_state(odom.record, footprint, odom.stamp, tick,  # type: ignore[arg-type]
-                                    at_tick)  # fmt: skip
-                    objects = objects_state(objs.record, objs.stamp, tick,  # type: ignore[arg-type]
-                                            at_tick)  # fmt: skip
-                    planned = (plan_state(plan.record, plan.stamp, tick,  # type: ignore[arg-type]
-                                          self.mapping.plan_time)
-                               if plan is not None else _NO_PLAN)  # fmt: skip
+                    ego = ego_state(
+                        odom.record,
+                        footprint,
+                        odom.stamp,
+                        tick,  # type: ignore[arg-type]
+                        at_tick,
+                    )
+                    objects = objects_state(
+                        objs.record,
+                        objs.stamp,
+                        tick,  # type: ignore[arg-type]
+                        at_tick,
+                    )
+                    planned = (
+                        plan_state(
+                            plan.record,
+                            plan.stamp,
+                            tick,  # type: ignore[arg-type]
+                            self.mapping.plan_time,
+                        )
+                        if plan is not None
+                        else _NO_PLAN
+                    )
                     state = ChannelState(ego=ego, plan=planned, objects=objects)
                 except RecordDefect as d:
-                    self._defect(self.frames_read + 1, d.kind, f"tick t = "
-                                 f"{(tick - (self.origin_ns or 0)) / 1e9:g} s, channel {name}: "
-                                 f"{d.message}")  # fmt: skip
+                    self._defect(
+                        self.frames_read + 1,
+                        d.kind,
+                        f"tick t = "
+                        f"{(tick - (self.origin_ns or 0)) / 1e9:g} s, channel {name}: "
+                        f"{d.message}",
+                    )
             if state is None:
                 self.dropouts[name] += 1
             else:
@@ -379,11 +454,21 @@ class BagReader:
         if msg.record is None and not msg.bad:
             try:
                 msg.record = self._decode(topic, msg.raw)  # type: ignore[assignment]
-            except (DecodeError, SerdeError, AttributeError, TypeError, ValueError,
-                    struct.error, IndexError) as exc:  # fmt: skip
+            except (
+                DecodeError,
+                SerdeError,
+                AttributeError,
+                TypeError,
+                ValueError,
+                struct.error,
+                IndexError,
+            ) as exc:
                 msg.bad = True
-                self._defect(msg.number, "bad-message", f"{name} (stamp {msg.stamp} ns): "
-                             f"cannot decode {topic.msgtype}: {exc}")  # fmt: skip
+                self._defect(
+                    msg.number,
+                    "bad-message",
+                    f"{name} (stamp {msg.stamp} ns): cannot decode {topic.msgtype}: {exc}",
+                )
         if msg.bad:
             topic.missing += 1
             return None
@@ -405,8 +490,10 @@ class BagReader:
 
     def topic_report(self) -> dict[str, dict[str, int]]:
         """Per mapped topic: ticks it was missing or stale for, and late messages."""
-        return {t.name: {"missing_ticks": t.missing, "late_messages": t.late}
-                for t in self._topics.values()}  # fmt: skip
+        return {
+            t.name: {"missing_ticks": t.missing, "late_messages": t.late}
+            for t in self._topics.values()
+        }
 
 
 @lru_cache(maxsize=16)
@@ -422,8 +509,9 @@ def typestore_for(definitions: tuple[tuple[str, str, str], ...]) -> Typestore:
                 body = part.split("\n", 1)[1] if part.startswith("IDL: ") else part
                 # rosbag2 writes each IDL with its `#include` lines, which rosbags' parser
                 # refuses; the included types are in the same text or shipped, so drop them
-                body = "\n".join(line for line in body.splitlines()
-                                 if not line.lstrip().startswith("#"))  # fmt: skip
+                body = "\n".join(
+                    line for line in body.splitlines() if not line.lstrip().startswith("#")
+                )
                 if body.strip():
                     types.update(get_types_from_idl(body))
     store = get_typestore(Stores.EMPTY)

@@ -17,17 +17,29 @@ from pathlib import Path
 from rosbags.interfaces import MessageDefinitionFormat
 from rosbags.rosbag2 import Reader, ReaderError
 
+from casewatch.errors import CasewatchError
+
 MCAP_MAGIC = b"\x89MCAP0\r\n"
 
 #: What a broken storage file raises while its messages are read through rosbags.
 #: rosbags' MCAP reader trusts the file's length fields: a damaged one gives TypeError (a file
 #: that is only the magic), OverflowError or MemoryError (a huge length).
-STORAGE_ERRORS = (ReaderError, sqlite3.DatabaseError, struct.error, EOFError, ValueError,
-                  KeyError, IndexError, OSError, TypeError, OverflowError,
-                  MemoryError)  # fmt: skip
+STORAGE_ERRORS = (
+    ReaderError,
+    sqlite3.DatabaseError,
+    struct.error,
+    EOFError,
+    ValueError,
+    KeyError,
+    IndexError,
+    OSError,
+    TypeError,
+    OverflowError,
+    MemoryError,
+)
 
 
-class StorageError(ValueError):
+class StorageError(CasewatchError, ValueError):
     """The storage cannot be opened at all (the message says why)."""
 
 
@@ -60,8 +72,13 @@ class RosbagsStorage:
         fmt = {MessageDefinitionFormat.MSG: "msg", MessageDefinitionFormat.IDL: "idl"}
         for c in self._reader.connections:
             if c.topic not in self.topics:
-                self.topics[c.topic] = BagTopic(c.topic, c.msgtype, fmt.get(c.msgdef.format, ""),
-                                                c.msgdef.data or "", c.msgcount)  # fmt: skip
+                self.topics[c.topic] = BagTopic(
+                    c.topic,
+                    c.msgtype,
+                    fmt.get(c.msgdef.format, ""),
+                    c.msgdef.data or "",
+                    c.msgcount,
+                )
             self._conns.setdefault(c.topic, []).append(c)
 
     def messages(self, topics: list[str]) -> Iterator[tuple[str, int, bytes]]:
@@ -112,8 +129,17 @@ class McapScan:
             limit = max(1, min(1 << 30, self.path.stat().st_size))
             try:
                 yield from StreamReader(fh, record_size_limit=limit).records
-            except (McapError, EOFError, struct.error, ValueError, TypeError, OverflowError,
-                    MemoryError, IndexError, KeyError) as exc:  # fmt: skip
+            except (
+                McapError,
+                EOFError,
+                struct.error,
+                ValueError,
+                TypeError,
+                OverflowError,
+                MemoryError,
+                IndexError,
+                KeyError,
+            ) as exc:
                 if not stop_at_break:
                     what = "ends inside a record" if type(exc).__name__ == "EndOfFile" else exc
                     raise StorageBreak(f"the MCAP file {what}") from None

@@ -27,9 +27,20 @@ ROLE_TYPES: dict[str, str] = {"odometry": ODOMETRY, "objects": OBJECTS, "plan": 
 #: Scalar message types a `signals:` topic may carry (their `data` field is the value).
 SCALAR_TYPES: frozenset[str] = frozenset(
     f"std_msgs/msg/{name}"
-    for name in ("Float64", "Float32", "Int8", "Int16", "Int32", "Int64", "UInt8", "UInt16",
-                 "UInt32", "UInt64", "Bool")
-)  # fmt: skip
+    for name in (
+        "Float64",
+        "Float32",
+        "Int8",
+        "Int16",
+        "Int32",
+        "Int64",
+        "UInt8",
+        "UInt16",
+        "UInt32",
+        "UInt64",
+        "Bool",
+    )
+)
 
 
 def shipped_definitions() -> dict[str, str]:

@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer, WriterError
 
+from casewatch.errors import CasewatchError
 from casewatch.monitor.bags.decode import CLASS_NAMES
 from casewatch.monitor.bags.mapping import TopicMapping
 from casewatch.monitor.bags.types import OBJECTS, ODOMETRY, TRAJECTORY, base_typestore
@@ -36,20 +37,27 @@ LABELS = {name: label for label, name in CLASS_NAMES.items()}
 DEFAULT_T0_NS = 1_767_225_600 * 1_000_000_000
 
 
-class BagWriteError(ValueError):
+class BagWriteError(CasewatchError, ValueError):
     """The bag cannot be written (the target exists, a signal is not mapped...)."""
 
 
-def default_mapping(channels: list[str], signals: list[str], length: float, width: float,
-                    coverage: dict[str, Coverage] | None = None,
-                    period: float | None = None) -> dict:  # fmt: skip
+def default_mapping(
+    channels: list[str],
+    signals: list[str],
+    length: float,
+    width: float,
+    coverage: dict[str, Coverage] | None = None,
+    period: float | None = None,
+) -> dict:
     """Autoware-style topic names for each channel (`/<channel>/localization/kinematic_state`
     ...), as the plain mapping `casewatch convert` writes beside a bag it makes; `coverage`
     (a stream header's) is carried over, since a bag has no place for it. With `period`, the
     mapping's `max_age` is that period: a bag stamped exactly on its frames' ticks (as
     `write_bag` stamps) then reads back with the stream's dropouts, none bridged."""
-    sight = {c: {"fov_deg": v.fov_deg, **({} if math.isinf(v.range_m) else {"range_m": v.range_m})}
-             for c, v in (coverage or {}).items()}  # fmt: skip
+    sight = {
+        c: {"fov_deg": v.fov_deg, **({} if math.isinf(v.range_m) else {"range_m": v.range_m})}
+        for c, v in (coverage or {}).items()
+    }
     return {
         "ego": {"length": length, "width": width},
         "channels": {
@@ -76,12 +84,14 @@ class MessageBuilder:
         self.T = t
 
     def stamp(self, ns: int):
-        return self.T["builtin_interfaces/msg/Time"](sec=ns // 1_000_000_000,
-                                                      nanosec=ns % 1_000_000_000)  # fmt: skip
+        return self.T["builtin_interfaces/msg/Time"](
+            sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000
+        )
 
     def duration(self, ns: int):
-        return self.T["builtin_interfaces/msg/Duration"](sec=ns // 1_000_000_000,
-                                                          nanosec=ns % 1_000_000_000)  # fmt: skip
+        return self.T["builtin_interfaces/msg/Duration"](
+            sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000
+        )
 
     def header(self, ns: int):
         return self.T["std_msgs/msg/Header"](stamp=self.stamp(ns), frame_id="map")
@@ -90,9 +100,10 @@ class MessageBuilder:
         T = self.T
         return T["geometry_msgs/msg/Pose"](
             position=T["geometry_msgs/msg/Point"](x=float(x), y=float(y), z=0.0),
-            orientation=T["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=float(np.sin(yaw / 2)),
-                                                          w=float(np.cos(yaw / 2))),
-        )  # fmt: skip
+            orientation=T["geometry_msgs/msg/Quaternion"](
+                x=0.0, y=0.0, z=float(np.sin(yaw / 2)), w=float(np.cos(yaw / 2))
+            ),
+        )
 
     def vector(self, x: float = 0.0, y: float = 0.0):
         return self.T["geometry_msgs/msg/Vector3"](x=float(x), y=float(y), z=0.0)
@@ -104,13 +115,18 @@ class MessageBuilder:
         body = (c * e.vx + s * e.vy, -s * e.vx + c * e.vy)  # the twist goes in the body frame
         cov = np.zeros(36)
         return T[ODOMETRY](
-            header=self.header(ns), child_frame_id="base_link",
-            pose=T["geometry_msgs/msg/PoseWithCovariance"](pose=self.pose(e.x, e.y, e.yaw),
-                                                           covariance=cov),
+            header=self.header(ns),
+            child_frame_id="base_link",
+            pose=T["geometry_msgs/msg/PoseWithCovariance"](
+                pose=self.pose(e.x, e.y, e.yaw), covariance=cov
+            ),
             twist=T["geometry_msgs/msg/TwistWithCovariance"](
-                twist=T["geometry_msgs/msg/Twist"](linear=self.vector(*body),
-                                                   angular=self.vector()), covariance=cov),
-        )  # fmt: skip
+                twist=T["geometry_msgs/msg/Twist"](
+                    linear=self.vector(*body), angular=self.vector()
+                ),
+                covariance=cov,
+            ),
+        )
 
     def trajectory(self, ns: int, plan: np.ndarray):
         T = self.T
@@ -125,11 +141,15 @@ class MessageBuilder:
             T["autoware_planning_msgs/msg/TrajectoryPoint"](
                 time_from_start=self.duration(round(plan[i, 0] * 1e9)),
                 pose=self.pose(plan[i, 1], plan[i, 2], yaw[i]),
-                longitudinal_velocity_mps=float(speed[i]), lateral_velocity_mps=0.0,
-                acceleration_mps2=0.0, heading_rate_rps=0.0, front_wheel_angle_rad=0.0,
-                rear_wheel_angle_rad=0.0)
+                longitudinal_velocity_mps=float(speed[i]),
+                lateral_velocity_mps=0.0,
+                acceleration_mps2=0.0,
+                heading_rate_rps=0.0,
+                front_wheel_angle_rad=0.0,
+                rear_wheel_angle_rad=0.0,
+            )
             for i in range(n)
-        ]  # fmt: skip
+        ]
         return T[TRAJECTORY](header=self.header(ns), points=points)
 
     def objects(self, ns: int, objs: Objects):
@@ -144,40 +164,65 @@ class MessageBuilder:
             half = objs.half[i]
             if np.isnan(half[0]):
                 shape = T["autoware_perception_msgs/msg/Shape"](
-                    type=2, footprint=T["geometry_msgs/msg/Polygon"](points=[
-                        T["geometry_msgs/msg/Point32"](x=float(p[0]), y=float(p[1]), z=0.0)
-                        for p in unpadded(objs.footprints[i])]),
-                    dimensions=self.vector())  # fmt: skip
+                    type=2,
+                    footprint=T["geometry_msgs/msg/Polygon"](
+                        points=[
+                            T["geometry_msgs/msg/Point32"](x=float(p[0]), y=float(p[1]), z=0.0)
+                            for p in unpadded(objs.footprints[i])
+                        ]
+                    ),
+                    dimensions=self.vector(),
+                )
             else:
-                size = T["geometry_msgs/msg/Vector3"](x=float(2 * half[0]), y=float(2 * half[1]),
-                                                      z=1.5)  # fmt: skip
+                size = T["geometry_msgs/msg/Vector3"](
+                    x=float(2 * half[0]), y=float(2 * half[1]), z=1.5
+                )
                 shape = T["autoware_perception_msgs/msg/Shape"](
-                    type=0, footprint=T["geometry_msgs/msg/Polygon"](points=[]), dimensions=size)
+                    type=0, footprint=T["geometry_msgs/msg/Polygon"](points=[]), dimensions=size
+                )
             paths = []
             n = int(objs.pred_len[i])
             if n:
                 step_ns, xy = _on_one_step(objs.pred[i, :n], objs.pos[i])
-                paths.append(T["autoware_perception_msgs/msg/PredictedPath"](
-                    path=[self.pose(p[0], p[1], yaw) for p in xy],
-                    time_step=self.duration(step_ns), confidence=1.0))  # fmt: skip
-            out.append(T["autoware_perception_msgs/msg/PredictedObject"](
-                object_id=T["unique_identifier_msgs/msg/UUID"](uuid=_uuid(objs.ids[i])),
-                existence_probability=1.0,
-                classification=[T["autoware_perception_msgs/msg/ObjectClassification"](
-                    label=LABELS.get(objs.cls[i], 0), probability=1.0)],
-                kinematics=T["autoware_perception_msgs/msg/PredictedObjectKinematics"](
-                    initial_pose_with_covariance=T["geometry_msgs/msg/PoseWithCovariance"](
-                        pose=self.pose(objs.pos[i, 0], objs.pos[i, 1], yaw), covariance=cov),
-                    initial_twist_with_covariance=T["geometry_msgs/msg/TwistWithCovariance"](
-                        twist=T["geometry_msgs/msg/Twist"](linear=self.vector(*body),
-                                                           angular=self.vector()),
-                        covariance=cov),
-                    initial_acceleration_with_covariance=T["geometry_msgs/msg/AccelWithCovariance"](
-                        accel=T["geometry_msgs/msg/Accel"](linear=self.vector(),
-                                                           angular=self.vector()),
-                        covariance=cov),
-                    predicted_paths=paths),
-                shape=shape))  # fmt: skip
+                paths.append(
+                    T["autoware_perception_msgs/msg/PredictedPath"](
+                        path=[self.pose(p[0], p[1], yaw) for p in xy],
+                        time_step=self.duration(step_ns),
+                        confidence=1.0,
+                    )
+                )
+            out.append(
+                T["autoware_perception_msgs/msg/PredictedObject"](
+                    object_id=T["unique_identifier_msgs/msg/UUID"](uuid=_uuid(objs.ids[i])),
+                    existence_probability=1.0,
+                    classification=[
+                        T["autoware_perception_msgs/msg/ObjectClassification"](
+                            label=LABELS.get(objs.cls[i], 0), probability=1.0
+                        )
+                    ],
+                    kinematics=T["autoware_perception_msgs/msg/PredictedObjectKinematics"](
+                        initial_pose_with_covariance=T["geometry_msgs/msg/PoseWithCovariance"](
+                            pose=self.pose(objs.pos[i, 0], objs.pos[i, 1], yaw), covariance=cov
+                        ),
+                        initial_twist_with_covariance=T["geometry_msgs/msg/TwistWithCovariance"](
+                            twist=T["geometry_msgs/msg/Twist"](
+                                linear=self.vector(*body), angular=self.vector()
+                            ),
+                            covariance=cov,
+                        ),
+                        initial_acceleration_with_covariance=T[
+                            "geometry_msgs/msg/AccelWithCovariance"
+                        ](
+                            accel=T["geometry_msgs/msg/Accel"](
+                                linear=self.vector(), angular=self.vector()
+                            ),
+                            covariance=cov,
+                        ),
+                        predicted_paths=paths,
+                    ),
+                    shape=shape,
+                )
+            )
         return T[OBJECTS](header=self.header(ns), objects=out)
 
     def scalar(self, value: float):
@@ -209,8 +254,9 @@ def _on_one_step(pred: np.ndarray, pos: np.ndarray) -> tuple[int, np.ndarray]:
         return step_ns, pred[:, 1:]
     n = int(np.floor(dt[-1] / step + 1e-9)) + 1
     grid = np.arange(n) * step_ns / 1e9
-    return step_ns, np.stack([np.interp(grid, dt, pred[:, 1]), np.interp(grid, dt, pred[:, 2])],
-                             axis=1)  # fmt: skip
+    return step_ns, np.stack(
+        [np.interp(grid, dt, pred[:, 1]), np.interp(grid, dt, pred[:, 2])], axis=1
+    )
 
 
 def write_bag(
@@ -240,32 +286,42 @@ def write_bag(
     try:
         conns = {}
         for name, ch in mapping.channels.items():
-            conns[(name, "odometry")] = writer.add_connection(ch.odometry.topic, ODOMETRY,
-                                                              typestore=store)  # fmt: skip
-            conns[(name, "objects")] = writer.add_connection(ch.objects.topic, OBJECTS,
-                                                             typestore=store)  # fmt: skip
+            conns[(name, "odometry")] = writer.add_connection(
+                ch.odometry.topic, ODOMETRY, typestore=store
+            )
+            conns[(name, "objects")] = writer.add_connection(
+                ch.objects.topic, OBJECTS, typestore=store
+            )
             if ch.plan is not None:
-                conns[(name, "plan")] = writer.add_connection(ch.plan.topic, TRAJECTORY,
-                                                              typestore=store)  # fmt: skip
+                conns[(name, "plan")] = writer.add_connection(
+                    ch.plan.topic, TRAJECTORY, typestore=store
+                )
         for sname, sig in mapping.signals.items():
-            conns[("signal", sname)] = writer.add_connection(sig.topic, "std_msgs/msg/Float64",
-                                                             typestore=store)  # fmt: skip
+            conns[("signal", sname)] = writer.add_connection(
+                sig.topic, "std_msgs/msg/Float64", typestore=store
+            )
         for frame in frames:
             ns = t0_ns + round(frame.t * 1e9)
             for name, state in frame.channels.items():
                 if (name, "odometry") not in conns:
-                    raise BagWriteError(f"frame t = {frame.t:g}: channel {name} is not in the "
-                                        "topic mapping")  # fmt: skip
-                messages = [("odometry", ODOMETRY, build.odometry(ns, state)),
-                            ("objects", OBJECTS, build.objects(ns, state.objects))]
+                    raise BagWriteError(
+                        f"frame t = {frame.t:g}: channel {name} is not in the topic mapping"
+                    )
+                messages = [
+                    ("odometry", ODOMETRY, build.odometry(ns, state)),
+                    ("objects", OBJECTS, build.objects(ns, state.objects)),
+                ]
                 if (name, "plan") in conns and len(state.plan):
                     messages.append(("plan", TRAJECTORY, build.trajectory(ns, state.plan)))
                 for role, msgtype, msg in messages:
                     writer.write(conns[(name, role)], ns, store.serialize_cdr(msg, msgtype))
             for sname, value in frame.signals.items():
                 if value is not None and ("signal", sname) in conns:
-                    writer.write(conns[("signal", sname)], ns,
-                                 store.serialize_cdr(build.scalar(value), "std_msgs/msg/Float64"))
+                    writer.write(
+                        conns[("signal", sname)],
+                        ns,
+                        store.serialize_cdr(build.scalar(value), "std_msgs/msg/Float64"),
+                    )
             count += 1
     finally:
         writer.close()
