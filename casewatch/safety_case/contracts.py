@@ -21,8 +21,8 @@ from typing import Any
 import yaml
 
 from casewatch.errors import CasewatchError
+from casewatch.safety_case.numbers import number_text
 from casewatch.safety_case.signals import available_signals
-from casewatch.spec.emit import number_text
 
 LIBRARY = "contracts"
 RULES = "traffic-rules"

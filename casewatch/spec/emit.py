@@ -34,6 +34,7 @@ from decimal import Decimal, localcontext
 from fractions import Fraction
 from typing import Any
 
+from casewatch.safety_case.numbers import number_text
 from casewatch.spec.ast import (
     Abs,
     Arith,
@@ -70,13 +71,6 @@ def decimal_text(value: Fraction) -> str:
         dec = (Decimal(value.numerator) / Decimal(value.denominator)).normalize()
     text = format(dec, "f")
     return text
-
-
-def number_text(value: float) -> str:
-    """Shortest text that reads back as the same float."""
-    if not math.isfinite(value):
-        raise ValueError(f"not a finite number: {value}")
-    return repr(float(value))
 
 
 def _seconds_text(value: Fraction) -> str:
