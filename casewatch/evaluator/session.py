@@ -11,9 +11,10 @@ import datetime as dt
 import io
 import math
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from casewatch import __version__
 from casewatch.errors import CasewatchError
@@ -81,6 +82,9 @@ class RunOptions:
     # the topic mapping for a ROS 2 bag (`--topics`); None: the case's `monitor.topics`
     topics: Path | None = None
     stl_engine: str = "rtamt"  # rtamt, numpy or both (evaluator.stl_engines)
+    # after each frame judged tick by tick: (frame, every node's status, evaluator, reader);
+    # how live views (casewatch.live) follow a run without reaching into this loop
+    on_tick: Callable[[Any, Mapping[str, str], Evaluator, Any], None] | None = None
 
 
 @dataclass
@@ -191,7 +195,9 @@ def evaluate_stream(
                     columns.add(frame.t, values)  # judged once the whole log is read
                     tick_conditions.append(conditions)
                 else:
-                    evaluator.step(frame.t, values, conditions)
+                    statuses = evaluator.step(frame.t, values, conditions)
+                    if options.on_tick is not None:
+                        options.on_tick(frame, statuses, evaluator, reader)
                 t3 = time.perf_counter()
                 arbitration.add(frame.t, engine.last_arbitration)
                 clock.metrics += t2 - t1
