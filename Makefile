@@ -15,12 +15,16 @@ $(STAMP): pyproject.toml
 
 venv: $(STAMP)
 
-test: $(STAMP)
+# The static checks first (seconds), then the suite (minutes): the house rules in code
+# (docs/architecture.md): lint, one format, the layer contract, types of the public modules.
+test: lint
 	$(BIN)/python -m pytest
-	$(BIN)/ruff check .
 
 lint: $(STAMP)
 	$(BIN)/ruff check .
+	$(BIN)/ruff format --check .
+	$(BIN)/lint-imports
+	$(BIN)/mypy
 
 demo: $(STAMP)
 	$(BIN)/python -m tools.demo

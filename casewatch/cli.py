@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
+from types import ModuleType
 
 from casewatch import __version__
 from casewatch.crash import report_crash
@@ -53,7 +54,7 @@ def top_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def command_parser(name: str) -> tuple[argparse.ArgumentParser, object]:
+def command_parser(name: str) -> tuple[argparse.ArgumentParser, ModuleType]:
     """The parser of one command (prog `casewatch NAME`) and its module, imported now."""
     module = importlib.import_module(f"casewatch.commands.{name.replace('-', '_')}")
     holder = argparse.ArgumentParser(prog="casewatch")

@@ -264,7 +264,7 @@ class MetricEngine:
                     self.coverage[b],
                     p.coverage_margin,
                 )
-                ranges = (None, None)
+                ranges: tuple[np.ndarray | None, np.ndarray | None] = (None, None)
                 if p.ols_range_scale > 0.0:
                     ranges = (
                         np.hypot(oa.pos[:, 0] - sa.ego.x, oa.pos[:, 1] - sa.ego.y),

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from fractions import Fraction
-from typing import Literal
+from typing import Any, Literal
 
 from casewatch.safety_case.findings import Finding, has_errors
 from casewatch.safety_case.model import Case, ContractBinding, HazardBinding, Mark, Node, SpiBinding
@@ -117,7 +117,7 @@ def _sources(case: Case) -> tuple[list[_Source], list[Finding]]:
 def _contract_sources(node: Node, contract: ContractBinding) -> list[_Source]:
     """A contract's guarantee (the monitored formula, kind `spi`: it is evidence) and, when it
     has one, its assumption (compiled alone, then attached to the guarantee)."""
-    common = {
+    common: dict[str, Any] = {
         "node": node,
         "kind": "spi",
         "formula": None,
@@ -134,7 +134,7 @@ def _contract_sources(node: Node, contract: ContractBinding) -> list[_Source]:
             role="guarantee",
             **common,
         )
-    ]  # type: ignore[arg-type]
+    ]
     if contract.assume is not None:
         out.append(
             _Source(
@@ -144,12 +144,12 @@ def _contract_sources(node: Node, contract: ContractBinding) -> list[_Source]:
                 role="assumption",
                 **common,
             )
-        )  # type: ignore[arg-type]
+        )
     return out
 
 
 def _spi_source(case: Case, node: Node, spi: SpiBinding) -> _Source | Finding:
-    common = {
+    common: dict[str, Any] = {
         "node": node,
         "kind": "spi",
         "mark": spi.formula_mark,
@@ -294,8 +294,8 @@ def _check(
                 f"window, e.g. 'sum[0:{float(period * (MAX_SUM_SAMPLES - 1)):g}s](...)'",
             )
         )
-    for node in walk(formula):
-        if isinstance(node, Arith) and node.op == "/" and node.right == Num(0.0):
+    for sub in walk(formula):
+        if isinstance(sub, Arith) and sub.op == "/" and sub.right == Num(0.0):
             findings.append(
                 formula_finding(
                     "CW045",

@@ -8,6 +8,7 @@ is needed), because a sort error is a user error that deserves a column, not a t
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
 from decimal import Decimal
 from fractions import Fraction
@@ -144,14 +145,17 @@ def _syntax_error(text: str, exc: UnexpectedInput) -> FormulaError:
     if isinstance(exc, UnexpectedEOF) or (
         isinstance(exc, UnexpectedToken) and exc.token.type == "$END"
     ):
-        expected = getattr(exc, "expected", None) or getattr(exc, "accepts", set())
+        expected: Iterable[str] = (
+            getattr(exc, "expected", None) or getattr(exc, "accepts", None) or set()
+        )
         line, col = _line_col(text, len(text.rstrip()))
         return FormulaError(
             f"formula ends too early; expected {_expected(set(expected))}", col, text, line
         )
     if isinstance(exc, UnexpectedCharacters):
-        line, col = _line_col(text, exc.pos_in_stream)
-        char = text[exc.pos_in_stream]
+        at = exc.pos_in_stream or 0
+        line, col = _line_col(text, at)
+        char = text[at]
         return FormulaError(f"unexpected character {char!r}", col, text, line)
     if isinstance(exc, UnexpectedToken):
         token = exc.token
