@@ -47,6 +47,7 @@ DEFECT_KINDS: dict[str, str] = {
     "frame-spacing": "frame closer than half a period to the previous frame",
     "oversized-line": "line longer than the reader's limit (16 Mi characters)",
     "truncated-stream": "compressed stream ends early or is corrupt; reading stops there",
+    "duplicate-id": "two objects of one channel carry the same id in one frame",
 }
 
 
@@ -332,7 +333,32 @@ def _objects_fast(v: list[Any]) -> Objects | None:
     )
 
 
+def unique_ids(ids: list[str], where: str) -> None:
+    """Refuse a frame whose channel reports two objects under one id (`duplicate-id`).
+
+    An id is how a track is followed from frame to frame (metric history, scenario export): with
+    two objects under one id in one frame, which of them is the track cannot be known, and a
+    trajectory built from them would jump between the two."""
+    if len(set(ids)) == len(ids):
+        return
+    first: dict[str, int] = {}
+    for i, oid in enumerate(ids):
+        if oid in first:
+            raise FrameDefect(
+                "duplicate-id",
+                f"{where}[{i}].id: object id {oid!r} is also {where}[{first[oid]}]'s in this "
+                "frame (ids are compared as strings)",
+            )
+        first[oid] = i
+
+
 def _objects(v: Any, where: str) -> Objects:
+    objects = _objects_unchecked(v, where)
+    unique_ids(objects.ids, where)
+    return objects
+
+
+def _objects_unchecked(v: Any, where: str) -> Objects:
     if isinstance(v, list) and v:
         fast = _objects_fast(v)
         if fast is not None:
@@ -436,7 +462,12 @@ def parse_frame(obj: Any, known_channels: Iterable[str] | None = None, line: int
                 "unknown-channel",
                 f"channels.{name}: channel not declared (declared: {', '.join(sorted(known))})",
             )
-        channels[name] = parse_channel(cv, f"channels.{name}")
+        try:
+            channels[name] = parse_channel(cv, f"channels.{name}")
+        except FrameDefect as d:
+            if d.kind != "duplicate-id":
+                raise
+            raise FrameDefect(d.kind, f"frame t = {t:g}: {d.message}") from None
     signals: dict[str, float | None] = {}
     sv = d.get("signals")
     if sv is not None:

@@ -155,10 +155,12 @@ def objects_state(rec: ObjectsRecord, stamp_ns: int, tick_ns: int, at_tick: bool
     if age:
         pos += vel * age
         yaw = yaw + rec.twist[:, 2] * age
+    ids = [u.hex() for u in rec.uuids]
+    _unique(ids)
     footprints, half, convex = _footprints(rec)
     pred, lens = _predictions(rec, (stamp_ns - tick_ns) / 1e9)
     return Objects(
-        ids=[u.hex() for u in rec.uuids],
+        ids=ids,
         cls=[CLASS_NAMES.get(int(c), "unknown") for c in rec.label],
         pos=pos,
         yaw=yaw,
@@ -169,6 +171,21 @@ def objects_state(rec: ObjectsRecord, stamp_ns: int, tick_ns: int, at_tick: bool
         convex=convex,
         half=half,
     )
+
+
+def _unique(ids: list[str]) -> None:
+    """Two objects under one uuid in one message are a `duplicate-id` defect, as in a stream
+    (`monitor.parse.unique_ids`): which of them is the track cannot be known."""
+    if len(set(ids)) == len(ids):
+        return
+    first: dict[str, int] = {}
+    for i, oid in enumerate(ids):
+        if oid in first:
+            raise RecordDefect(
+                "duplicate-id",
+                f"objects[{i}]: object id {oid} is also objects[{first[oid]}]'s in this message",
+            )
+        first[oid] = i
 
 
 def _predictions(rec: ObjectsRecord, shift: float) -> tuple[np.ndarray, np.ndarray]:

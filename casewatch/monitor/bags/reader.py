@@ -130,6 +130,7 @@ class BagReader:
         "out-of-range",
         "bad-trajectory",
         "bad-footprint",
+        "duplicate-id",
     )
 
     def __init__(
