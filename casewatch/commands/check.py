@@ -1,6 +1,8 @@
 """`casewatch check CASE.yaml`: report every problem in a safety case, one line per finding.
 
 Exit codes: 0 no errors (warnings allowed), 1 errors, 2 usage or a file that cannot be read.
+A case that loads but binds no evidence (a pure gsn2x argument, or a `monitor` with no `spi`,
+`contract` or `hazard`) gets one more line saying that nothing is monitored.
 `collect_findings` is the single place that decides which checks run, so further checks (the
 formula checks of `spec/`) are added there and reach both output formats at once.
 """
@@ -15,6 +17,7 @@ from pathlib import Path
 from casewatch import api
 from casewatch.safety_case.findings import Finding
 from casewatch.safety_case.model import Case
+from casewatch.safety_case.structure import unmonitored_reason
 
 #: Findings with this code mean the file itself could not be read (exit 2, not 1).
 UNREADABLE_CODES = frozenset({"CW001"})
@@ -69,6 +72,9 @@ def main(args: argparse.Namespace) -> int:
             f"{warnings} warning{'s' * (warnings != 1)}{nodes}",
             file=sys.stderr,
         )
+        reason = unmonitored_reason(case) if case is not None else None
+        if reason is not None:  # loaded, but a run would judge nothing: never "all clear"
+            print(f"{path}: {reason}", file=sys.stderr)
     if any(f.code in UNREADABLE_CODES for f in findings):
         return 2
     return 1 if errors else 0

@@ -79,6 +79,14 @@ _TABLE: tuple[tuple[str, Severity, str], ...] = (
     ("CW038", "error", "node marked undeveloped but supported"),
     ("CW039", "warning", "goal or strategy without support, not marked undeveloped"),
     ("CW060", "warning", "a used module's own `monitor` block is ignored"),
+    ("CW061", "warning", "a pure argument has more than one root (gsn2x only warns: C01)"),
+    ("CW062", "error", "`challenges` names a relation the argument does not have"),
+    (
+        "CW063",
+        "warning",
+        "a key gsn2x does not read, close to one it does, is kept as a layer (a pure argument)",
+    ),
+    ("CW064", "warning", "a challenged relation is drawn but not judged at run time"),
 )
 
 #: code -> CheckCode, in code order.

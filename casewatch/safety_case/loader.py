@@ -15,7 +15,6 @@ its parse-error offsets to this mark.
 
 from __future__ import annotations
 
-import difflib
 import hashlib
 import re
 from dataclasses import dataclass, field
@@ -27,6 +26,12 @@ from pydantic import BaseModel, ValidationError
 from casewatch.safety_case.codes import finding
 from casewatch.safety_case.contracts import LIBRARY, RULES, ContractError, Template, instantiate
 from casewatch.safety_case.findings import CaseError, Finding, has_errors
+from casewatch.safety_case.gsn2x import (
+    COUNTER_TYPES,
+    did_you_mean,
+    split_relation,
+    type_by_prefix,
+)
 from casewatch.safety_case.model import (
     Case,
     ContractBinding,
@@ -43,6 +48,7 @@ from casewatch.safety_case.model import (
 from casewatch.safety_case.odd import OddError, parse_odd, read_odd_file
 from casewatch.safety_case.schema import (
     CONTRACT_KEYS,
+    GSN_MODULE_ATTRIBUTES,
     GSN_NODE_ATTRIBUTES,
     GSN_NODE_TYPES,
     HAZARD_KEYS,
@@ -51,6 +57,7 @@ from casewatch.safety_case.schema import (
     MONITOR_KEYS,
     NODE_KEYS,
     SPI_KEYS,
+    RawGsn2xNode,
     RawModule,
     RawMonitor,
     RawNode,
@@ -58,6 +65,7 @@ from casewatch.safety_case.schema import (
     describe_value,
 )
 from casewatch.safety_case.signals import available_signals
+from casewatch.safety_case.structure import check_case
 from casewatch.safety_case.yamltree import YNode, compose, to_plain
 
 #: A node id is a type prefix followed by a digit, e.g. G1, Sn3, CSn2, G1.2 (gsn2x style).
@@ -75,7 +83,11 @@ PACKAGED_MODULES: dict[str, Path] = {
     ),
 }
 RELATIONS: tuple[str, ...] = ("supportedBy", "inContextOf", "challenges")
-COUNTER_TYPES = frozenset({NodeType.COUNTER_GOAL, NodeType.COUNTER_SOLUTION})
+#: Keys of casewatch's bindings: on a node they are a misplaced binding, never a gsn2x layer.
+BINDING_KEYS = frozenset((*SPI_KEYS, *HAZARD_KEYS, *CONTRACT_KEYS))
+#: What `export-gsn` keeps per node in `module.additionalInformation.casewatch.bindings`
+#: (`challenges`: a list of several, which gsn2x's single `challenges` cannot hold).
+KEPT_NODE_KEYS = ("spi", "hazard", "contract", "odd", "challenges")
 _TOP = Mark(line=1, col=1)  # where file-level findings (a missing block) point
 
 _CODE_BY_ERROR = {
@@ -130,21 +142,17 @@ class LoadResult:
     findings: list[Finding]
     skipped: dict[str, Mark] = field(default_factory=dict)
     invalid: set[str] = field(default_factory=set)
+    #: read by gsn2x's rules: a pure argument (no `monitor` block, none inherited)
+    gsn2x_rules: bool = False
 
 
-def node_type_of(node_id: str) -> NodeType | None:
-    """The GSN type a node id's prefix names, or None when it names none."""
+def node_type_of(node_id: str, gsn2x_rules: bool = False) -> NodeType | None:
+    """The GSN type a node id's prefix names, or None when it names none. casewatch's rule
+    wants a digit, `-` or `_` after the prefix (`G1`, `G-Top`); gsn2x's any rest (`Goal`)."""
+    if gsn2x_rules:
+        return type_by_prefix(node_id)
     match = NODE_ID_RE.match(node_id) or GSN2X_ID_RE.match(node_id)
     return NodeType(match.group(1)) if match else None
-
-
-def did_you_mean(word: str, choices: tuple[str, ...] | list[str]) -> str:
-    """`"; did you mean 'x'?"` for the closest choice, or an empty string."""
-    lowered = {c.lower(): c for c in choices}
-    if word.lower() in lowered:
-        return f"; did you mean {lowered[word.lower()]!r}?"
-    close = difflib.get_close_matches(word, list(choices), n=1, cutoff=0.6)
-    return f"; did you mean {close[0]!r}?" if close else ""
 
 
 def load_case(path: str | Path) -> tuple[Case | None, list[Finding]]:
@@ -161,12 +169,15 @@ def load_case_text(text: str, path: str = "<input>") -> tuple[Case | None, list[
 
 def require_case(path: str | Path) -> Case:
     """Load a case and run the structural checks; raise `CaseError` on any error finding."""
-    from casewatch.safety_case.checks import check_case  # checks import the loader's helpers
-
     result = load_file(path)
     findings = list(result.findings)
     if result.partial is not None:
-        findings += check_case(result.partial, skipped=result.skipped, invalid=result.invalid)
+        findings += check_case(
+            result.partial,
+            skipped=result.skipped,
+            invalid=result.invalid,
+            gsn2x_rules=result.gsn2x_rules,
+        )
     if result.case is None or has_errors(findings):
         raise CaseError([f for f in findings if f.severity == "error"])
     return result.case
@@ -262,6 +273,7 @@ class _Builder:
         self.bindings: dict[str, dict] = {}  # node id -> spi/hazard entries kept for gsn2x
         self.monitor_config: MonitorConfig | None = None  # contracts and ODDs resolve against it
         self.monitor_given = False
+        self.gsn2x_rules = False  # a pure argument: read by gsn2x's rules (docs/gsn2x.md)
 
     def add(self, code: str, message: str, mark: Mark, hint: str = "") -> None:
         self.findings.append(finding(code, message, self.path, mark, hint))
@@ -270,8 +282,9 @@ class _Builder:
         entries = tree.entries()
         kept = _casewatch_info(entries.get("module"))
         self.bindings = kept.get("bindings", {})
-        module = self.module(entries.get("module"))
         monitor_entry = entries.get("monitor") or kept.get("monitor")
+        self.gsn2x_rules = monitor_entry is None and self.inherited is None
+        module = self.module(entries.get("module"))
         if self.used_by and monitor_entry is not None:
             self.add(
                 "CW060",
@@ -289,13 +302,14 @@ class _Builder:
         for key, entry in entries.items():
             if key in RESERVED_KEYS:
                 continue
-            node_type = node_type_of(key) or _gsn_node_type(entry.value)
+            node_type = _gsn_node_type(entry.value) or node_type_of(key, self.gsn2x_rules)
             if node_type is None:
                 skipped[key] = entry.key_mark
+                rest = "" if self.gsn2x_rules else " followed by a digit, `-` or `_`"
                 self.add(
                     "CW020",
                     f"{key!r} is not a node id: ids start with a type prefix (G, S, Sn, C, A, J, "
-                    f"CG, CSn) followed by a digit, `-` or `_`, or give `nodeType: Goal` "
+                    f"CG, CSn){rest}, or give `nodeType: Goal` "
                     f"(or Strategy, Solution, ...){did_you_mean(key, RESERVED_KEYS)}",
                     entry.key_mark,
                     "e.g. G1 (goal), S1 (strategy), Sn1 (solution), C1 (context), CSn1",
@@ -324,7 +338,7 @@ class _Builder:
         )
         errors = has_errors(self.findings)
         case = partial if (not errors and module is not None) else None
-        return LoadResult(case, partial, self.findings, skipped, self.invalid)
+        return LoadResult(case, partial, self.findings, skipped, self.invalid, self.gsn2x_rules)
 
     def use_modules(
         self, module: Module, nodes: dict[str, Node], skipped: dict[str, Mark], entry: object
@@ -419,8 +433,9 @@ class _Builder:
     # -- reserved blocks -------------------------------------------------------------------
 
     def module(self, entry: object) -> Module | None:
-        if entry is None and self.used_by:
-            return Module(name=Path(self.path).stem)  # a used gsn2x file may name no module
+        if entry is None and (self.used_by or self.gsn2x_rules):
+            # gsn2x: `module` is optional; the file names the module (`min.gsn.yaml` -> min.gsn)
+            return Module(name=Path(self.path).stem)
         if entry is None:
             self.add(
                 "CW010",
@@ -429,14 +444,23 @@ class _Builder:
                 "add e.g. `module: {name: ego-a-to-b, brief: what this case argues}`",
             )
             return None
-        raw = self.validate(RawModule, entry.value, entry.key_mark, "`module`", {(): MODULE_KEYS})
+        plain = to_plain(entry.value)  # type: ignore[attr-defined]
+        extra: dict = {}
+        if self.gsn2x_rules and isinstance(plain, dict):
+            # gsn2x keeps any further module key as information (shown in the legend)
+            extra = {k: plain.pop(k) for k in list(plain) if k not in MODULE_KEYS}
+        raw = self.validate(
+            RawModule,
+            entry.value,  # type: ignore[attr-defined]
+            entry.key_mark,  # type: ignore[attr-defined]
+            "`module`",
+            {(): MODULE_KEYS},
+            plain=plain,
+        )
         if not isinstance(raw, RawModule):
             return None
-        gsn = {
-            k: v
-            for k in ("extends", "additionalInformation", "horizontalIndex", "rankIncrement")
-            if (v := getattr(raw, k)) is not None
-        }
+        gsn = {k: v for k in GSN_MODULE_ATTRIBUTES if (v := getattr(raw, k)) is not None}
+        gsn.update(extra)
         info = gsn.get("additionalInformation")
         if isinstance(info, dict) and "casewatch" in info:  # read as monitor and bindings
             rest = {k: v for k, v in info.items() if k != "casewatch"}
@@ -481,6 +505,8 @@ class _Builder:
 
     def node(self, node_id: str, node_type: NodeType, mark: Mark, value: YNode) -> Node:
         where = f"node {node_id}"
+        if self.gsn2x_rules and value.kind == "scalar" and value.value is None:
+            value = YNode("map", {}, value.mark, value.content_mark)  # `C1:` as `C1: {}`
         kept = self.bindings.get(node_id)
         if kept and value.kind == "map":  # spi/hazard kept for gsn2x in the module block
             value = YNode("map", {**value.entries(), **kept}, value.mark, value.content_mark)
@@ -535,30 +561,40 @@ class _Builder:
                 "keep the contract (an assume-guarantee pair) or the SPI",
             )
             del plain["contract"]
+        layers = self.layers(where, plain, entries) if isinstance(plain, dict) else {}
         levels = {
             (): NODE_KEYS,
             ("spi",): SPI_KEYS,
             ("hazard",): HAZARD_KEYS,
             ("contract",): CONTRACT_KEYS,
         }
-        raw = self.validate(RawNode, value, mark, where, levels, plain=plain)
+        model = RawGsn2xNode if self.gsn2x_rules else RawNode
+        raw = self.validate(model, value, mark, where, levels, plain=plain)
         key_marks = {k: e.key_mark for k, e in entries.items()}
         ref_marks = {rel: _ref_marks(entries[rel].value) for rel in RELATIONS if rel in entries}
+        for text, at in list(ref_marks.get("challenges", {}).items()):
+            if (relation := split_relation(text)) is not None:  # findings look it up as `A -> B`
+                ref_marks["challenges"].setdefault(f"{relation[0]} -> {relation[1]}", at)
         if isinstance(raw, RawNode):
+            challenged, relations = _split_challenges(raw.challenges)
             return Node(
                 id=node_id,
                 type=node_type,
                 text=raw.text,
                 supported_by=raw.supportedBy,
                 in_context_of=raw.inContextOf,
-                challenges=raw.challenges,
+                challenges=challenged,
+                challenged_relations=relations,
                 undeveloped=raw.undeveloped,
                 url=raw.url,
                 spi=self.spi(raw, entries),
                 hazard=self.hazard(node_id, raw, entries),
                 contract=self.contract(node_id, raw, entries),
                 odd=self.odd(node_id, raw, entries),
-                gsn={k: v for k in GSN_NODE_ATTRIBUTES if (v := getattr(raw, k)) is not None},
+                gsn={
+                    **{k: v for k in GSN_NODE_ATTRIBUTES if (v := getattr(raw, k)) is not None},
+                    **layers,
+                },
                 mark=mark,
                 key_marks=key_marks,
                 ref_marks=ref_marks,
@@ -567,18 +603,45 @@ class _Builder:
         self.invalid.add(node_id)
         lenient = plain if isinstance(plain, dict) else {}
         text = lenient.get("text")
+        challenged, relations = _split_challenges(_lenient_ids(lenient.get("challenges")))
         return Node(
             id=node_id,
             type=node_type,
             text=text if isinstance(text, str) else "",
             supported_by=_lenient_ids(lenient.get("supportedBy")),
             in_context_of=_lenient_ids(lenient.get("inContextOf")),
-            challenges=_lenient_ids(lenient.get("challenges")),
+            challenges=challenged,
+            challenged_relations=relations,
             undeveloped=lenient.get("undeveloped") is True,
             mark=mark,
             key_marks=key_marks,
             ref_marks=ref_marks,
         )
+
+    def layers(self, where: str, plain: dict, entries: dict) -> dict:
+        """Take gsn2x's extra attributes (its layers, `gsn2x -l layer1`) out of `plain`.
+
+        In a pure argument every key gsn2x does not read is a layer; one that looks like a
+        misspelt attribute or a binding key is kept too, with a CW063 warning. In a monitored
+        case a layer must be text and must not look like a typo or a binding key (those stay
+        CW013 errors: a misspelt `spi` would leave evidence silently unmonitored)."""
+        layers: dict = {}
+        for key in [k for k in plain if k not in NODE_KEYS]:
+            hint = did_you_mean(key, NODE_KEYS)
+            suspicious = bool(hint) or key in BINDING_KEYS
+            if self.gsn2x_rules:
+                layers[key] = plain.pop(key)
+                if suspicious:
+                    why = hint[2:] or f"`{key}` belongs inside `spi`, `hazard` or `contract`"
+                    self.add(
+                        "CW063",
+                        f"{where}: `{key}` is no gsn2x attribute, so gsn2x and casewatch keep it "
+                        f"as a layer; {why}",
+                        entries[key].key_mark,
+                    )
+            elif isinstance(plain[key], str) and not suspicious:
+                layers[key] = plain.pop(key)
+        return layers
 
     def spi(self, raw: RawNode, entries: dict) -> SpiBinding | None:
         if raw.spi is None:
@@ -894,15 +957,24 @@ def _casewatch_info(entry: object) -> dict:
     bindings = kept.entries().get("bindings")
     if bindings is not None and bindings.value.kind == "map":
         out["bindings"] = {
-            node_id: {
-                k: e
-                for k, e in b.value.entries().items()
-                if k in ("spi", "hazard", "contract", "odd")
-            }
+            node_id: {k: e for k, e in b.value.entries().items() if k in KEPT_NODE_KEYS}
             for node_id, b in bindings.value.entries().items()
             if b.value.kind == "map"
         }
     return out
+
+
+def _split_challenges(targets: list[str]) -> tuple[list[str], list[tuple[str, str]]]:
+    """gsn2x's `challenges` names a node (`G2`) or a relation (`G2 -> CG1`): split the two."""
+    nodes: list[str] = []
+    relations: list[tuple[str, str]] = []
+    for target in targets:
+        relation = split_relation(target)
+        if relation is None:
+            nodes.append(target)
+        else:
+            relations.append(relation)
+    return nodes, relations
 
 
 def _lenient_ids(raw: object) -> list[str]:

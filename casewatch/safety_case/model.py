@@ -228,6 +228,9 @@ class Node(BaseModel):
     supported_by: list[str] = []
     in_context_of: list[str] = []
     challenges: list[str] = []
+    #: relations this counter node challenges (gsn2x's `challenges: G2 -> CG1`), as
+    #: (from, to) pairs; drawn and exported, not judged (docs/gsn2x.md)
+    challenged_relations: list[tuple[str, str]] = []
     undeveloped: bool = False
     url: str | None = None
     spi: SpiBinding | None = None
@@ -235,7 +238,7 @@ class Node(BaseModel):
     contract: ContractBinding | None = None  # on a solution (Sn), instead of `spi`
     odd: OddSpec | None = None  # on a context node (C): the ODD its goals are claimed in
     #: gsn2x presentation attributes kept as written (classes, level, horizontalIndex,
-    #: rankIncrement, nodeType, acp, ...), for `casewatch export-gsn`
+    #: rankIncrement, nodeType, acp, ...) and its layers (any other key), for export-gsn
     gsn: dict = {}
     mark: Mark = Mark()  # position of the node id key
     # YAML key (`supportedBy`, `undeveloped`, ...) -> position of that key in this node.

@@ -301,12 +301,13 @@ class RawNode(BaseModel):
     classes: StrictStr | list[StrictStr] | None = None
     level: StrictStr | None = None
     horizontalIndex: object = None
-    rankIncrement: StrictInt | None = None
+    rankIncrement: Annotated[StrictInt, Field(ge=0)] | None = None
     nodeType: StrictStr | None = None
+    charWrap: Annotated[StrictInt, Field(ge=0)] | None = None
     acp: object = None
     additionalInformation: object = None
     defeated: StrictBool | None = None  # gsn2x dialectic extension
-    defeatedRelation: StrictStr | None = None
+    defeatedRelation: StrictStr | list[StrictStr] | None = None
 
     @field_validator("spi", "hazard", "contract", mode="before")
     @classmethod
@@ -329,6 +330,13 @@ class RawNode(BaseModel):
         return value
 
 
+class RawGsn2xNode(RawNode):
+    """A node of a pure argument (a file without `monitor`), read by gsn2x's rules: `text` is
+    optional there, as in gsn2x."""
+
+    text: StrictStr = ""
+
+
 #: gsn2x's `nodeType` names -> our types (an id without a type prefix needs one).
 GSN_NODE_TYPES: dict[str, str] = {
     "Goal": "G",
@@ -348,6 +356,7 @@ GSN_NODE_ATTRIBUTES: tuple[str, ...] = (
     "horizontalIndex",
     "rankIncrement",
     "nodeType",
+    "charWrap",
     "acp",
     "additionalInformation",
     "defeated",
@@ -363,7 +372,20 @@ class RawModule(BaseModel):
     extends: object = None  # gsn2x modular extension, kept as written
     additionalInformation: object = None
     horizontalIndex: object = None
-    rankIncrement: StrictInt | None = None
+    rankIncrement: Annotated[StrictInt, Field(ge=0)] | None = None
+    charWrap: Annotated[StrictInt, Field(ge=0)] | None = None
+    stylesheets: list[StrictStr] | None = None
+
+
+#: The gsn2x attributes of a module kept as written (`Module.gsn`).
+GSN_MODULE_ATTRIBUTES: tuple[str, ...] = (
+    "extends",
+    "additionalInformation",
+    "horizontalIndex",
+    "rankIncrement",
+    "charWrap",
+    "stylesheets",
+)
 
 
 def channel_name_problem(name: str) -> str | None:

@@ -114,6 +114,7 @@ LOADER_FIXTURES: list[tuple[str, str, int, int | None]] = [
         3,
     ),
     ("CW023", case("G1: {text: t, supportedBy: Sn1}\nSn1:\n  text: e\n  challenges: G1\n"), 6, 3),
+    ("CW063", "G1:\n  text: a\n  undevelopped: true\n", 3, 3),
     (
         "CW025",
         "module: {name: t}\nmonitor:\n  channels: [lav, tfuse]\n  signals: [speed, els]\n"
@@ -181,4 +182,13 @@ CHECK_FIXTURES: list[tuple[str, str, int, int | None]] = [
         3,
     ),
     ("CW039", case("G1:\n  text: top\n"), 3, 1),
+    # gsn2x's rules (a pure argument, no monitor): a second root only warns
+    ("CW061", "G1: {text: a, undeveloped: true}\nG2: {text: b, undeveloped: true}\n", 2, 1),
+    (
+        "CW062",
+        BASE + "G2: {text: g, undeveloped: true}\nCSn1:\n  text: d\n  challenges: G1 -> G2\n",
+        11,
+        15,
+    ),
+    ("CW064", BASE + "CSn1:\n  text: d\n  challenges: G1 -> Sn1\n", 10, 15),
 ]
