@@ -1,27 +1,37 @@
 """`casewatch export-scenarios RUN_DIR STREAM -o OUT`: hazard events as OpenSCENARIO 1.2 files.
 
 One `.xosc` per hazard event of the run in RUN_DIR (or `--event N`, the N-th): the ego and the
-objects that came within `--radius` metres of it during the event, over the event plus
-`--lead-in` / `--lead-out` seconds, each following the timed polyline of its poses as one
-channel saw them (`--channel`; default: the arbitrated channel at the event's start). With
-`--opendrive FILE` the scenarios reference that road network; without it they say none is
-attached. OUT/scenarios.json traces each file back to its event, node, trace and stream.
-STREAM must be the stream the run judged (its sha256 is checked). Exit 0, or 2 for input that
-cannot be used (an unknown event, another stream, an event whose channel saw nobody near the
-ego).
+objects that came within `--radius` metres of it during the event (none: an ego-only scenario),
+over the event plus `--lead-in` / `--lead-out` seconds clipped to the stream, each present only
+while one channel saw it (`--channel`; default: the arbitrated channel at the event's start)
+and following the timed polyline of its poses. With `--opendrive FILE` the scenarios reference
+that road network (written relative to the .xosc files); without it they say none is attached.
+OUT/scenarios.json traces each file back to its event, node, trace and stream. STREAM must be
+the stream the run judged (its sha256 is checked). Exit 0 when every event was written, 1 when
+an event could not be (named in scenarios.json; the others are written), 2 for input that
+cannot be used (an unknown event or channel, another stream, a missing OpenDRIVE file).
 """
 
 from __future__ import annotations
 
 import argparse
-import json
-import math
 import sys
 from pathlib import Path
 
+from casewatch.errors import EXIT_FINDINGS, EXIT_OK, EXIT_UNUSABLE
+from casewatch.evaluator.result import RunResult
 from casewatch.monitor.bags.reader import is_bag
 from casewatch.reports.render import ResultError, load_result
-from casewatch.reports.scenario_export import ExportError, export_scenarios
+from casewatch.scenarios import (
+    CATALOGUE,
+    FLEET_INDEX,
+    ExportError,
+    ExportOptions,
+    ExportReport,
+    check_options,
+    export_fleet,
+    export_scenarios,
+)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -90,44 +100,86 @@ def add_options(p: argparse.ArgumentParser, prefix: str = "") -> None:
         )
 
 
-def run_export(
-    result,
-    stream: Path,
-    out: Path,
-    channel,
-    lead_in: float,
-    lead_out: float,
-    radius: float,
-    opendrive,
-    event=None,
-    topics: Path | None = None,
-) -> int:
-    """Export and write the catalogue; prints one line per file. Exit code."""
-    for name, value in (("lead-in", lead_in), ("lead-out", lead_out), ("radius", radius)):
-        if not (math.isfinite(value) and value >= 0):
-            print(f"casewatch export-scenarios: --{name} must be a number >= 0", file=sys.stderr)
-            return 2
-    if opendrive is not None and not Path(opendrive).is_file():
-        print(f"casewatch export-scenarios: {opendrive}: no such OpenDRIVE file", file=sys.stderr)
-        return 2
-    try:
-        entries = export_scenarios(
-            result, Path(stream), out, channel, lead_in, lead_out, radius, opendrive, event, topics
-        )
-    except (ExportError, OSError) as exc:
-        print(f"casewatch export-scenarios: {exc}", file=sys.stderr)
-        return 2
-    (out / "scenarios.json").write_text(
-        json.dumps({"format": "casewatch-scenarios", "version": 1, "scenarios": entries}, indent=1),
-        encoding="utf-8",
+def options_from(args: argparse.Namespace, prefix: str = "") -> ExportOptions:
+    """The export options from parsed arguments (`prefix` "scenario_" under `run`)."""
+    return ExportOptions(
+        channel=getattr(args, f"{prefix}channel"),
+        lead_in=getattr(args, f"{prefix}lead_in"),
+        lead_out=getattr(args, f"{prefix}lead_out"),
+        radius=getattr(args, f"{prefix}radius"),
+        opendrive=getattr(args, f"{prefix}opendrive"),
+        event=getattr(args, "event", None),
+        topics=getattr(args, "topics", None),
     )
-    for e in entries:
-        print(
-            f"  {out / e['file']}: {e['node']} {e['start']:g}-{e['end']:g} s, channel "
-            f"{e['channel']}, {len(e['entities']) - 1} objects"
+
+
+def scenario_problem(args: argparse.Namespace, channels: list[str]) -> str | None:
+    """Why `run --scenarios` cannot export with these options (checked before judging, so a
+    typo never costs a whole run), or None."""
+    options = options_from(args, "scenario_")
+    if options.channel is not None and options.channel not in channels:
+        return (
+            f"--scenario-channel {options.channel!r} is not one of the case's channels "
+            f"({', '.join(channels)})"
         )
-    print(f"{len(entries)} scenario(s); catalogue {out / 'scenarios.json'}")
-    return 0
+    try:
+        check_options(options)
+    except ExportError as exc:
+        return str(exc).replace("--", "--scenario-")
+    return None
+
+
+def print_fleet_index(per_log: list[dict], out: Path, options: ExportOptions) -> dict:
+    """`run DIR --scenarios`: export every log, print one line per log and the index's path."""
+    index = export_fleet(per_log, out, options)
+    for log in index["logs"]:
+        if "error" in log:
+            print(f"casewatch run: {log['stream']}: no scenarios: {log['error']}", file=sys.stderr)
+        elif log["folder"] is not None:
+            failed = f", {log['failed']} not exported" if log["failed"] else ""
+            folder = out / log["folder"]
+            print(f"  {log['stream']}: {log['scenarios']} scenario(s){failed} in {folder}")
+    print(
+        f"{index['scenarios']} scenario(s) from {len(index['logs'])} logs; "
+        f"index {out / FLEET_INDEX}"
+    )
+    return index
+
+
+def print_report(report: ExportReport, command: str) -> None:
+    """One line per file, one per event that could not be written (on stderr), a total."""
+    for e in report.written:
+        objects = len(e["entities"]) - 1
+        what = (
+            f"ego only (nothing within {e['radius']:g} m)"
+            if e["ego_only"]
+            else f"{objects} objects"
+        )
+        print(
+            f"  {report.out / e['file']}: {e['node']} {e['start']:g}-{e['end']:g} s, channel "
+            f"{e['channel']}, {what}"
+        )
+    for e in report.failed:
+        print(
+            f"casewatch {command}: hazard event {e['event']} ({e['node']} at {e['start']:g} s) "
+            f"not exported: {e['error']}",
+            file=sys.stderr,
+        )
+    failed = f", {len(report.failed)} not exported" if report.failed else ""
+    print(f"{len(report.written)} scenario(s){failed}; catalogue {report.out / CATALOGUE}")
+
+
+def run_export(
+    result: RunResult, stream: Path, out: Path, options: ExportOptions, command: str
+) -> ExportReport | None:
+    """Export and print; None (after one line on stderr) when the export is refused."""
+    try:
+        report = export_scenarios(result, Path(stream), out, options)
+    except (ExportError, OSError) as exc:
+        print(f"casewatch {command}: {exc}", file=sys.stderr)
+        return None
+    print_report(report, command)
+    return report
 
 
 def main(args: argparse.Namespace) -> int:
@@ -139,15 +191,7 @@ def main(args: argparse.Namespace) -> int:
     if not (Path(args.stream).is_file() or is_bag(args.stream)):
         print(f"casewatch export-scenarios: {args.stream}: no such stream or bag", file=sys.stderr)
         return 2
-    return run_export(
-        result,
-        Path(args.stream),
-        args.out,
-        args.channel,
-        args.lead_in,
-        args.lead_out,
-        args.radius,
-        args.opendrive,
-        args.event,
-        args.topics,
-    )
+    report = run_export(result, Path(args.stream), args.out, options_from(args), "export-scenarios")
+    if report is None:
+        return EXIT_UNUSABLE
+    return EXIT_FINDINGS if report.failed else EXIT_OK

@@ -19,7 +19,12 @@ from pathlib import Path
 from casewatch import api, batch
 from casewatch.commands.common import prepare_case
 from casewatch.commands.export_scenarios import add_options as add_scenario_options
-from casewatch.commands.export_scenarios import run_export
+from casewatch.commands.export_scenarios import (
+    options_from,
+    print_fleet_index,
+    run_export,
+    scenario_problem,
+)
 from casewatch.crash import ENGINES_DISAGREE, INTERNAL_ERROR
 from casewatch.dask_engine import EngineError
 from casewatch.evaluator.eventlog import Event
@@ -120,8 +125,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--scenarios",
         action="store_true",
-        help="also export every hazard event as OpenSCENARIO into OUT/scenarios "
-        "(one stream; options as for export-scenarios, prefixed scenario-)",
+        help="also export every hazard event as OpenSCENARIO into OUT/scenarios (several "
+        "logs: OUT/scenarios/<log>/ and OUT/scenarios/index.json; options as for "
+        "export-scenarios, prefixed scenario-)",
     )
     add_scenario_options(p, prefix="scenario-")
     p.add_argument(
@@ -206,6 +212,9 @@ def main(args: argparse.Namespace) -> int:
     if prepared is None:
         return 2
     case, spec = prepared
+    if args.scenarios and (problem := scenario_problem(args, case.monitor.channels)):
+        print(f"casewatch run: {problem}", file=sys.stderr)  # refused before judging anything
+        return 2
     first = args.streams[0]
     single = len(args.streams) == 1 and (
         first == "-"
@@ -259,19 +268,10 @@ def _run_single(args, case, spec, formats: tuple[str, ...]) -> int:
     if not args.quiet:
         _print_summary(result, path, written)
     if args.scenarios and not live and any(e.kind == "hazard" for e in result.episodes):
-        code = run_export(
-            result,
-            Path(stream),
-            args.out / "scenarios",
-            args.scenario_channel,
-            args.scenario_lead_in,
-            args.scenario_lead_out,
-            args.scenario_radius,
-            args.scenario_opendrive,
-            topics=args.topics,
-        )
-        if code:
-            return code
+        # an event that cannot be exported is named and recorded; the exit code stays the run's
+        scenarios = options_from(args, "scenario_")
+        if run_export(result, Path(stream), args.out / "scenarios", scenarios, "run") is None:
+            return 2
     if result.stream.frames_read == 0:
         print(
             f"casewatch run: {stream}: no frames could be read "
@@ -402,6 +402,9 @@ def _run_many(args, case, formats: tuple[str, ...]) -> int:
             f"{summary['logs_failed']} failed, {summary['logs_without_data']} with too little "
             f"data; summary: {args.out / 'summary.json'}"
         )
+    if args.scenarios:  # one folder per log and an index; the exit code stays the run's
+        scenarios = options_from(args, "scenario_")
+        print_fleet_index(summary["per_log"], args.out / "scenarios", scenarios)
     for log in summary["per_log"]:  # even with --quiet: exit 3 and 4 never pass unexplained
         if args.quiet and (log.get("crashed") or log.get("engines_disagree")):
             print(f"casewatch run: {log['stream']}: {log['error']}", file=sys.stderr)

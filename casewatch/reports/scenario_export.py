@@ -1,43 +1,63 @@
 """Hazard events as OpenSCENARIO 1.2 files: a hazard found in a log becomes a test case.
 
-For each hazard event of a run, one `.xosc` reproduces the ego and the objects involved over
-the event plus lead-in and lead-out seconds, as one channel saw them (the arbitrated channel
-at the event's start, or the one asked for):
+This module writes; it reads nothing. The front door (`casewatch.scenarios`) reads the judged
+stream or bag and hands over, per hazard event, an `EventWindow`: the ego's and every object's
+observed poses in one channel over the event plus lead-in and lead-out seconds, as plain
+numbers. From those, one `.xosc` per event (built with `scenariogeneration`):
 
-- entities: the ego and every object of that channel that came within `radius` metres of the
-  ego during the event, as vehicles with the reported dimensions;
-- Init: each entity teleported to its first observed pose;
-- one maneuver group per entity with a `FollowTrajectoryAction`: a polyline of timed world
-  positions (x, y, heading) at every tick it was seen, followed by position with absolute
-  timing (0 s = the start of the window); an object first seen later waits at its first pose;
-- the road network: the user's OpenDRIVE file when given; otherwise none, and the file header
-  says so (casewatch does not invent roads).
+- entities: the ego and every object that came within `radius` metres of the ego during the
+  event (none: an ego-only scenario, a valid test of a hazard that needs no other road user),
+  each a vehicle of the category its class and size say (`scenario_entities`) or a pedestrian;
+- every entity exists only while the channel observed it: an object first seen at the window's
+  start is teleported there in Init; one first seen later is removed in Init
+  (`DeleteEntityAction`) and added where it was first seen when it was first seen
+  (`AddEntityAction`); an object unseen for more than `GAP_PERIODS` periods, or for good, is
+  removed right after its last observation and added again when seen again. A replay thus
+  holds exactly the contacts of the stream, never an object waiting at its first pose;
+- while present, an entity follows a `FollowTrajectoryAction` along a polyline of its observed
+  poses in `position` mode, timed absolutely (`Timing domainAbsoluteRelative="absolute"`,
+  scale 1, offset 0): vertex time `t` is simulation time `1 * t + 0`, and 0 is the window's
+  start;
+- the road network: the OpenDRIVE file given (as a path relative to the .xosc), else none,
+  and the file header says so (casewatch does not invent roads).
 
-`scenariogeneration` builds the XML. A catalogue (`scenarios.json`) traces each file back to its
-event, node, trace, channel, window and stream digest.
+Numbers are written rounded (positions and sizes to 0.1 mm, angles to 1 µrad, times to 1 µs)
+with no negative zero, so a file reads `15.6`, never `15.600000000000001` or `-0.0`.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+import statistics
 from dataclasses import dataclass, field
+from itertools import pairwise
 from pathlib import Path
 
+import numpy as np
 from scenariogeneration import xosc
 
 from casewatch.errors import CasewatchError
-from casewatch.evaluator.inputs import path_digest
 from casewatch.evaluator.result import Episode, RunResult
-from casewatch.monitor.bags.mapping import MappingError, resolve_mapping
-from casewatch.monitor.bags.reader import BagError, is_bag, read_bag
-from casewatch.monitor.frames import Frame
-from casewatch.monitor.reader import read_stream
-from casewatch.safety_case.findings import CaseError
-from casewatch.safety_case.loader import require_case
+from casewatch.reports.scenario_entities import MASS, entity_kind
 
 #: OpenSCENARIO minor version written (1.2).
 OSC_MINOR = 2
+
+#: A track unseen for longer than this many periods leaves the scene until it is seen again: a
+#: replay must not slide an object through a second in which nobody saw where it was.
+GAP_PERIODS = 1.5
+
+#: Decimals written: positions and sizes (0.1 mm), angles (1 µrad), times (1 µs).
+POSITION_DIGITS = 4
+ANGLE_DIGITS = 6
+TIME_DIGITS = 6
+
+#: Height [m] of every entity's bounding box: a stream carries footprints only.
+HEIGHT = {"pedestrian": 1.8, "bicycle": 1.7, "motorbike": 1.5, "truck": 3.5, "bus": 3.2}
+DEFAULT_HEIGHT = 1.5
+
+#: Slack [s] when comparing frame times.
+_EPS = 1e-6
 
 
 class ExportError(CasewatchError, ValueError):
@@ -45,27 +65,61 @@ class ExportError(CasewatchError, ValueError):
 
 
 @dataclass
-class _Track:
-    """An entity's observed poses over the window: times relative to its start."""
+class Track:
+    """One entity's observations in a window, in time order: times [s] from the window's
+    start, world poses, and per observation its class, its footprint's extents (length along,
+    width across the heading) and the centre of those extents in the body frame."""
 
-    length: float
-    width: float
+    classes: list[str] = field(default_factory=list)
     t: list[float] = field(default_factory=list)
     x: list[float] = field(default_factory=list)
     y: list[float] = field(default_factory=list)
     h: list[float] = field(default_factory=list)
+    length: list[float] = field(default_factory=list)
+    width: list[float] = field(default_factory=list)
+    cx: list[float] = field(default_factory=list)
+    cy: list[float] = field(default_factory=list)
     nearest: float = math.inf  # closest approach to the ego during the event [m]
+
+    def add(
+        self, t: float, pose: tuple[float, float, float], footprint: np.ndarray, cls: str = ""
+    ) -> None:
+        """One observation: `pose` (x, y, yaw), `footprint` (V, 2) body-frame vertices."""
+        lo, hi = footprint.min(axis=0), footprint.max(axis=0)
+        self.classes.append(cls)
+        self.t.append(t)
+        self.x.append(pose[0])
+        self.y.append(pose[1])
+        self.h.append(pose[2])
+        self.length.append(float(hi[0] - lo[0]))
+        self.width.append(float(hi[1] - lo[1]))
+        self.cx.append(float(hi[0] + lo[0]) / 2)
+        self.cy.append(float(hi[1] + lo[1]) / 2)
 
 
 @dataclass
-class _Window:
+class EventWindow:
+    """A hazard event's window and what its channel saw in it (filled by the reader)."""
+
     number: int
     event: Episode
     channel: str
     t0: float
     t1: float
-    ego: _Track | None = None
-    objects: dict[str, _Track] = field(default_factory=dict)
+    ego: Track | None = None
+    objects: dict[str, Track] = field(default_factory=dict)
+    last_t: float = 0.0  # the channel's last frame in the window, from t0 [s]
+
+
+def clean(value: float, digits: int) -> float:
+    """`value` rounded to `digits` decimals, with no negative zero."""
+    rounded = round(float(value), digits)
+    return 0.0 if rounded == 0 else rounded
+
+
+def hazard_events(result: RunResult) -> list[Episode]:
+    """The run's hazard events in time order; event N is the N-th (1-based)."""
+    return [e for e in result.episodes if e.kind == "hazard"]
 
 
 def _channel_at(result: RunResult, t: float) -> str:
@@ -75,178 +129,17 @@ def _channel_at(result: RunResult, t: float) -> str:
     return result.case.channels[0]
 
 
-def hazard_events(result: RunResult) -> list[Episode]:
-    """The run's hazard events in time order; event N is the N-th (1-based)."""
-    return [e for e in result.episodes if e.kind == "hazard"]
-
-
-def _frames(result: RunResult, stream: Path, topics: Path | None) -> Iterable[Frame]:
-    """The frames of the judged stream: JSON Lines, or a ROS 2 bag read through its topic
-    mapping (`topics`, else the case's `monitor.topics`) as the run read it."""
-    if not is_bag(stream):
-        return read_stream(stream)
-    case_topics = None
-    if topics is None:
-        try:
-            case_topics = require_case(result.case.path).monitor.topics
-        except (CaseError, OSError):
-            case_topics = None
-    try:
-        mapping = resolve_mapping(topics, result.case.path, case_topics)
-        return read_bag(
-            stream, mapping, channels=list(result.case.channels), period=result.case.period
-        )
-    except (MappingError, BagError) as exc:
-        raise ExportError(str(exc)) from None
-
-
-def _collect(frames: Iterable[Frame], windows: list[_Window]) -> None:
-    """One pass over the stream: every window's ego and object poses in its channel."""
-    for frame in frames:
-        for w in windows:
-            if not w.t0 - 1e-9 <= frame.t <= w.t1 + 1e-9:
-                continue
-            state = frame.channels.get(w.channel)
-            if state is None:
-                continue
-            e = state.ego
-            half = e.footprint
-            length = float(half[:, 0].max() - half[:, 0].min())
-            width = float(half[:, 1].max() - half[:, 1].min())
-            if w.ego is None:
-                w.ego = _Track(length, width)
-            _add(w.ego, frame.t - w.t0, e.x, e.y, e.yaw)
-            inside = w.event.start - 1e-9 <= frame.t <= w.event.end + 1e-9
-            o = state.objects
-            for k, oid in enumerate(o.ids):
-                x, y = float(o.pos[k, 0]), float(o.pos[k, 1])
-                fp = o.footprints[k]
-                track = w.objects.get(oid)
-                if track is None:
-                    track = w.objects[oid] = _Track(
-                        float(fp[:, 0].max() - fp[:, 0].min()),
-                        float(fp[:, 1].max() - fp[:, 1].min()),
-                    )
-                _add(track, frame.t - w.t0, x, y, float(o.yaw[k]))
-                if inside:
-                    track.nearest = min(track.nearest, math.hypot(x - e.x, y - e.y))
-
-
-def _add(track: _Track, t: float, x: float, y: float, h: float) -> None:
-    track.t.append(round(t, 6))
-    track.x.append(x)
-    track.y.append(y)
-    track.h.append(h)
-
-
-def _vehicle(name: str, track: _Track) -> xosc.Vehicle:
-    box = xosc.BoundingBox(track.width, track.length, 1.5, 0.0, 0.0, 0.75)
-    axle = xosc.Axle(0.5, 0.7, max(track.width - 0.2, 0.1), track.length / 3, 0.35)
-    return xosc.Vehicle(
-        name,
-        xosc.VehicleCategory.car,
-        box,
-        axle,
-        xosc.Axle(0.0, 0.7, max(track.width - 0.2, 0.1), 0.0, 0.35),
-        70.0,
-        10.0,
-        10.0,
-    )
-
-
-def _follow(name: str, track: _Track) -> xosc.FollowTrajectoryAction:
-    positions = [
-        xosc.WorldPosition(x, y, 0.0, h) for x, y, h in zip(track.x, track.y, track.h, strict=True)
-    ]
-    trajectory = xosc.Trajectory(f"{name}_path", False)
-    trajectory.add_shape(xosc.Polyline(list(track.t), positions))
-    return xosc.FollowTrajectoryAction(
-        trajectory, xosc.FollowingMode.position, xosc.ReferenceContext.absolute, 1.0, 0.0
-    )
-
-
-def _scenario(
-    w: _Window, entities: dict[str, _Track], opendrive: Path | None, node_text: str
-) -> xosc.Scenario:
-    catalog = xosc.Catalog()
-    road = xosc.RoadNetwork(roadfile=str(opendrive)) if opendrive else xosc.RoadNetwork()
-    objects = xosc.Entities()
-    init = xosc.Init()
-    start = xosc.ValueTrigger(
-        "start",
-        0.0,
-        xosc.ConditionEdge.none,
-        xosc.SimulationTimeCondition(0.0, xosc.Rule.greaterThan),
-    )
-    act = xosc.Act("replay", start)
-    for name, track in entities.items():
-        objects.add_scenario_object(name, _vehicle(name, track))
-        init.add_init_action(
-            name, xosc.TeleportAction(xosc.WorldPosition(track.x[0], track.y[0], 0.0, track.h[0]))
-        )
-        event = xosc.Event(f"{name}_follow", xosc.Priority.override)
-        event.add_action(f"{name}_trajectory", _follow(name, track))
-        event.add_trigger(
-            xosc.ValueTrigger(
-                f"{name}_start",
-                0.0,
-                xosc.ConditionEdge.none,
-                xosc.SimulationTimeCondition(0.0, xosc.Rule.greaterThan),
-            )
-        )
-        maneuver = xosc.Maneuver(f"{name}_maneuver")
-        maneuver.add_event(event)
-        group = xosc.ManeuverGroup(f"{name}_group")
-        group.add_actor(name)
-        group.add_maneuver(maneuver)
-        act.add_maneuver_group(group)
-    stop = xosc.ValueTrigger(
-        "end",
-        0.0,
-        xosc.ConditionEdge.none,
-        xosc.SimulationTimeCondition(w.t1 - w.t0, xosc.Rule.greaterThan),
-        "stop",
-    )
-    board = xosc.StoryBoard(init, stop)
-    board.add_act(act)
-    e = w.event
-    road_note = "" if opendrive else "; no road network attached (casewatch does not invent roads)"
-    description = (
-        f"casewatch hazard event {w.number}: {e.node_id} ({node_text}) from "
-        f"{e.start:g} s to {e.end:g} s, replayed from channel {w.channel} over "
-        f"{w.t0:g}-{w.t1:g} s{road_note}"
-    )
-    return xosc.Scenario(
-        description,
-        "casewatch",
-        xosc.ParameterDeclarations(),
-        objects,
-        board,
-        road,
-        catalog,
-        osc_minor_version=OSC_MINOR,
-    )
-
-
-def export_scenarios(
+def plan_windows(
     result: RunResult,
-    stream: Path,
-    out: Path,
-    channel: str | None = None,
-    lead_in: float = 3.0,
-    lead_out: float = 2.0,
-    radius: float = 30.0,
-    opendrive: Path | None = None,
+    channel: str | None,
+    lead_in: float,
+    lead_out: float,
     event: int | None = None,
-    topics: Path | None = None,
-) -> list[dict]:
-    """Write one `.xosc` per hazard event (or only event `event`, 1-based) into `out` and the
-    catalogue `scenarios.json`'s entries, which it returns."""
-    if result.stream.digest and path_digest(stream) != result.stream.digest:
-        raise ExportError(
-            f"{stream}: not the stream this run judged (sha256 differs from "
-            f"result.json's {result.stream.digest[:12]}...)"
-        )
+) -> list[EventWindow]:
+    """One window per hazard event (or only event `event`, 1-based): the event plus `lead_in`
+    and `lead_out` seconds, clipped to the stream's first and last frame, in `channel` (default:
+    the arbitrated channel at the event's start). Raises `ExportError` for an unknown channel or
+    event number."""
     if channel is not None and channel not in result.case.channels:
         raise ExportError(
             f"channel {channel!r} is not one of the run's channels "
@@ -259,58 +152,288 @@ def export_scenarios(
             if events
             else "the run has no hazard event"
         )
-    chosen = [(n, e) for n, e in enumerate(events, start=1) if event is None or n == event]
-    windows = [
-        _Window(
+    first = result.stream.t_start if result.stream.t_start is not None else -math.inf
+    last = result.stream.t_end if result.stream.t_end is not None else math.inf
+    return [
+        EventWindow(
             n,
             e,
             channel or _channel_at(result, e.start),
-            max(e.start - lead_in, result.stream.t_start or 0.0),
-            e.end + lead_out,
+            max(e.start - lead_in, first),
+            min(e.end + lead_out, last),
         )
-        for n, e in chosen
+        for n, e in enumerate(events, start=1)
+        if event is None or n == event
     ]
-    _collect(_frames(result, stream, topics), windows)
-    texts = {n.id: n.text for n in result.case.nodes}
-    out.mkdir(parents=True, exist_ok=True)
-    entries = []
-    for w in windows:
-        if w.ego is None:
-            raise ExportError(
-                f"hazard event {w.number} ({w.event.node_id} at "
-                f"{w.event.start:g} s): channel {w.channel} has no frame in "
-                "its window"
+
+
+def spans(t: np.ndarray, gap: float) -> list[tuple[int, int]]:
+    """Index ranges `[i, j)` of observations with no pause longer than `gap` seconds."""
+    if not len(t):
+        return []
+    cuts = (np.nonzero(np.diff(t) > gap + _EPS)[0] + 1).tolist()
+    bounds = [0, *cuts, len(t)]
+    return list(pairwise(bounds))
+
+
+def file_name(window: EventWindow) -> str:
+    """`event-NNN-NODE-START.xosc`."""
+    e = window.event
+    return f"event-{window.number:03d}-{e.node_id}-{e.start:.1f}s.xosc"
+
+
+def _median(values: list[float]) -> float:
+    return float(statistics.median(values))
+
+
+def _bounding_box(track: Track, kind: str) -> xosc.BoundingBox:
+    height = HEIGHT.get(kind, DEFAULT_HEIGHT)
+    return xosc.BoundingBox(
+        clean(_median(track.width), POSITION_DIGITS),
+        clean(_median(track.length), POSITION_DIGITS),
+        height,
+        clean(_median(track.cx), POSITION_DIGITS),
+        clean(_median(track.cy), POSITION_DIGITS),
+        height / 2,
+    )
+
+
+def _entity(name: str, track: Track, kind: str) -> xosc.Vehicle | xosc.Pedestrian:
+    """The entity: a vehicle of `kind`'s category, or a pedestrian; its box the median of the
+    observed footprint extents (a stream's boxes rarely change size within a track)."""
+    box = _bounding_box(track, kind)
+    if kind == "pedestrian":
+        return xosc.Pedestrian(name, MASS[kind], xosc.PedestrianCategory.pedestrian, box)
+    length = clean(_median(track.length), POSITION_DIGITS)
+    width = clean(_median(track.width), POSITION_DIGITS)
+    track_width = clean(max(width - 0.2, 0.1), POSITION_DIGITS)
+    return xosc.Vehicle(
+        name,
+        getattr(xosc.VehicleCategory, kind),
+        box,
+        xosc.Axle(0.5, 0.7, track_width, clean(length / 3, POSITION_DIGITS), 0.35),
+        xosc.Axle(0.0, 0.7, track_width, 0.0, 0.35),
+        70.0,
+        10.0,
+        10.0,
+        mass=MASS[kind],
+    )
+
+
+def _pose(track: Track, i: int, heading: float) -> xosc.WorldPosition:
+    return xosc.WorldPosition(
+        clean(track.x[i], POSITION_DIGITS),
+        clean(track.y[i], POSITION_DIGITS),
+        0.0,
+        clean(heading, ANGLE_DIGITS),
+    )
+
+
+def _at_or_after(name: str, t: float) -> xosc.ValueTrigger:
+    return xosc.ValueTrigger(
+        name,
+        0.0,
+        xosc.ConditionEdge.none,
+        xosc.SimulationTimeCondition(clean(t, TIME_DIGITS), xosc.Rule.greaterOrEqual),
+    )
+
+
+def _after(name: str, t: float, kind: str = "start") -> xosc.ValueTrigger:
+    return xosc.ValueTrigger(
+        name,
+        0.0,
+        xosc.ConditionEdge.none,
+        xosc.SimulationTimeCondition(clean(t, TIME_DIGITS), xosc.Rule.greaterThan),
+        kind,
+    )
+
+
+def _once_ended(name: str, event: str) -> xosc.ValueTrigger:
+    return xosc.ValueTrigger(
+        name,
+        0.0,
+        xosc.ConditionEdge.none,
+        xosc.StoryboardElementStateCondition(
+            xosc.StoryboardElementType.event, event, xosc.StoryboardElementState.endTransition
+        ),
+    )
+
+
+def _event(name: str, action) -> xosc.Event:
+    event = xosc.Event(name, xosc.Priority.parallel)
+    event.add_action(f"{name}_action", action)
+    return event
+
+
+def _follow(name: str, track: Track, i: int, j: int, headings: np.ndarray):
+    """The polyline of observations `i..j-1`, timed absolutely: vertex time = simulation
+    time (scale 1, offset 0)."""
+    times = [clean(track.t[k], TIME_DIGITS) for k in range(i, j)]
+    positions = [_pose(track, k, float(headings[k - i])) for k in range(i, j)]
+    trajectory = xosc.Trajectory(name, False)
+    trajectory.add_shape(xosc.Polyline(times, positions))
+    return xosc.FollowTrajectoryAction(
+        trajectory, xosc.FollowingMode.position, xosc.ReferenceContext.absolute, 1.0, 0.0
+    )
+
+
+def _stage(
+    name: str,
+    track: Track,
+    gap: float,
+    last_t: float,
+    init: xosc.Init,
+    maneuver: xosc.Maneuver,
+) -> int:
+    """Init actions and events that make entity `name` exist exactly while observed; returns
+    the number of spans it is present in."""
+    t = np.asarray(track.t)
+    parts = spans(t, gap)
+    for k, (i, j) in enumerate(parts, start=1):
+        # unwrapped: a player interpolating headings linearly never turns the long way round
+        headings = np.unwrap(np.asarray(track.h[i:j]))
+        start = f"{name}_add_{k}"
+        if t[i] <= _EPS:
+            init.add_init_action(name, xosc.TeleportAction(_pose(track, i, headings[0])))
+        else:
+            if k == 1:  # not in the scene until first seen
+                init.add_global_action(xosc.DeleteEntityAction(name))
+            add = _event(start, xosc.AddEntityAction(name, _pose(track, i, headings[0])))
+            add.add_trigger(_at_or_after(f"{start}_at", t[i]))
+            maneuver.add_event(add)
+        if j - i >= 2:
+            follow = _event(
+                f"{name}_follow_{k}", _follow(f"{name}_path_{k}", track, i, j, headings)
             )
-        involved = {
-            f"obj_{oid}": track
-            for oid, track in sorted(w.objects.items())
-            if track.nearest <= radius
-        }
-        if not involved:
-            raise ExportError(
-                f"hazard event {w.number} ({w.event.node_id} at "
-                f"{w.event.start:g} s): channel {w.channel} saw no object within "
-                f"{radius:g} m of the ego during the event"
+            follow.add_trigger(
+                _at_or_after(f"{name}_follow_{k}_at", 0.0)
+                if t[i] <= _EPS
+                else _once_ended(f"{name}_follow_{k}_after_add", start)
             )
-        entities = {"ego": w.ego, **involved}
-        name = f"event-{w.number:03d}-{w.event.node_id}-{w.event.start:.1f}s.xosc"
-        _scenario(w, entities, opendrive, texts.get(w.event.node_id, "")).write_xml(str(out / name))
-        entries.append(
-            {
-                "file": name,
-                "event": w.number,
-                "formula": w.event.formula_id,
-                "node": w.event.node_id,
-                "node_text": texts.get(w.event.node_id, ""),
-                "start": w.event.start,
-                "end": w.event.end,
-                "window": [w.t0, w.t1],
-                "channel": w.channel,
-                "entities": sorted(entities),
-                "stream": str(stream),
-                "stream_digest": result.stream.digest,
-                "road_network": str(opendrive) if opendrive else None,
-                "trace": [[step.id for step in path] for path in w.event.trace],
-            }
+            maneuver.add_event(follow)
+        if t[j - 1] < last_t - _EPS:  # seen for the last time before the window ends
+            delete = _event(f"{name}_delete_{k}", xosc.DeleteEntityAction(name))
+            delete.add_trigger(_after(f"{name}_delete_{k}_after", t[j - 1]))
+            maneuver.add_event(delete)
+    return len(parts)
+
+
+def _scenario(
+    w: EventWindow,
+    entities: dict[str, tuple[Track, str]],
+    gap: float,
+    road: str | None,
+    node_text: str,
+) -> tuple[xosc.Scenario, dict[str, int]]:
+    objects = xosc.Entities()
+    init = xosc.Init()
+    act = xosc.Act("replay", _at_or_after("replay_start", 0.0))
+    presence: dict[str, int] = {}
+    for name, (track, kind) in entities.items():
+        objects.add_scenario_object(name, _entity(name, track, kind))
+        maneuver = xosc.Maneuver(f"{name}_maneuver")
+        # the ego is the system under test: it stays in the scene through channel dropouts
+        presence[name] = _stage(
+            name, track, math.inf if name == "ego" else gap, w.last_t, init, maneuver
         )
-    return entries
+        if maneuver.events:
+            group = xosc.ManeuverGroup(f"{name}_group")
+            group.add_actor(name)
+            group.add_maneuver(maneuver)
+            act.add_maneuver_group(group)
+    board = xosc.StoryBoard(init, _after("end", w.t1 - w.t0, "stop"))
+    board.add_act(act)
+    e = w.event
+    road_note = "" if road else "; no road network attached (casewatch does not invent roads)"
+    description = (
+        f"casewatch hazard event {w.number}: {e.node_id} ({node_text}) from "
+        f"{e.start:g} s to {e.end:g} s, replayed from channel {w.channel} over "
+        f"{w.t0:g}-{w.t1:g} s{road_note}"
+    )
+    scenario = xosc.Scenario(
+        description,
+        "casewatch",
+        xosc.ParameterDeclarations(),
+        objects,
+        board,
+        xosc.RoadNetwork(roadfile=road) if road else xosc.RoadNetwork(),
+        xosc.Catalog(),
+        osc_minor_version=OSC_MINOR,
+    )
+    return scenario, presence
+
+
+def write_event(
+    w: EventWindow,
+    out: Path,
+    radius: float,
+    period: float,
+    road: str | None = None,
+    node_text: str = "",
+) -> dict:
+    """Write event window `w` as `out/<file_name(w)>`; returns its catalogue entry (without
+    the stream fields, which the reader adds). `road` is the OpenDRIVE path as written into
+    the file. Raises `ExportError` when the channel has no frame in the window."""
+    if w.ego is None:
+        raise ExportError(
+            f"hazard event {w.number} ({w.event.node_id} at {w.event.start:g} s): channel "
+            f"{w.channel} has no frame in its window {w.t0:g}-{w.t1:g} s"
+        )
+    involved: dict[str, tuple[Track, str]] = {}
+    for oid, track in sorted(w.objects.items()):
+        if track.nearest <= radius:
+            kind = entity_kind(
+                statistics.mode(track.classes), _median(track.length), _median(track.width)
+            ).kind
+            involved[f"obj_{oid}"] = (track, kind)
+    nearest = min((track.nearest for track in w.objects.values()), default=math.inf)
+    entities = {"ego": (w.ego, "car"), **involved}
+    scenario, presence = _scenario(w, entities, GAP_PERIODS * period, road, node_text)
+    name = file_name(w)
+    scenario.write_xml(str(out / name))
+    return {
+        "file": name,
+        **_event_fields(w, node_text),
+        "window": [clean(w.t0, TIME_DIGITS), clean(w.t1, TIME_DIGITS)],
+        "channel": w.channel,
+        "entities": list(entities),
+        "ego_only": not involved,
+        "radius": radius,
+        "nearest_object_m": None if math.isinf(nearest) else round(nearest, 3),
+        "objects": {
+            n: {
+                "category": kind,
+                "class": statistics.mode(track.classes),
+                "first_seen": clean(track.t[0], TIME_DIGITS),
+                "last_seen": clean(track.t[-1], TIME_DIGITS),
+                "spans": presence[n],
+            }
+            for n, (track, kind) in involved.items()
+        },
+        "road_network": road,
+        "trace": [[step.id for step in path] for path in w.event.trace],
+    }
+
+
+def failed_entry(w: EventWindow, error: str, node_text: str = "") -> dict:
+    """The catalogue entry of an event whose file could not be written: no file, the reason."""
+    return {
+        "file": None,
+        **_event_fields(w, node_text),
+        "window": [clean(w.t0, TIME_DIGITS), clean(w.t1, TIME_DIGITS)],
+        "channel": w.channel,
+        "error": error,
+        "trace": [[step.id for step in path] for path in w.event.trace],
+    }
+
+
+def _event_fields(w: EventWindow, node_text: str) -> dict:
+    e = w.event
+    return {
+        "event": w.number,
+        "formula": e.formula_id,
+        "node": e.node_id,
+        "node_text": node_text,
+        "start": e.start,
+        "end": e.end,
+    }

@@ -1,5 +1,6 @@
 """OpenSCENARIO export of hazard events: every file valid against the 1.2 XSD and the ASAM
-checker, positions equal to the stream's within 1 cm, and every refusal an exit 2."""
+checker, positions equal to the stream's within 1 cm, windows clipped to the stream, an event
+with nobody near the ego an ego-only file, and every refusal of the whole export an exit 2."""
 
 from __future__ import annotations
 
@@ -12,7 +13,6 @@ import pytest
 
 from casewatch import api
 from casewatch.cli import main
-from casewatch.evaluator.session import RunOptions, evaluate_stream
 from casewatch.monitor.reader import read_stream
 
 REPO = Path(__file__).resolve().parents[2]
@@ -22,9 +22,7 @@ STREAM = REPO / "examples" / "data" / "highway-tailgating.jsonl.gz"
 @pytest.fixture(scope="module")
 def exported(tmp_path_factory) -> tuple[Path, Path]:
     run = tmp_path_factory.mktemp("run")
-    case, spec = api.prepare(REPO / "examples" / "reference-case.yaml")
-    result = evaluate_stream(case, spec, STREAM, RunOptions())
-    api.write_result(result, run)
+    api.run(REPO / "examples" / "reference-case.yaml", STREAM, out_dir=run, formats=())
     out = tmp_path_factory.mktemp("xosc")
     assert main(["export-scenarios", str(run), str(STREAM), "-o", str(out)]) == 0
     return run, out
@@ -40,6 +38,7 @@ def test_one_file_per_hazard_event_traced_back(exported):
     ]
     for c in catalogue:
         assert (out / c["file"]).is_file() and c["entities"][0] == "ego" and len(c["entities"]) > 1
+        assert c["ego_only"] is False and c["radius"] == 30.0
         assert c["trace"][0][0] == c["node"] and c["trace"][0][-1] == "G1"
         assert c["stream_digest"] == result["stream"]["digest"]
         header = ET.parse(out / c["file"]).getroot().find("FileHeader")
@@ -111,6 +110,21 @@ def test_positions_round_trip_within_a_centimetre(exported):
     assert compared > 100
 
 
+def test_windows_are_clipped_to_the_stream(exported):
+    _, out = exported
+    catalogue = json.loads((out / "scenarios.json").read_text())["scenarios"]
+    # event 4 runs to 119.6 s; 2 s of lead-out would pass the drive's last frame at 120 s
+    assert (catalogue[-1]["start"], catalogue[-1]["end"]) == (105.0, 119.6)
+    assert catalogue[-1]["window"] == [102.0, 120.0]
+    stop = (
+        ET.parse(out / catalogue[-1]["file"])
+        .getroot()
+        .find(".//StopTrigger//SimulationTimeCondition")
+    )
+    assert stop.get("value") == "18.0"
+    assert catalogue[0]["window"] == [15.6, 37.9]
+
+
 def test_refusals_exit_2(exported, tmp_path, capsys):
     run, _ = exported
     out = str(tmp_path / "x")
@@ -120,49 +134,50 @@ def test_refusals_exit_2(exported, tmp_path, capsys):
     shutil.copy(REPO / "examples" / "data" / "urban-grid.jsonl.gz", other)
     assert main(["export-scenarios", str(run), str(other), "-o", out]) == 2
     assert "not the stream this run judged" in capsys.readouterr().err
-    assert main(["export-scenarios", str(run), str(STREAM), "-o", out, "--radius", "0.001"]) == 2
-    assert "saw no object within 0.001 m" in capsys.readouterr().err
     assert main(["export-scenarios", str(run), str(STREAM), "-o", out, "--channel", "cam"]) == 2
     assert "'cam' is not one of the run's channels" in capsys.readouterr().err
+    assert main(["export-scenarios", str(run), str(STREAM), "-o", out, "--radius", "-1"]) == 2
+    assert "--radius must be a number >= 0" in capsys.readouterr().err
+    assert not (tmp_path / "x").exists()  # a refusal writes nothing
 
 
-def test_an_opendrive_file_is_referenced_not_invented(exported, tmp_path):
+def test_nobody_within_the_radius_is_an_ego_only_file_not_a_refusal(exported, tmp_path, capsys):
     run, _ = exported
-    road = tmp_path / "highway.xodr"
-    road.write_text("<OpenDRIVE/>\n")
-    out = tmp_path / "with-road"
+    out = tmp_path / "ego-only"
     assert (
-        main(
-            [
-                "export-scenarios",
-                str(run),
-                str(STREAM),
-                "-o",
-                str(out),
-                "--event",
-                "1",
-                "--opendrive",
-                str(road),
-            ]
-        )
-        == 0
+        main(["export-scenarios", str(run), str(STREAM), "-o", str(out), "--radius", "0.001"]) == 0
     )
-    root = ET.parse(next(out.glob("*.xosc"))).getroot()
-    assert root.find("RoadNetwork/LogicFile").get("filepath") == str(road)
+    assert "ego only (nothing within 0.001 m)" in capsys.readouterr().out
+    catalogue = json.loads((out / "scenarios.json").read_text())["scenarios"]
+    assert len(catalogue) == 4
+    for c in catalogue:
+        assert c["ego_only"] is True and c["entities"] == ["ego"] and c["objects"] == {}
+        assert c["nearest_object_m"] > 0.001
+        root = ET.parse(out / c["file"]).getroot()
+        assert [o.get("name") for o in root.iter("ScenarioObject")] == ["ego"]
+        assert len(list(root.iter("FollowTrajectoryAction"))) == 1
+
+
+def test_an_opendrive_file_is_referenced_relative_to_the_scenario(
+    exported, tmp_path, monkeypatch, capsys
+):
+    run, _ = exported
+    road = tmp_path / "roads" / "highway.xodr"
+    road.parent.mkdir()
+    road.write_text("<OpenDRIVE/>\n")
+    out = tmp_path / "suite" / "with-road"
+    monkeypatch.chdir(tmp_path / "roads")  # typed relative to wherever the user stands
+    args = ["export-scenarios", str(run), str(STREAM), "-o", str(out), "--event", "1"]
+    assert main([*args, "--opendrive", "highway.xodr"]) == 0
+    xosc_file = next(out.glob("*.xosc"))
+    root = ET.parse(xosc_file).getroot()
+    written = root.find("RoadNetwork/LogicFile").get("filepath")
+    assert written == "../../roads/highway.xodr"  # from the .xosc's folder, not the cwd
+    assert (xosc_file.parent / written).resolve() == road.resolve()
     assert "no road network" not in root.find("FileHeader").get("description")
     catalogue = json.loads((out / "scenarios.json").read_text())["scenarios"]
-    assert catalogue[0]["road_network"] == str(road)
-    assert (
-        main(
-            [
-                "export-scenarios",
-                str(run),
-                str(STREAM),
-                "-o",
-                str(out),
-                "--opendrive",
-                str(tmp_path / "missing.xodr"),
-            ]
-        )
-        == 2
-    )
+    assert catalogue[0]["road_network"] == written
+    capsys.readouterr()
+    assert main([*args, "--opendrive", "missing.xodr"]) == 2
+    err = capsys.readouterr().err
+    assert "missing.xodr: no such OpenDRIVE file" in err and str(tmp_path / "roads") in err
