@@ -37,6 +37,7 @@ COMMANDS: dict[str, str] = {
     "export-gsn": "write the argument as gsn2x YAML, with a run's node statuses as CSS classes",
     "odd": "the operational design domain judged runs support (heatmap, YAML ODD)",
     "compare": "compare many runs grouped by agent and scenario, with a violation map",
+    "annotate": "write a run's verdicts into its recording (MCAP with Foxglove schemas)",
 }
 
 
