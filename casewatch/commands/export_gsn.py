@@ -12,10 +12,11 @@ import argparse
 import sys
 from pathlib import Path
 
-from casewatch.reports.gsn_export import write_gsn
+from casewatch.reports.gsn_export import gsn_document, write_gsn
 from casewatch.reports.render import ResultError, load_result
 from casewatch.safety_case.checks import check_file
 from casewatch.safety_case.findings import has_errors
+from casewatch.safety_case.gsn2x_schema import gsn2x_problems
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -57,4 +58,7 @@ def main(args: argparse.Namespace) -> int:
         statuses = {s.node_id: s.worst for s in result.status}
     for path in write_gsn(case, args.out, statuses):
         print(f"written: {path}")
+    # what gsn2x would still refuse, e.g. an `extends` of a module this file does not hold
+    for problem in gsn2x_problems(gsn_document(case, statuses)):
+        print(f"casewatch export-gsn: warning: gsn2x would refuse it: {problem}", file=sys.stderr)
     return 0

@@ -5,10 +5,13 @@
 each node gets the class `casewatch_<status>` of its worst status over the run
 (`casewatch_violated`, `casewatch_undermined`, `casewatch_in-doubt`, ...).
 
-What gsn2x does not know is kept where it ignores it and casewatch reads it back:
+The file is gsn2x input by gsn2x's own rules (`safety_case.gsn2x_schema`): `challenges` is one
+node or one relation (`G2 -> CG1`), `classes` a list, layers and presentation attributes as
+read. What gsn2x does not know is kept where it ignores it and casewatch reads it back:
 `module.additionalInformation.casewatch` holds the `monitor` block and, per node, its `spi` /
-`hazard` binding. Loading the exported file gives the same case (`tests/reports/
-test_gsn_export.py`). The modules of a case are written as one file.
+`hazard` / `contract` / `odd` binding, and the whole list when a node challenges more than one
+node (gsn2x's `challenges` holds one). Loading the exported file gives the same case
+(`tests/reports/test_gsn_export.py`). The modules of a case are written as one file.
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ from typing import Any
 
 import yaml
 
+from casewatch.safety_case.gsn2x import relation_text
 from casewatch.safety_case.model import (
     Case,
     ContractBinding,
@@ -110,26 +114,31 @@ def _monitor(monitor: MonitorConfig) -> dict[str, Any]:
     return out
 
 
+def challenged(node: Node) -> list[str]:
+    """Everything `node` challenges, as gsn2x writes each: a node id or `A -> B`."""
+    return [*node.challenges, *(relation_text(r) for r in node.challenged_relations)]
+
+
 def _node(node: Node, status: str | None) -> dict[str, Any]:
-    out: dict[str, Any] = {"text": node.text}
+    out: dict[str, Any] = {"text": node.text} if node.text else {}  # gsn2x: text is optional
     if node.supported_by:
         out["supportedBy"] = list(node.supported_by)
     if node.in_context_of:
         out["inContextOf"] = list(node.in_context_of)
-    if node.challenges:
-        out["challenges"] = list(node.challenges)
+    if targets := challenged(node):
+        out["challenges"] = targets[0]  # gsn2x takes one; several are kept for casewatch
     if node.undeveloped:
         out["undeveloped"] = True
     if node.url is not None:
         out["url"] = node.url
     for key, value in node.gsn.items():
         out[key] = value
+    classes = node.gsn.get("classes") or []
+    classes = [classes] if isinstance(classes, str) else list(classes)  # gsn2x: a list
     if status is not None:
-        classes = node.gsn.get("classes") or []
-        classes = [classes] if isinstance(classes, str) else list(classes)
-        out["classes"] = [c for c in classes if not c.startswith("casewatch_")] + [
-            status_class(status)
-        ]
+        classes = [c for c in classes if not c.startswith("casewatch_")] + [status_class(status)]
+    if classes:
+        out["classes"] = classes
     return out
 
 
@@ -139,7 +148,7 @@ def gsn_document(case: Case, statuses: dict[str, str] | None = None) -> dict[str
     kept: dict[str, Any] = {}
     if case.monitor.channels:
         kept["monitor"] = _monitor(case.monitor)
-    bindings = {}
+    bindings: dict[str, dict[str, Any]] = {}
     for node in case.nodes.values():
         if node.spi is not None:
             bindings[node.id] = {"spi": _spi(node.spi)}
@@ -149,6 +158,8 @@ def gsn_document(case: Case, statuses: dict[str, str] | None = None) -> dict[str
             bindings[node.id] = {"contract": _contract(node.contract)}
         elif node.odd is not None:  # the domain itself, whether it came from a file or not
             bindings[node.id] = {"odd": odd_to_data(node.odd)["odd"]}
+        if len(targets := challenged(node)) > 1:
+            bindings.setdefault(node.id, {})["challenges"] = targets
     if bindings:
         kept["bindings"] = bindings
     if kept:
