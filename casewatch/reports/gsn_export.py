@@ -165,7 +165,10 @@ def gsn_document(case: Case, statuses: dict[str, str] | None = None) -> dict[str
     if kept:
         info["casewatch"] = kept
     module: dict[str, Any] = {"name": case.module.name, "brief": case.module.brief}
-    module.update({k: v for k, v in case.module.gsn.items() if k != "additionalInformation"})
+    # `extends` is applied already (the developed elements name their support), and the one
+    # file written holds every module: gsn2x would look for the extended module in vain
+    dropped = ("additionalInformation", "extends")
+    module.update({k: v for k, v in case.module.gsn.items() if k not in dropped})
     if info:
         module["additionalInformation"] = info
     doc: dict[str, Any] = {"module": module}

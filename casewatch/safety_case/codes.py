@@ -87,6 +87,7 @@ _TABLE: tuple[tuple[str, Severity, str], ...] = (
         "a key gsn2x does not read, close to one it does, is kept as a layer (a pure argument)",
     ),
     ("CW064", "warning", "a challenged relation is drawn but not judged at run time"),
+    ("CW065", "error", "gsn2x `extends` that cannot be applied (module or element missing)"),
 )
 
 #: code -> CheckCode, in code order.

@@ -97,7 +97,12 @@ def gsn2x_problems(document: object) -> list[str]:
     for key, value in document.items():
         try:
             if key == "module":
-                Gsn2xModule.model_validate(value)
+                module = Gsn2xModule.model_validate(value)
+                problems += [
+                    f"module: extends {e.module!r}, a module this file does not hold"
+                    for e in module.extends
+                    if e.module != module.name
+                ]
             else:
                 elements[str(key)] = Gsn2xElement.model_validate(value or {})
         except ValidationError as exc:

@@ -57,6 +57,7 @@ from casewatch.safety_case.schema import (
     MONITOR_KEYS,
     NODE_KEYS,
     SPI_KEYS,
+    RawExtends,
     RawGsn2xNode,
     RawModule,
     RawMonitor,
@@ -144,6 +145,11 @@ class LoadResult:
     invalid: set[str] = field(default_factory=set)
     #: read by gsn2x's rules: a pure argument (no `monitor` block, none inherited)
     gsn2x_rules: bool = False
+    #: module name -> the ids of the nodes written in it (this file's and its uses')
+    modules: dict[str, set[str]] = field(default_factory=dict)
+    #: gsn2x `extends` of this file and its uses, applied by the case file: (module name,
+    #: what it extends, where `extends` is written)
+    extensions: list[tuple[str, list[RawExtends], Mark]] = field(default_factory=list)
 
 
 def node_type_of(node_id: str, gsn2x_rules: bool = False) -> NodeType | None:
@@ -274,6 +280,9 @@ class _Builder:
         self.monitor_config: MonitorConfig | None = None  # contracts and ODDs resolve against it
         self.monitor_given = False
         self.gsn2x_rules = False  # a pure argument: read by gsn2x's rules (docs/gsn2x.md)
+        self.modules: dict[str, set[str]] = {}
+        self.raw_extends: list[RawExtends] = []
+        self.extensions: list[tuple[str, list[RawExtends], Mark]] = []
 
     def add(self, code: str, message: str, mark: Mark, hint: str = "") -> None:
         self.findings.append(finding(code, message, self.path, mark, hint))
@@ -327,8 +336,16 @@ class _Builder:
                     "bind the spi/hazard to an existing node, or drop it",
                 )
         digest = self.digest
+        if module is not None:
+            self.modules[module.name] = set(nodes)
+            extends = self.raw_extends
+            if extends:
+                mark = entries["module"].value.entries()["extends"].key_mark
+                self.extensions.append((module.name, extends, mark))
         if module is not None and module.uses:
             digest = self.use_modules(module, nodes, skipped, entries["module"])
+        if not self.used_by:
+            self.extend(nodes)
         partial = Case(
             path=self.path,
             digest=digest,
@@ -338,7 +355,16 @@ class _Builder:
         )
         errors = has_errors(self.findings)
         case = partial if (not errors and module is not None) else None
-        return LoadResult(case, partial, self.findings, skipped, self.invalid, self.gsn2x_rules)
+        return LoadResult(
+            case,
+            partial,
+            self.findings,
+            skipped,
+            self.invalid,
+            self.gsn2x_rules,
+            self.modules,
+            self.extensions,
+        )
 
     def use_modules(
         self, module: Module, nodes: dict[str, Node], skipped: dict[str, Mark], entry: object
@@ -413,6 +439,9 @@ class _Builder:
             digest.update(used.partial.digest.encode())  # its bytes and those of its uses
             self.invalid |= used.invalid
             skipped.update(used.skipped)
+            for name, ids in used.modules.items():
+                self.modules.setdefault(name, set()).update(ids)
+            self.extensions += used.extensions
             for node_id, node in used.partial.nodes.items():
                 if node_id in nodes:
                     first = nodes[node_id].mark
@@ -429,6 +458,43 @@ class _Builder:
                     continue
                 nodes[node_id] = node
         return digest.hexdigest()
+
+    def extend(self, nodes: dict[str, Node]) -> None:
+        """Apply gsn2x's `extends` of every module of the case: each developed element, an
+        undeveloped node of the named module, is supported by the developing module's nodes.
+        What gsn2x refuses (its C09, C10, V07) is CW065."""
+        for name, extends, mark in self.extensions:
+            for ext in extends:
+                if ext.module not in self.modules:
+                    self.add(
+                        "CW065",
+                        f"module {name} `extends` module {ext.module!r}, which is not part of "
+                        f"this case{did_you_mean(ext.module, list(self.modules))}",
+                        mark,
+                        "add its file to `uses` (gsn2x wants it on its command line too)",
+                    )
+                    continue
+                for foreign, local in ext.develops.items():
+                    problem = self.development_problem(name, ext.module, foreign, local, nodes)
+                    if problem:
+                        self.add("CW065", f"module {name} `extends` {ext.module}: {problem}", mark)
+                        continue
+                    nodes[foreign] = nodes[foreign].model_copy(
+                        update={"supported_by": list(local), "undeveloped": False}
+                    )
+
+    def development_problem(
+        self, name: str, other: str, foreign: str, local: list[str], nodes: dict[str, Node]
+    ) -> str:
+        """Why `foreign` of module `other` cannot be developed by `local` of module `name`."""
+        if foreign not in self.modules[other]:
+            return f"{foreign} is not a node of module {other}"
+        if not nodes[foreign].undeveloped:
+            return f"{foreign} is not undeveloped, so another module cannot develop it"
+        strangers = [i for i in local if i not in self.modules.get(name, set())]
+        if strangers:
+            return f"{strangers[0]} (to develop {foreign}) is not a node of module {name}"
+        return ""
 
     # -- reserved blocks -------------------------------------------------------------------
 
@@ -459,7 +525,10 @@ class _Builder:
         )
         if not isinstance(raw, RawModule):
             return None
+        self.raw_extends = raw.extends or []
         gsn = {k: v for k in GSN_MODULE_ATTRIBUTES if (v := getattr(raw, k)) is not None}
+        if raw.extends is not None:
+            gsn["extends"] = [e.model_dump() for e in raw.extends]
         gsn.update(extra)
         info = gsn.get("additionalInformation")
         if isinstance(info, dict) and "casewatch" in info:  # read as monitor and bindings

@@ -364,12 +364,21 @@ GSN_NODE_ATTRIBUTES: tuple[str, ...] = (
 )
 
 
+class RawExtends(BaseModel):
+    """gsn2x's `extends: [{module: template, develops: {G1: [G2]}}]`: this module develops
+    undeveloped elements of another (G1 of template is supported by G2 of this one)."""
+
+    model_config = ConfigDict(extra="forbid")
+    module: Text
+    develops: dict[StrictStr, IdList]
+
+
 class RawModule(BaseModel):
     model_config = ConfigDict(extra="forbid")
     name: Text
     brief: StrictStr = ""
     uses: list[StrictStr] = []  # gsn2x: module files this one uses, relative to it
-    extends: object = None  # gsn2x modular extension, kept as written
+    extends: list[RawExtends] | None = None  # gsn2x: develop another module's elements
     additionalInformation: object = None
     horizontalIndex: object = None
     rankIncrement: Annotated[StrictInt, Field(ge=0)] | None = None

@@ -116,6 +116,13 @@ LOADER_FIXTURES: list[tuple[str, str, int, int | None]] = [
     ("CW023", case("G1: {text: t, supportedBy: Sn1}\nSn1:\n  text: e\n  challenges: G1\n"), 6, 3),
     ("CW063", "G1:\n  text: a\n  undevelopped: true\n", 3, 3),
     (
+        "CW065",
+        "module:\n  name: m\n  extends: [{module: other, develops: {G1: [G2]}}]\n"
+        "G2: {text: t, undeveloped: true}\n",
+        3,
+        3,
+    ),
+    (
         "CW025",
         "module: {name: t}\nmonitor:\n  channels: [lav, tfuse]\n  signals: [speed, els]\n"
         "G1: {text: a, undeveloped: true}\n",

@@ -230,8 +230,8 @@ needs_examples = pytest.mark.skipif(
 
 #: file -> (node count, warning codes, error codes): what gsn2x 4.3.2 itself says of each file
 #: given alone, in casewatch's codes. sub1 names J1, C2 and Sn1 of the files index uses (gsn2x:
-#: C03 errors); two roots are gsn2x's C01 warning (entangled: G1, G2; sub1: G3, A1; sub3: C2,
-#: Sn1).
+#: C03 errors); instance extends module template, which it does not use (gsn2x: C09); two
+#: roots are gsn2x's C01 warning (entangled: G1, G2; sub1: G3, A1; sub3: C2, Sn1).
 KNOWN = {
     "bullet_lists.gsn.yaml": (2, ["CW011"], []),
     "confidence.gsn.yaml": (8, ["CW011"], []),
@@ -244,7 +244,7 @@ KNOWN = {
     "modular/sub1.gsn.yaml": (2, ["CW011", "CW061"], ["CW030", "CW030", "CW030"]),
     "modular/sub2.gsn.yaml": (2, ["CW011"], []),
     "modular/sub3.gsn.yaml": (2, ["CW011", "CW061"], []),
-    "template/instance.gsn.yaml": (2, ["CW011"], []),
+    "template/instance.gsn.yaml": (2, ["CW011"], ["CW065"]),
     "template/template.gsn.yaml": (4, ["CW011"], []),
 }
 
@@ -299,8 +299,8 @@ def test_what_the_examples_hold_is_read() -> None:
     assert mini.module.name == "min.gsn"  # no module block: the file names it
     index = check_file(example("modular/index.gsn.yaml"))[0]
     assert set(index.nodes) == {"G1", "S1", "G2", "J1", "G3", "A1", "C2", "Sn1"}
-    template = check_file(example("template/instance.gsn.yaml"))[0]
-    assert template.module.gsn["extends"] == [{"module": "template", "develops": {"G1": ["G2"]}}]
+    instance = load_file(example("template/instance.gsn.yaml")).partial
+    assert instance.module.gsn["extends"] == [{"module": "template", "develops": {"G1": ["G2"]}}]
 
 
 def _binding(value) -> object:
@@ -495,3 +495,36 @@ def test_imports_run_one_way_between_checks_loader_and_structure() -> None:
     assert "checks" not in imported("loader") | imported("structure")
     assert "loader" not in imported("structure")
     assert {"loader", "structure"} <= imported("checks")
+
+
+def test_extends_develops_another_module_s_undeveloped_element(tmp_path: Path) -> None:
+    """gsn2x's distributed development (its documentation's template and instance): the
+    template's undeveloped G1 is supported by the instance's G2 once both are in the case."""
+    write(
+        tmp_path,
+        "template.gsn.yaml",
+        "module: {name: template, brief: b}\nG0:\n  text: top\n  supportedBy: [G1]\n"
+        "G1:\n  text: for somebody else\n  undeveloped: true\n",
+    )
+    instance = (
+        "module:\n  name: instance\n  uses: [template.gsn.yaml]\n  extends:\n"
+        "    - module: template\n      develops: {G1: [G2]}\n"
+        "G2:\n  text: developed here\n  supportedBy: [Sn1]\nSn1: {text: a solution}\n"
+    )
+    case, findings = check_file(write(tmp_path, "instance.gsn.yaml", instance))
+    assert [f.code for f in findings] == ["CW011"]  # G2 is no second root: G1 names it
+    assert case.nodes["G1"].supported_by == ["G2"] and not case.nodes["G1"].undeveloped
+    # the export holds every module in one file: the development is written out, `extends`
+    # (of a module gsn2x would not find there) is not
+    document = gsn_document(case)
+    assert "extends" not in document["module"] and document["G1"]["supportedBy"] == ["G2"]
+    assert gsn2x_problems(document) == []
+    for develops, problem in (
+        ("{G9: [G2]}", "G9 is not a node of module template"),
+        ("{G0: [G2]}", "G0 is not undeveloped"),
+        ("{G1: [G7]}", "G7 (to develop G1) is not a node of module instance"),
+    ):
+        text = instance.replace("{G1: [G2]}", develops)
+        _, findings = check_file(write(tmp_path, "instance.gsn.yaml", text))
+        hits = [f for f in findings if f.code == "CW065"]
+        assert len(hits) == 1 and problem in hits[0].message and hits[0].line == 4, develops
