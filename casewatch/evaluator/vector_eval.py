@@ -45,10 +45,10 @@ from casewatch.spec.ast import (
     Signal,
     Span,
     Sum,
-    Term,
     Window,
     signals_of,
 )
+from casewatch.spec.visitor import Visitor
 
 INF = np.inf
 
@@ -108,8 +108,9 @@ def robustness(
     return out
 
 
-class _Evaluator:
-    """Robustness over the evaluated ticks only (compacted arrays)."""
+class _Evaluator(Visitor[np.ndarray]):
+    """Robustness over the evaluated ticks only (compacted arrays): a term's values, or a
+    formula's robustness, one case per node class."""
 
     def __init__(self, columns: Mapping[str, np.ndarray], segments: Segments, period: float):
         self.columns = columns
@@ -117,63 +118,80 @@ class _Evaluator:
         self.period = period
         self.n = len(segments.index)
 
-    def term(self, node: Term) -> np.ndarray:
-        if isinstance(node, Num):
-            return np.full(self.n, float(node.value))
-        if isinstance(node, Signal):
-            return self.columns[node.name]
-        if isinstance(node, Neg):
-            return -self.term(node.operand)
-        if isinstance(node, Abs):
-            return np.abs(self.term(node.operand))
-        if isinstance(node, Arith):
-            a, b = self.term(node.left), self.term(node.right)
-            ops: dict[str, Callable] = {
-                "+": np.add,
-                "-": np.subtract,
-                "*": np.multiply,
-                "/": np.divide,
-            }
-            with np.errstate(divide="ignore", invalid="ignore"):
-                return ops[node.op](a, b)
-        if isinstance(node, Sum):
-            return self._sum(node)
-        raise Unsupported(f"{type(node).__name__} is not a term")
-
     def formula(self, node: Formula) -> np.ndarray:
-        if isinstance(node, Compare):
-            a, b = self.term(node.left), self.term(node.right)
-            if node.op in (">=", ">"):
-                return a - b
-            if node.op in ("<=", "<"):
-                return b - a
-            return -np.abs(a - b) if node.op == "==" else np.abs(a - b)
-        if isinstance(node, Not):
-            return -self.formula(node.operand)
-        if isinstance(node, BoolOp):
-            a, b = self.formula(node.left), self.formula(node.right)
-            if node.op == "and":
-                return np.minimum(a, b)
-            if node.op == "or":
-                return np.maximum(a, b)
-            return np.maximum(-a, b)
-        if isinstance(node, Prev):
-            inner = self.formula(node.operand)
-            out = np.full(self.n, INF)
-            later = self.segments.position > 0
-            out[later] = inner[np.flatnonzero(later) - 1]
-            return out
-        if isinstance(node, Next):
-            inner = self.formula(node.operand)
-            out = np.full(self.n, -INF)
-            has_next = np.arange(self.n) + 1 < self.segments.end
-            out[has_next] = inner[np.flatnonzero(has_next) + 1]
-            return out
-        if isinstance(node, Window):
-            return self._window(node)
-        if isinstance(node, Span):
-            return self._span(node)
+        return self.visit(node)
+
+    def generic_visit(self, node: Node, *args: object) -> np.ndarray:
         raise Unsupported(f"operator {_name(node)}")
+
+    # -- terms ----------------------------------------------------------------------------
+
+    def visit_Num(self, node: Num) -> np.ndarray:
+        return np.full(self.n, float(node.value))
+
+    def visit_Signal(self, node: Signal) -> np.ndarray:
+        return self.columns[node.name]
+
+    def visit_Neg(self, node: Neg) -> np.ndarray:
+        return -self.visit(node.operand)
+
+    def visit_Abs(self, node: Abs) -> np.ndarray:
+        return np.abs(self.visit(node.operand))
+
+    def visit_Arith(self, node: Arith) -> np.ndarray:
+        a, b = self.visit(node.left), self.visit(node.right)
+        ops: dict[str, Callable] = {
+            "+": np.add,
+            "-": np.subtract,
+            "*": np.multiply,
+            "/": np.divide,
+        }
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return ops[node.op](a, b)
+
+    def visit_Sum(self, node: Sum) -> np.ndarray:
+        return self._sum(node)
+
+    # -- formulas -------------------------------------------------------------------------
+
+    def visit_Compare(self, node: Compare) -> np.ndarray:
+        a, b = self.visit(node.left), self.visit(node.right)
+        if node.op in (">=", ">"):
+            return a - b
+        if node.op in ("<=", "<"):
+            return b - a
+        return -np.abs(a - b) if node.op == "==" else np.abs(a - b)
+
+    def visit_Not(self, node: Not) -> np.ndarray:
+        return -self.visit(node.operand)
+
+    def visit_BoolOp(self, node: BoolOp) -> np.ndarray:
+        a, b = self.visit(node.left), self.visit(node.right)
+        if node.op == "and":
+            return np.minimum(a, b)
+        if node.op == "or":
+            return np.maximum(a, b)
+        return np.maximum(-a, b)
+
+    def visit_Prev(self, node: Prev) -> np.ndarray:
+        inner = self.visit(node.operand)
+        out = np.full(self.n, INF)
+        later = self.segments.position > 0
+        out[later] = inner[np.flatnonzero(later) - 1]
+        return out
+
+    def visit_Next(self, node: Next) -> np.ndarray:
+        inner = self.visit(node.operand)
+        out = np.full(self.n, -INF)
+        has_next = np.arange(self.n) + 1 < self.segments.end
+        out[has_next] = inner[np.flatnonzero(has_next) + 1]
+        return out
+
+    def visit_Window(self, node: Window) -> np.ndarray:
+        return self._window(node)
+
+    def visit_Span(self, node: Span) -> np.ndarray:
+        return self._span(node)
 
     def _shift(self, values: np.ndarray, k: int) -> np.ndarray:
         """`values` `k` samples earlier inside each segment, `+inf` before its start (`prev`)."""
@@ -187,7 +205,7 @@ class _Evaluator:
     def _sum(self, node: Sum) -> np.ndarray:
         """`e(t-a) + (e(t-a-1) + (... + e(t-b)))`: the additions in the order of rtamt's
         expansion (`spec.emit`), so the values are the same to the bit."""
-        inner = np.asarray(self.term(node.operand), dtype=float)
+        inner = np.asarray(self.visit(node.operand), dtype=float)
         lo, hi = self._samples(node.interval)
         total = self._shift(inner, hi)
         with np.errstate(invalid="ignore"):

@@ -54,6 +54,7 @@ from casewatch.spec.ast import (
 )
 from casewatch.spec.model import CompiledFormula
 from casewatch.spec.timing import bound_ticks
+from casewatch.spec.visitor import Visitor
 
 #: Name of the output variable every built monitor declares.
 OUTPUT_VAR = "robustness"
@@ -86,32 +87,48 @@ def interval_text(interval: Interval) -> str:
 
 def to_text(node: Node) -> str:
     """Fully parenthesised text in casewatch's own syntax; `parse_formula` reads it back equal."""
-    if isinstance(node, Num):
+    return _TextWriter().visit(node)
+
+
+class _TextWriter(Visitor[str]):
+    """casewatch's canonical syntax, one case per node class."""
+
+    def visit_Num(self, node: Num) -> str:
         return number_text(node.value)
-    if isinstance(node, Signal):
+
+    def visit_Signal(self, node: Signal) -> str:
         return node.name
-    if isinstance(node, Neg):
-        return f"(-{to_text(node.operand)})"
-    if isinstance(node, Abs):
-        return f"abs({to_text(node.operand)})"
-    if isinstance(node, Sum):
-        return f"sum{interval_text(node.interval)}({to_text(node.operand)})"
-    if isinstance(node, Arith | Compare):
-        return f"({to_text(node.left)} {node.op} {to_text(node.right)})"
-    if isinstance(node, Not):
-        return f"(not {to_text(node.operand)})"
-    if isinstance(node, BoolOp):
-        return f"({to_text(node.left)} {node.op} {to_text(node.right)})"
-    if isinstance(node, Prev | Next):
+
+    def visit_Neg(self, node: Neg) -> str:
+        return f"(-{self.visit(node.operand)})"
+
+    def visit_Abs(self, node: Abs) -> str:
+        return f"abs({self.visit(node.operand)})"
+
+    def visit_Sum(self, node: Sum) -> str:
+        return f"sum{interval_text(node.interval)}({self.visit(node.operand)})"
+
+    def visit_Arith(self, node: Arith | Compare | BoolOp) -> str:
+        return f"({self.visit(node.left)} {node.op} {self.visit(node.right)})"
+
+    visit_Compare = visit_BoolOp = visit_Arith
+
+    def visit_Not(self, node: Not) -> str:
+        return f"(not {self.visit(node.operand)})"
+
+    def visit_Prev(self, node: Prev | Next) -> str:
         word = "prev" if isinstance(node, Prev) else "next"
-        return f"({word} {to_text(node.operand)})"
-    if isinstance(node, Window):
+        return f"({word} {self.visit(node.operand)})"
+
+    visit_Next = visit_Prev
+
+    def visit_Window(self, node: Window) -> str:
         bounds = interval_text(node.interval) if node.interval else ""
-        return f"({node.op}{bounds} {to_text(node.operand)})"
-    if isinstance(node, Span):
+        return f"({node.op}{bounds} {self.visit(node.operand)})"
+
+    def visit_Span(self, node: Span) -> str:
         bounds = interval_text(node.interval) if node.interval else ""
-        return f"({to_text(node.left)} {node.op}{bounds} {to_text(node.right)})"
-    raise TypeError(f"not a formula node: {node!r}")
+        return f"({self.visit(node.left)} {node.op}{bounds} {self.visit(node.right)})"
 
 
 # ---- rtamt 0.4.10 text -------------------------------------------------------------------
@@ -136,7 +153,7 @@ def sum_ticks(node: Sum, period: Fraction | None) -> tuple[int, int]:
     return lo, hi
 
 
-class _RtamtEmitter:
+class _RtamtEmitter(Visitor[str]):
     """One emission: remembers the stateful subformulas already written.
 
     rtamt 0.4.10 keeps the state of each temporal operator under the operator's printed name,
@@ -153,46 +170,60 @@ class _RtamtEmitter:
         self.period = period
 
     def emit(self, node: Node) -> str:
-        if isinstance(node, Num):
-            return number_text(node.value)
-        if isinstance(node, Signal):
-            return node.name
-        if isinstance(node, Neg):
-            if isinstance(node.operand, Num):
-                # fence: rtamt only knows signed literals; the parentheses keep `x - (-1.0)` legal
-                return f"(-{number_text(node.operand.value)})"
-            return f"(0.0 - {self.emit(node.operand)})"
-        if isinstance(node, Abs):
-            return f"abs({self.emit(node.operand)})"
-        if isinstance(node, Sum):
-            return self._sum(node)
-        if isinstance(node, Arith):
-            right = self.emit(node.right)
-            if node.op == "-" and isinstance(node.right, Num):
-                right = f"({right})"  # fence: `x - 1` does not parse in rtamt 0.4.10
-            return f"({self.emit(node.left)} {node.op} {right})"
-        if isinstance(node, Compare):
-            op = "!==" if node.op == "!=" else node.op
-            return f"({self.emit(node.left)} {op} {self.emit(node.right)})"
-        if isinstance(node, Not):
-            return f"(not {self.emit(node.operand)})"
-        if isinstance(node, BoolOp):
-            return f"({self.emit(node.left)} {node.op} {self.emit(node.right)})"
-        if isinstance(node, Prev | Next):
-            word = "prev" if isinstance(node, Prev) else "next"
-            return self._unique(lambda operand: f"({word} {operand})", self.emit(node.operand))
-        if isinstance(node, Window):
-            bounds = interval_text(node.interval) if node.interval else ""
-            return self._unique(
-                lambda operand: f"({node.op}{bounds} {operand})", self.emit(node.operand)
-            )
-        if isinstance(node, Span):
-            bounds = interval_text(node.interval) if node.interval else ""
-            left = self.emit(node.left)
-            return self._unique(
-                lambda operand: f"({left} {node.op}{bounds} {operand})", self.emit(node.right)
-            )
-        raise TypeError(f"not a formula node: {node!r}")
+        return self.visit(node)
+
+    def visit_Num(self, node: Num) -> str:
+        return number_text(node.value)
+
+    def visit_Signal(self, node: Signal) -> str:
+        return node.name
+
+    def visit_Neg(self, node: Neg) -> str:
+        if isinstance(node.operand, Num):
+            # fence: rtamt only knows signed literals; the parentheses keep `x - (-1.0)` legal
+            return f"(-{number_text(node.operand.value)})"
+        return f"(0.0 - {self.visit(node.operand)})"
+
+    def visit_Abs(self, node: Abs) -> str:
+        return f"abs({self.visit(node.operand)})"
+
+    def visit_Sum(self, node: Sum) -> str:
+        return self._sum(node)
+
+    def visit_Arith(self, node: Arith) -> str:
+        right = self.visit(node.right)
+        if node.op == "-" and isinstance(node.right, Num):
+            right = f"({right})"  # fence: `x - 1` does not parse in rtamt 0.4.10
+        return f"({self.visit(node.left)} {node.op} {right})"
+
+    def visit_Compare(self, node: Compare) -> str:
+        op = "!==" if node.op == "!=" else node.op
+        return f"({self.visit(node.left)} {op} {self.visit(node.right)})"
+
+    def visit_Not(self, node: Not) -> str:
+        return f"(not {self.visit(node.operand)})"
+
+    def visit_BoolOp(self, node: BoolOp) -> str:
+        return f"({self.visit(node.left)} {node.op} {self.visit(node.right)})"
+
+    def visit_Prev(self, node: Prev | Next) -> str:
+        word = "prev" if isinstance(node, Prev) else "next"
+        return self._unique(lambda operand: f"({word} {operand})", self.visit(node.operand))
+
+    visit_Next = visit_Prev
+
+    def visit_Window(self, node: Window) -> str:
+        bounds = interval_text(node.interval) if node.interval else ""
+        return self._unique(
+            lambda operand: f"({node.op}{bounds} {operand})", self.visit(node.operand)
+        )
+
+    def visit_Span(self, node: Span) -> str:
+        bounds = interval_text(node.interval) if node.interval else ""
+        left = self.visit(node.left)
+        return self._unique(
+            lambda operand: f"({left} {node.op}{bounds} {operand})", self.visit(node.right)
+        )
 
     def _unique(self, shape: Callable[[str], str], operand: str, term: bool = False) -> str:
         text = shape(operand)

@@ -46,11 +46,12 @@ from casewatch.spec.ast import (
     Window,
 )
 from casewatch.spec.emit import period_fraction
+from casewatch.spec.visitor import Visitor
 
 INF = math.inf
 
 
-class ReferenceEvaluator:
+class ReferenceEvaluator(Visitor[float]):
     """Robustness of a formula at every sample of a trace (dict of equal-length lists)."""
 
     def __init__(self, trace: Mapping[str, Sequence[float]], period: float):
@@ -71,66 +72,80 @@ class ReferenceEvaluator:
         return int(lo), int(hi)
 
     def term(self, node: Term, t: int) -> float:
-        if isinstance(node, Num):
-            return node.value
-        if isinstance(node, Signal):
-            return float(self.trace[node.name][t])
-        if isinstance(node, Neg):
-            return -self.term(node.operand, t)
-        if isinstance(node, Abs):
-            return abs(self.term(node.operand, t))
-        if isinstance(node, Arith):
-            a, b = self.term(node.left, t), self.term(node.right, t)
-            if node.op == "+":
-                return a + b
-            if node.op == "-":
-                return a - b
-            if node.op == "*":
-                return a * b
-            return a / b
-        if isinstance(node, Sum):
-            lo, hi = self._ticks(node.interval)
-            assert hi is not None
-            total = INF if t - hi < 0 else self.term(node.operand, t - hi)
-            for k in range(hi - 1, lo - 1, -1):
-                total = (INF if t - k < 0 else self.term(node.operand, t - k)) + total
-            return total
-        raise TypeError(node)
+        return self.visit(node, t)
 
     def robustness(self, node: Formula, t: int) -> float:
         key = (id(node), t)
         if key not in self._memo:
-            self._memo[key] = self._robustness(node, t)
+            self._memo[key] = self.visit(node, t)
         return self._memo[key]
 
-    def _robustness(self, node: Formula, t: int) -> float:
-        if isinstance(node, Compare):
-            a, b = self.term(node.left, t), self.term(node.right, t)
-            if node.op in (">=", ">"):
-                return a - b
-            if node.op in ("<=", "<"):
-                return b - a
-            if node.op == "==":
-                return -abs(a - b)
-            return abs(a - b)
-        if isinstance(node, Not):
-            return -self.robustness(node.operand, t)
-        if isinstance(node, BoolOp):
-            a, b = self.robustness(node.left, t), self.robustness(node.right, t)
-            if node.op == "and":
-                return min(a, b)
-            if node.op == "or":
-                return max(a, b)
-            return max(-a, b)
-        if isinstance(node, Prev):
-            return INF if t == 0 else self.robustness(node.operand, t - 1)
-        if isinstance(node, Next):
-            return -INF if t + 1 >= self.n else self.robustness(node.operand, t + 1)
-        if isinstance(node, Window):
-            return self._window(node, t)
-        if isinstance(node, Span):
-            return self._span(node, t)
-        raise TypeError(node)
+    # -- terms: their value at sample t -----------------------------------------------------
+
+    def visit_Num(self, node: Num, t: int) -> float:
+        return node.value
+
+    def visit_Signal(self, node: Signal, t: int) -> float:
+        return float(self.trace[node.name][t])
+
+    def visit_Neg(self, node: Neg, t: int) -> float:
+        return -self.term(node.operand, t)
+
+    def visit_Abs(self, node: Abs, t: int) -> float:
+        return abs(self.term(node.operand, t))
+
+    def visit_Arith(self, node: Arith, t: int) -> float:
+        a, b = self.term(node.left, t), self.term(node.right, t)
+        if node.op == "+":
+            return a + b
+        if node.op == "-":
+            return a - b
+        if node.op == "*":
+            return a * b
+        return a / b
+
+    def visit_Sum(self, node: Sum, t: int) -> float:
+        lo, hi = self._ticks(node.interval)
+        assert hi is not None
+        total = INF if t - hi < 0 else self.term(node.operand, t - hi)
+        for k in range(hi - 1, lo - 1, -1):
+            total = (INF if t - k < 0 else self.term(node.operand, t - k)) + total
+        return total
+
+    # -- formulas: their robustness at sample t ---------------------------------------------
+
+    def visit_Compare(self, node: Compare, t: int) -> float:
+        a, b = self.term(node.left, t), self.term(node.right, t)
+        if node.op in (">=", ">"):
+            return a - b
+        if node.op in ("<=", "<"):
+            return b - a
+        if node.op == "==":
+            return -abs(a - b)
+        return abs(a - b)
+
+    def visit_Not(self, node: Not, t: int) -> float:
+        return -self.robustness(node.operand, t)
+
+    def visit_BoolOp(self, node: BoolOp, t: int) -> float:
+        a, b = self.robustness(node.left, t), self.robustness(node.right, t)
+        if node.op == "and":
+            return min(a, b)
+        if node.op == "or":
+            return max(a, b)
+        return max(-a, b)
+
+    def visit_Prev(self, node: Prev, t: int) -> float:
+        return INF if t == 0 else self.robustness(node.operand, t - 1)
+
+    def visit_Next(self, node: Next, t: int) -> float:
+        return -INF if t + 1 >= self.n else self.robustness(node.operand, t + 1)
+
+    def visit_Window(self, node: Window, t: int) -> float:
+        return self._window(node, t)
+
+    def visit_Span(self, node: Span, t: int) -> float:
+        return self._span(node, t)
 
     def _window(self, node: Window, t: int) -> float:
         lo, hi = self._ticks(node.interval)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 from fractions import Fraction
+from typing import TypeVar
 
 from casewatch.spec.ast import (
     Abs,
@@ -30,6 +31,9 @@ from casewatch.spec.ast import (
     Window,
     future_operators,
 )
+from casewatch.spec.visitor import Visitor
+
+R = TypeVar("R")
 
 
 def bound_ticks(seconds: Fraction, period: Fraction) -> int | None:
@@ -54,27 +58,52 @@ def _ticks(interval: Interval, period: Fraction) -> tuple[int, int]:
 def past_horizon(node: Node, period: Fraction) -> int:
     """Samples of history the formula reads at most (unbounded operators add nothing: they read
     from the start of the stream, which no warm-up can fill)."""
-    if isinstance(node, Num | Signal):
+    return _PastHorizon(period).visit(node)
+
+
+class _Pass(Visitor[R]):
+    """A timing pass: the sampling period, and a node's bounds in samples."""
+
+    def __init__(self, period: Fraction):
+        self.period = period
+
+    def ticks(self, interval: Interval) -> tuple[int, int]:
+        return _ticks(interval, self.period)
+
+
+class _PastHorizon(_Pass[int]):
+    def visit_Num(self, node: Num | Signal) -> int:
         return 0
-    if isinstance(node, Neg | Abs | Not | Next):
-        return past_horizon(node.operand, period)
-    if isinstance(node, Arith | Compare | BoolOp):
-        return max(past_horizon(node.left, period), past_horizon(node.right, period))
-    if isinstance(node, Prev):
-        return 1 + past_horizon(node.operand, period)
-    if isinstance(node, Sum):
-        return _ticks(node.interval, period)[1] + past_horizon(node.operand, period)
-    if isinstance(node, Window):
-        inner = past_horizon(node.operand, period)
+
+    visit_Signal = visit_Num
+
+    def visit_Neg(self, node: Neg | Abs | Not | Next) -> int:
+        return self.visit(node.operand)
+
+    visit_Abs = visit_Not = visit_Next = visit_Neg
+
+    def visit_Arith(self, node: Arith | Compare | BoolOp) -> int:
+        return max(self.visit(node.left), self.visit(node.right))
+
+    visit_Compare = visit_BoolOp = visit_Arith
+
+    def visit_Prev(self, node: Prev) -> int:
+        return 1 + self.visit(node.operand)
+
+    def visit_Sum(self, node: Sum) -> int:
+        return self.ticks(node.interval)[1] + self.visit(node.operand)
+
+    def visit_Window(self, node: Window) -> int:
+        inner = self.visit(node.operand)
         if node.interval is None or node.op not in ("once", "historically"):
             return inner
-        return _ticks(node.interval, period)[1] + inner
-    if isinstance(node, Span):
-        inner = max(past_horizon(node.left, period), past_horizon(node.right, period))
+        return self.ticks(node.interval)[1] + inner
+
+    def visit_Span(self, node: Span) -> int:
+        inner = max(self.visit(node.left), self.visit(node.right))
         if node.interval is None or node.op != "since":
             return inner
-        return _ticks(node.interval, period)[1] + inner
-    raise TypeError(node)
+        return self.ticks(node.interval)[1] + inner
 
 
 def sum_warmup(node: Node, period: Fraction) -> int:
@@ -92,67 +121,96 @@ def sum_warmup(node: Node, period: Fraction) -> int:
 
 def _sum_depth(node: Node, period: Fraction) -> int | None:
     """How far before `t` the deepest `sum` window under `node` reaches (None: no `sum`)."""
+    return _SumDepth(period).visit(node)
 
-    def deepest(*depths: int | None) -> int | None:
-        found = [d for d in depths if d is not None]
-        return max(found) if found else None
 
-    def shifted(depth: int | None, by: int) -> int | None:
-        return None if depth is None else depth + by
+def _deepest(*depths: int | None) -> int | None:
+    found = [d for d in depths if d is not None]
+    return max(found) if found else None
 
-    if isinstance(node, Num | Signal):
+
+def _shifted(depth: int | None, by: int) -> int | None:
+    return None if depth is None else depth + by
+
+
+class _SumDepth(_Pass[int | None]):
+    def visit_Num(self, node: Num | Signal) -> int | None:
         return None
-    if isinstance(node, Sum):
-        return _ticks(node.interval, period)[1] + (_sum_depth(node.operand, period) or 0)
-    if isinstance(node, Neg | Abs | Not):
-        return _sum_depth(node.operand, period)
-    if isinstance(node, Arith | Compare | BoolOp):
-        return deepest(_sum_depth(node.left, period), _sum_depth(node.right, period))
-    if isinstance(node, Prev | Next):
-        return shifted(_sum_depth(node.operand, period), 1 if isinstance(node, Prev) else -1)
-    if isinstance(node, Window):
-        inner = _sum_depth(node.operand, period)
+
+    visit_Signal = visit_Num
+
+    def visit_Sum(self, node: Sum) -> int | None:
+        return self.ticks(node.interval)[1] + (self.visit(node.operand) or 0)
+
+    def visit_Neg(self, node: Neg | Abs | Not) -> int | None:
+        return self.visit(node.operand)
+
+    visit_Abs = visit_Not = visit_Neg
+
+    def visit_Arith(self, node: Arith | Compare | BoolOp) -> int | None:
+        return _deepest(self.visit(node.left), self.visit(node.right))
+
+    visit_Compare = visit_BoolOp = visit_Arith
+
+    def visit_Prev(self, node: Prev | Next) -> int | None:
+        return _shifted(self.visit(node.operand), 1 if isinstance(node, Prev) else -1)
+
+    visit_Next = visit_Prev
+
+    def visit_Window(self, node: Window) -> int | None:
+        inner = self.visit(node.operand)
         if node.interval is None:
             return inner
-        lo, hi = _ticks(node.interval, period)
-        return shifted(inner, hi if node.op in ("once", "historically") else -lo)
-    if isinstance(node, Span):
-        inner = deepest(_sum_depth(node.left, period), _sum_depth(node.right, period))
+        lo, hi = self.ticks(node.interval)
+        return _shifted(inner, hi if node.op in ("once", "historically") else -lo)
+
+    def visit_Span(self, node: Span) -> int | None:
+        inner = _deepest(self.visit(node.left), self.visit(node.right))
         if node.interval is None:
             return inner
-        lo, hi = _ticks(node.interval, period)
+        lo, hi = self.ticks(node.interval)
         if node.op == "since":
-            return shifted(inner, hi)
+            return _shifted(inner, hi)
         # until: the right operand from t + lo, the left from t
-        return deepest(_sum_depth(node.left, period), shifted(_sum_depth(node.right, period), -lo))
-    raise TypeError(node)
+        return _deepest(self.visit(node.left), _shifted(self.visit(node.right), -lo))
 
 
 def future_depth(node: Node, period: Fraction) -> int:
     """Samples ahead of `t` the formula needs to be known at `t` (0 for a causal formula)."""
-    if isinstance(node, Num | Signal | Compare | Arith | Neg | Abs | Sum):
+    return _FutureDepth(period).visit(node)
+
+
+class _FutureDepth(_Pass[int]):
+    def visit_Num(self, node: Num | Signal | Compare | Arith | Neg | Abs | Sum) -> int:
         return 0  # terms have no future operators
-    if isinstance(node, Not):
-        return future_depth(node.operand, period)
-    if isinstance(node, BoolOp):
-        return max(future_depth(node.left, period), future_depth(node.right, period))
-    if isinstance(node, Prev):
-        return max(0, future_depth(node.operand, period) - 1)
-    if isinstance(node, Next):
-        return future_depth(node.operand, period) + 1
-    if isinstance(node, Window):
-        inner = future_depth(node.operand, period)
-        lo, hi = _ticks(node.interval, period) if node.interval else (0, 0)
+
+    visit_Signal = visit_Compare = visit_Arith = visit_Neg = visit_Abs = visit_Sum = visit_Num
+
+    def visit_Not(self, node: Not) -> int:
+        return self.visit(node.operand)
+
+    def visit_BoolOp(self, node: BoolOp) -> int:
+        return max(self.visit(node.left), self.visit(node.right))
+
+    def visit_Prev(self, node: Prev) -> int:
+        return max(0, self.visit(node.operand) - 1)
+
+    def visit_Next(self, node: Next) -> int:
+        return self.visit(node.operand) + 1
+
+    def visit_Window(self, node: Window) -> int:
+        inner = self.visit(node.operand)
+        lo, hi = self.ticks(node.interval) if node.interval else (0, 0)
         if node.op in ("eventually", "always"):
             return hi + inner
         return max(0, inner - lo)
-    if isinstance(node, Span):
-        left, right = future_depth(node.left, period), future_depth(node.right, period)
-        lo, hi = _ticks(node.interval, period) if node.interval else (0, 0)
+
+    def visit_Span(self, node: Span) -> int:
+        left, right = self.visit(node.left), self.visit(node.right)
+        lo, hi = self.ticks(node.interval) if node.interval else (0, 0)
         if node.op == "until":
             return hi + max(left, right)
         return max(left, right - lo)
-    raise TypeError(node)
 
 
 def _interval(lo: int, hi: int, period: Fraction) -> Interval:
@@ -214,23 +272,34 @@ def delay(formula: Formula, ticks: int, period: Fraction) -> Formula | None:
 def future_reach(node: Node, period: Fraction) -> int:
     """Like `future_depth` but never crediting `prev` or a window's lower bound: a delay of at
     least this many samples always has a past-time form (see `past_form`)."""
-    if isinstance(node, Compare):
-        return 0
-    if isinstance(node, Not | Prev):
-        return future_reach(node.operand, period)
-    if isinstance(node, Next):
-        return 1 + future_reach(node.operand, period)
-    if isinstance(node, Window):
-        inner = future_reach(node.operand, period)
+    return _FutureReach(period).visit(node)
+
+
+class _FutureReach(_Pass[int]):
+    def generic_visit(self, node: Node, *args: object) -> int:
+        return 0  # a comparison and the terms under it look no further than `t`
+
+    def visit_Not(self, node: Not | Prev) -> int:
+        return self.visit(node.operand)
+
+    visit_Prev = visit_Not
+
+    def visit_Next(self, node: Next) -> int:
+        return 1 + self.visit(node.operand)
+
+    def visit_Window(self, node: Window) -> int:
+        inner = self.visit(node.operand)
         if node.op in ("eventually", "always") and node.interval is not None:
-            return _ticks(node.interval, period)[1] + inner
+            return self.ticks(node.interval)[1] + inner
         return inner
-    if isinstance(node, BoolOp | Span):
-        inner = max(future_reach(node.left, period), future_reach(node.right, period))
+
+    def visit_BoolOp(self, node: BoolOp | Span) -> int:
+        inner = max(self.visit(node.left), self.visit(node.right))
         if isinstance(node, Span) and node.op == "until" and node.interval is not None:
-            return _ticks(node.interval, period)[1] + inner
+            return self.ticks(node.interval)[1] + inner
         return inner
-    return 0
+
+    visit_Span = visit_BoolOp
 
 
 def past_form(formula: Formula, period: Fraction) -> tuple[Formula, int] | None:

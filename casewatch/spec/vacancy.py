@@ -18,22 +18,15 @@ from __future__ import annotations
 from fractions import Fraction
 
 from casewatch.spec.ast import (
-    Abs,
-    Arith,
     BoolOp,
-    Compare,
-    Neg,
-    Next,
     Node,
     Not,
-    Num,
     Prev,
-    Signal,
     Span,
-    Sum,
     Window,
 )
 from casewatch.spec.timing import bound_ticks
+from casewatch.spec.visitor import Visitor
 
 INF = float("inf")
 
@@ -78,24 +71,7 @@ class _Vacancy:
         return self._reach[key]
 
     def _reach_of(self, node: Node) -> int:
-        if isinstance(node, Num | Signal | Compare | Arith | Neg | Abs | Sum | Next):
-            return 0
-        if isinstance(node, Not):
-            return self.reach(node.operand)
-        if isinstance(node, BoolOp):
-            return max(self.reach(node.left), self.reach(node.right))
-        if isinstance(node, Prev):
-            return 1 + self.reach(node.operand)
-        if isinstance(node, Window):
-            if node.op not in ("once", "historically"):
-                return 0
-            lo = self._ticks(node.interval.lo) if node.interval else 0
-            return min(lo + self.reach(node.operand), MAX_EXAMINED)
-        if isinstance(node, Span):
-            if node.op != "since" or node.interval is None:
-                return 0
-            return self._ticks(node.interval.lo)
-        return 0
+        return _Reach(self).visit(node)
 
     def value(self, node: Node, k: int) -> Fixed:
         if k >= self.reach(node):
@@ -106,23 +82,7 @@ class _Vacancy:
         return self._memo[key]
 
     def _value(self, node: Node, k: int) -> Fixed:
-        if isinstance(node, Not):
-            inner = self.value(node.operand, k)
-            return None if inner is None else -inner
-        if isinstance(node, BoolOp):
-            left, right = self.value(node.left, k), self.value(node.right, k)
-            if node.op == "implies":
-                left = None if left is None else -left
-            if node.op == "and":
-                return _and(left, right)
-            return _or(left, right)
-        if isinstance(node, Prev):
-            return INF if k == 0 else self.value(node.operand, k - 1)
-        if isinstance(node, Window):
-            return self._window(node, k)
-        if isinstance(node, Span):  # since[a:b] at k < a: no sample s in k-b .. k-a
-            return -INF
-        return None
+        return _Value(self).visit(node, k)
 
     def _window(self, node: Window, k: int) -> Fixed:
         once = node.op == "once"
@@ -141,6 +101,67 @@ class _Vacancy:
         if -INF in fixed:
             return -INF
         return INF if complete and all(v == INF for v in fixed) else None
+
+
+class _Reach(Visitor[int]):
+    """`_Vacancy.reach` by node class: how many samples after a restart can fix a node."""
+
+    def __init__(self, analysis: _Vacancy):
+        self.analysis = analysis
+
+    def generic_visit(self, node: Node, *args: object) -> int:
+        return 0  # terms, comparisons and `next` read the data at once
+
+    def visit_Not(self, node: Not) -> int:
+        return self.analysis.reach(node.operand)
+
+    def visit_BoolOp(self, node: BoolOp) -> int:
+        return max(self.analysis.reach(node.left), self.analysis.reach(node.right))
+
+    def visit_Prev(self, node: Prev) -> int:
+        return 1 + self.analysis.reach(node.operand)
+
+    def visit_Window(self, node: Window) -> int:
+        if node.op not in ("once", "historically"):
+            return 0
+        lo = self.analysis._ticks(node.interval.lo) if node.interval else 0
+        return min(lo + self.analysis.reach(node.operand), MAX_EXAMINED)
+
+    def visit_Span(self, node: Span) -> int:
+        if node.op != "since" or node.interval is None:
+            return 0
+        return self.analysis._ticks(node.interval.lo)
+
+
+class _Value(Visitor[Fixed]):
+    """`_Vacancy.value` by node class: a node's fixed value `k` samples after a restart."""
+
+    def __init__(self, analysis: _Vacancy):
+        self.analysis = analysis
+
+    def generic_visit(self, node: Node, *args: object) -> Fixed:
+        return None  # depends on the data
+
+    def visit_Not(self, node: Not, k: int) -> Fixed:
+        inner = self.analysis.value(node.operand, k)
+        return None if inner is None else -inner
+
+    def visit_BoolOp(self, node: BoolOp, k: int) -> Fixed:
+        left, right = self.analysis.value(node.left, k), self.analysis.value(node.right, k)
+        if node.op == "implies":
+            left = None if left is None else -left
+        if node.op == "and":
+            return _and(left, right)
+        return _or(left, right)
+
+    def visit_Prev(self, node: Prev, k: int) -> Fixed:
+        return INF if k == 0 else self.analysis.value(node.operand, k - 1)
+
+    def visit_Window(self, node: Window, k: int) -> Fixed:
+        return self.analysis._window(node, k)
+
+    def visit_Span(self, node: Span, k: int) -> Fixed:
+        return -INF  # since[a:b] at k < a: no sample s in k-b .. k-a
 
 
 def _and(left: Fixed, right: Fixed) -> Fixed:
