@@ -10,14 +10,18 @@ from casewatch.batch import FleetError, read_summary
 from casewatch.errors import CasewatchError
 from casewatch.safety_case.findings import CaseError
 from casewatch.safety_case.model import Case
+from casewatch.safety_case.structure import unmonitored_reason
 from casewatch.spec.model import CompiledSpec
 
 
 def prepare_case(command: str, path: str) -> tuple[Case, CompiledSpec] | None:
     """The case and its compiled formulas; None (exit 2) after printing every finding of a
-    case with errors."""
+    case with errors. A case that binds no evidence is said to judge nothing (docs/gsn2x.md)."""
     try:
-        return api.prepare(path)
+        prepared = api.prepare(path)
+        if prepared[0].monitor.channels and (reason := unmonitored_reason(prepared[0])):
+            print(f"casewatch {command}: {path}: {reason}", file=sys.stderr)
+        return prepared
     except CaseError as exc:
         for finding in exc.findings:
             print(finding.format(), file=sys.stderr)

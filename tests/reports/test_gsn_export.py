@@ -9,6 +9,7 @@ import yaml
 
 from casewatch.cli import main
 from casewatch.reports.gsn_export import CSS_NAME, gsn_document, status_class
+from casewatch.safety_case.gsn2x_schema import gsn2x_problems
 from casewatch.safety_case.loader import require_case
 from casewatch.spec.compiler import compile_case
 
@@ -75,6 +76,21 @@ def test_the_export_is_plain_gsn2x(tmp_path: Path) -> None:
     assert kept["monitor"]["channels"] == ["lav", "tfuse"]
 
 
+def test_the_export_is_gsn2x_input_by_gsn2x_s_rules() -> None:
+    """Checked against the schema of gsn2x's format (safety_case.gsn2x_schema): in particular
+    `challenges` is one node, as gsn2x's parser takes it, never a list."""
+    for path in CASES:
+        doc = gsn_document(require_case(path))
+        assert gsn2x_problems(doc) == [], path
+        challenging = {k: v["challenges"] for k, v in doc.items() if "challenges" in v}
+        assert challenging and all(isinstance(t, str) for t in challenging.values())
+    doc = gsn_document(require_case(CASES[0]))
+    assert (doc["CSn1"]["challenges"], doc["CSn2"]["challenges"]) == ("G2", "G5")
+    # a list gsn2x cannot hold is refused by the schema, so the check above can fail
+    doc["CSn1"]["challenges"] = ["G2"]
+    assert gsn2x_problems(doc) == ["CSn1: challenges: Input should be a valid string"]
+
+
 def test_a_run_puts_each_node_s_worst_status_in_its_classes(tmp_path: Path, capsys) -> None:
     run = tmp_path / "run"
     drive = REPO / "examples/data/highway-tailgating.jsonl.gz"
@@ -88,6 +104,7 @@ def test_a_run_puts_each_node_s_worst_status_in_its_classes(tmp_path: Path, caps
     }
     for node_id, status in worst.items():
         assert doc[node_id]["classes"] == [status_class(status)], node_id
+    assert gsn2x_problems(doc) == []
     assert worst["G1"] in ("undermined", "violated")
     css = (tmp_path / "out" / CSS_NAME).read_text()
     assert f".{status_class(worst['G1'])} rect" in css

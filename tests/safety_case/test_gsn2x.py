@@ -528,3 +528,21 @@ def test_extends_develops_another_module_s_undeveloped_element(tmp_path: Path) -
         _, findings = check_file(write(tmp_path, "instance.gsn.yaml", text))
         hits = [f for f in findings if f.code == "CW065"]
         assert len(hits) == 1 and problem in hits[0].message and hits[0].line == 4, develops
+
+
+def test_a_command_that_prepares_a_case_says_when_it_judges_nothing(tmp_path: Path, capsys) -> None:
+    """`casewatch run` (and tune, calibrate) on a monitored case that binds no evidence: the
+    run goes on (its root goal is `external`, no verdict), and stderr says why."""
+    from casewatch.commands.common import prepare_case
+
+    head = "module: {name: m}\nmonitor: {channels: [a, b]}\n"
+    bare = write(
+        tmp_path, "bare.yaml", head + "G1: {text: t, supportedBy: [Sn1]}\nSn1: {text: e}\n"
+    )
+    assert prepare_case("run", str(bare)) is not None
+    assert capsys.readouterr().err == (
+        f"casewatch run: {bare}: nothing is monitored: no solution has an `spi` or `contract` "
+        "and no counter solution a `hazard`, so a run judges none of its claims (docs/gsn2x.md)\n"
+    )
+    assert prepare_case("run", str(REPO / "examples" / "reference-case.yaml")) is not None
+    assert capsys.readouterr().err == ""
