@@ -17,6 +17,7 @@ import math
 import numpy as np
 
 from casewatch.monitor.frames import Coverage, Ego, Objects
+from casewatch.monitor.jit import kernel
 
 #: Resolution [m] of the edge tests: a point on an edge is inside whatever the rounding of
 #: arctan2 and sin in the numpy build at hand (one build put a point on the edge ray 4e-15 m
@@ -41,17 +42,59 @@ def inside(coverage: Coverage, ego: Ego, pos: np.ndarray, margin: float) -> np.n
     return keep
 
 
+@kernel
+def _flags(pos, views):  # pragma: no cover - compiled
+    """`inside` of every view for the outer (margin -m) and the core (margin m) test at once.
+
+    views (V, 7): ego x, y, yaw, then range_m + m + EDGE_EPS, range_m - m + EDGE_EPS, half
+    the field of view in radians (inf: all-round in angle), m. The thresholds are computed by
+    the caller in `inside`'s own order of operations, so each flag is `inside`'s, bit for bit.
+    Returns (outer, core), each (K,) bool."""
+    k = pos.shape[0]
+    outer = np.ones(k, dtype=np.bool_)
+    core = np.ones(k, dtype=np.bool_)
+    for v in range(views.shape[0]):
+        ex, ey, yaw = views[v, 0], views[v, 1], views[v, 2]
+        reach_out, reach_core, half_fov, m = views[v, 3], views[v, 4], views[v, 5], views[v, 6]
+        for i in range(k):
+            rx = pos[i, 0] - ex
+            ry = pos[i, 1] - ey
+            r = np.hypot(rx, ry)
+            keep_out = r <= reach_out
+            keep_core = r <= reach_core
+            if half_fov != np.inf:
+                bearing = np.arctan2(ry, rx) - yaw
+                bearing = np.abs((bearing + np.pi) % (2.0 * np.pi) - np.pi)
+                to_edge = min(max(half_fov - bearing, -np.pi / 2), np.pi / 2)
+                side = r * np.sin(to_edge)
+                keep_out = keep_out and side >= -m - EDGE_EPS
+                keep_core = keep_core and side >= m - EDGE_EPS
+            outer[i] = outer[i] and keep_out
+            core[i] = core[i] and keep_core
+    return outer, core
+
+
 def _view(
     objects: Objects, views: tuple[tuple[Coverage, Ego], ...], margin: float
 ) -> tuple[Objects, np.ndarray]:
     """The objects inside every coverage grown by `margin`, and which of them lie inside every
-    coverage shrunk by it (the core)."""
-    outer = np.ones(len(objects), dtype=bool)
-    core = np.ones(len(objects), dtype=bool)
-    for cov, ego in views:
-        if not cov.all_round and len(objects):
-            outer &= inside(cov, ego, objects.pos, -margin)
-            core &= inside(cov, ego, objects.pos, margin)
+    coverage shrunk by it (the core): `inside` of each coverage, in one compiled call."""
+    rows = [
+        (
+            ego.x,
+            ego.y,
+            ego.yaw,
+            cov.range_m - -margin + EDGE_EPS,
+            cov.range_m - margin + EDGE_EPS,
+            math.radians(cov.fov_deg) / 2.0 if cov.fov_deg < 360.0 else math.inf,
+            margin,
+        )
+        for cov, ego in views
+        if not cov.all_round
+    ]
+    if not rows or not len(objects):
+        return objects, np.ones(len(objects), dtype=bool)
+    outer, core = _flags(objects.pos, np.array(rows))
     if outer.all():
         return objects, core
     return objects.subset(outer), core[outer]

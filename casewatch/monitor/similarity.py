@@ -510,24 +510,68 @@ def plan_lateral(
     reads as the same shape; this is the signal that sees it."""
     if len(plan_a) == 0 or len(plan_b) == 0:
         return None
-    a, b = common_range(plan_a, plan_b)
-    n = min(int(np.count_nonzero(a[:, 0] <= horizon + 1e-9)), len(b))
-    if n == 0:
-        return None
-    pa, pb = a[:n, 1:3], b[:n, 1:3] + np.asarray(shift)
-    direction = np.zeros((n, 2))
-    if n > 1:
-        for p in (pa, pb):
-            t = np.gradient(p, axis=0)
-            norm = np.hypot(t[:, 0], t[:, 1])
-            direction += t / np.where(norm > 1e-3, norm, np.inf)[:, None]
-    norm = np.hypot(direction[:, 0], direction[:, 1])
     fallback = np.array(
         [math.cos(yaws[0]) + math.cos(yaws[1]), math.sin(yaws[0]) + math.sin(yaws[1])]
     )
     fallback /= max(float(np.hypot(*fallback)), 1e-12)
-    moving = norm > 1e-3
-    ux = np.where(moving, direction[:, 0] / np.where(moving, norm, 1.0), fallback[0])
-    uy = np.where(moving, direction[:, 1] / np.where(moving, norm, 1.0), fallback[1])
-    d = pb - pa
-    return float(np.max(np.abs(d[:, 1] * ux - d[:, 0] * uy)))
+    value = _plan_lateral_kernel(
+        plan_a, plan_b, shift[0], shift[1], fallback[0], fallback[1], horizon
+    )
+    return None if math.isnan(value) else value
+
+
+@kernel
+def _plan_lateral_kernel(plan_a, plan_b, shift_x, shift_y, fall_x, fall_y, horizon):
+    """`plan_lateral` on non-empty plans in one compiled pass (NaN: no common time). The
+    tangents are `np.gradient`'s (one-sided at the ends, central inside: (f[i+1] - f[i-1]) /
+    2), so each value is the numpy formulation's, bit for bit (the tests hold it to it)."""
+    lo = max(plan_a[0, 0], plan_b[0, 0]) - 1e-9
+    hi = min(plan_a[-1, 0], plan_b[-1, 0]) + 1e-9
+    a0 = np.searchsorted(plan_a[:, 0], lo)
+    a1 = np.searchsorted(plan_a[:, 0], hi, side="right")
+    b0 = np.searchsorted(plan_b[:, 0], lo)
+    b1 = np.searchsorted(plan_b[:, 0], hi, side="right")
+    n = 0
+    for i in range(a0, a1):
+        if plan_a[i, 0] <= horizon + 1e-9:
+            n += 1
+    n = min(n, b1 - b0)
+    if n <= 0:
+        return np.nan
+    pa = plan_a[a0 : a0 + n, 1:3]
+    pb = np.empty((n, 2))
+    for i in range(n):
+        pb[i, 0] = plan_b[b0 + i, 1] + shift_x
+        pb[i, 1] = plan_b[b0 + i, 2] + shift_y
+    dx = np.zeros(n)
+    dy = np.zeros(n)
+    if n > 1:
+        for side in range(2):
+            p = pa if side == 0 else pb
+            for i in range(n):
+                if i == 0:
+                    tx = p[1, 0] - p[0, 0]
+                    ty = p[1, 1] - p[0, 1]
+                elif i == n - 1:
+                    tx = p[n - 1, 0] - p[n - 2, 0]
+                    ty = p[n - 1, 1] - p[n - 2, 1]
+                else:
+                    tx = (p[i + 1, 0] - p[i - 1, 0]) / 2.0
+                    ty = (p[i + 1, 1] - p[i - 1, 1]) / 2.0
+                norm = np.hypot(tx, ty)
+                scale = norm if norm > 1e-3 else np.inf
+                dx[i] += tx / scale
+                dy[i] += ty / scale
+    worst = -np.inf
+    for i in range(n):
+        norm = np.hypot(dx[i], dy[i])
+        if norm > 1e-3:
+            ux = dx[i] / norm
+            uy = dy[i] / norm
+        else:
+            ux = fall_x
+            uy = fall_y
+        d = abs((pb[i, 1] - pa[i, 1]) * ux - (pb[i, 0] - pa[i, 0]) * uy)
+        if d > worst:
+            worst = d
+    return worst
