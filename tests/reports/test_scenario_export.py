@@ -14,6 +14,7 @@ import pytest
 from casewatch import api
 from casewatch.cli import main
 from casewatch.monitor.reader import read_stream
+from tests.reports.test_scenario_replay import assert_replays_as_recorded, replay_checks
 
 REPO = Path(__file__).resolve().parents[2]
 STREAM = REPO / "examples" / "data" / "highway-tailgating.jsonl.gz"
@@ -108,6 +109,13 @@ def test_positions_round_trip_within_a_centimetre(exported):
             assert abs(x - tx) <= 0.01 and abs(y - ty) <= 0.01, (actor, t)
             compared += 1
     assert compared > 100
+
+
+def test_every_file_replays_as_recorded(exported):
+    """Sampled as the standard times a FollowTrajectoryAction, entities exist exactly while
+    observed and no two overlap where the stream's footprints did not (test_scenario_replay)."""
+    _, out = exported
+    assert_replays_as_recorded(replay_checks(STREAM, out), samples=1000)
 
 
 def test_windows_are_clipped_to_the_stream(exported):

@@ -207,3 +207,67 @@ def overlapping(polygons: dict[str, Polygon]) -> set[tuple[str, str]]:
         if polygons[a].intersects(polygons[b])
         and polygons[a].intersection(polygons[b]).area > MIN_OVERLAP
     }
+
+
+def _world_polygon(footprint: np.ndarray, x: float, y: float, yaw: float) -> Polygon:
+    c, s = math.cos(yaw), math.sin(yaw)
+    return Polygon([(x + c * a - s * b, y + s * a + c * b) for a, b in footprint])
+
+
+def stream_state(state) -> dict[str, tuple[float, float, Polygon]]:
+    """A channel's state at one frame as {entity name: (x, y, footprint)}, named as the
+    export names them (`ego`, `obj_<id>`)."""
+    e = state.ego
+    out = {"ego": (e.x, e.y, _world_polygon(e.footprint, e.x, e.y, e.yaw))}
+    o = state.objects
+    for k, oid in enumerate(o.ids):
+        x, y = float(o.pos[k, 0]), float(o.pos[k, 1])
+        out[f"obj_{oid}"] = (x, y, _world_polygon(o.footprints[k], x, y, float(o.yaw[k])))
+    return out
+
+
+@dataclass
+class ReplayCheck:
+    """What sampling one scenario file against its stream found."""
+
+    samples: int = 0
+    stream_contacts: int = 0  # (time, pair) overlaps in the stream among the file's entities
+    replay_contacts: int = 0
+    new_contacts: list[tuple[float, tuple[str, str]]] = field(default_factory=list)
+    presence_errors: list[tuple[float, set[str], set[str]]] = field(default_factory=list)
+    max_position_error: float = 0.0
+
+
+def check_replay(path: Path, frames: list[tuple[float, dict]]) -> ReplayCheck:
+    """Sample the file at every frame time of its channel in the window (`frames`: window
+    time, `stream_state(...)`) and halfway between consecutive frames. At a frame time the
+    entities present must be exactly those the channel observed, where it observed them; at
+    every sample, two footprints may overlap only if the stream's overlapped at that frame
+    (halfway: at either neighbouring frame)."""
+    replay = Replay(path)
+    names = set(replay.entities)
+    check = ReplayCheck()
+    truth = []
+    for t, seen in frames:
+        kept = {n: v for n, v in seen.items() if n in names}
+        pairs = overlapping({n: v[2] for n, v in kept.items()})
+        truth.append((t, kept, pairs))
+        check.stream_contacts += len(pairs)
+    for k, (t, kept, pairs) in enumerate(truth):
+        present = replay.footprints(t)
+        if set(present) != set(kept):
+            check.presence_errors.append((t, set(present), set(kept)))
+        for n, (x, y, _) in kept.items():
+            if n in present:
+                px, py, _ = replay.entities[n].pose(t)
+                check.max_position_error = max(check.max_position_error, math.hypot(px - x, py - y))
+        samples = [(t, present, pairs)]
+        if k + 1 < len(truth):
+            mid = (t + truth[k + 1][0]) / 2
+            samples.append((mid, replay.footprints(mid), pairs | truth[k + 1][2]))
+        for when, polygons, allowed in samples:
+            found = overlapping(polygons)
+            check.samples += 1
+            check.replay_contacts += len(found)
+            check.new_contacts += [(when, pair) for pair in sorted(found - allowed)]
+    return check
