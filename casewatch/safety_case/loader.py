@@ -500,8 +500,8 @@ class _Builder:
 
     def module(self, entry: object) -> Module | None:
         if entry is None and (self.used_by or self.gsn2x_rules):
-            # gsn2x: `module` is optional; the file names the module (`min.gsn.yaml` -> min.gsn)
-            return Module(name=Path(self.path).stem)
+            # gsn2x: `module` is optional; the file names the module (`min.gsn.yaml` -> min)
+            return Module(name=Path(self.path).stem.removesuffix(".gsn") or "case")
         if entry is None:
             self.add(
                 "CW010",

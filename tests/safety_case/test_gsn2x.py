@@ -296,7 +296,7 @@ def test_what_the_examples_hold_is_read() -> None:
     confidence = check_file(example("confidence.gsn.yaml"))[0]
     assert confidence.nodes["G3"].gsn == {"acp": {"ACP3": ["Sn2a", "Sn2b"]}}
     mini = check_file(example("minimalcss/min.gsn.yaml"))[0]
-    assert mini.module.name == "min.gsn"  # no module block: the file names it
+    assert mini.module.name == "min"  # no module block: the file names it
     index = check_file(example("modular/index.gsn.yaml"))[0]
     assert set(index.nodes) == {"G1", "S1", "G2", "J1", "G3", "A1", "C2", "Sn1"}
     instance = load_file(example("template/instance.gsn.yaml")).partial
@@ -546,3 +546,18 @@ def test_a_command_that_prepares_a_case_says_when_it_judges_nothing(tmp_path: Pa
     )
     assert prepare_case("run", str(REPO / "examples" / "reference-case.yaml")) is not None
     assert capsys.readouterr().err == ""
+
+
+def test_a_pure_argument_node_may_be_empty_or_null(tmp_path: Path) -> None:
+    text = "G1:\n  inContextOf: C1\n  supportedBy: Sn1\nC1:\nSn1: {}\n"
+    case, findings = check_file(write(tmp_path, "arg.gsn.yaml", text))
+    assert [f.code for f in findings] == ["CW011"]
+    assert (case.nodes["C1"].text, case.nodes["C1"].type) == ("", NodeType.CONTEXT)
+    assert case.module.name == "arg" and case.nodes["G1"].supported_by == ["Sn1"]
+    # a monitored case keeps casewatch's rule: a node says what it claims
+    head = "module: {name: m}\nmonitor: {channels: [a, b]}\n"
+    assert findings_of(tmp_path, head + text, "case.yaml") == [
+        ("CW014", "error", 3),  # G1 has no text
+        ("CW012", "error", 6),  # C1 is no mapping
+        ("CW014", "error", 7),  # Sn1 has no text
+    ]
