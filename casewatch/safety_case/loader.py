@@ -20,6 +20,7 @@ import re
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
+from typing import Any
 
 from pydantic import BaseModel, ValidationError
 
@@ -67,7 +68,7 @@ from casewatch.safety_case.schema import (
 )
 from casewatch.safety_case.signals import available_signals
 from casewatch.safety_case.structure import check_case
-from casewatch.safety_case.yamltree import YNode, compose, to_plain
+from casewatch.safety_case.yamltree import YEntry, YNode, compose, to_plain
 
 #: A node id is a type prefix followed by a digit, e.g. G1, Sn3, CSn2, G1.2 (gsn2x style).
 NODE_ID_RE = re.compile(r"^(CSn|CG|Sn|G|S|C|A|J)([0-9][A-Za-z0-9_.\-]*)$")
@@ -367,17 +368,17 @@ class _Builder:
         )
 
     def use_modules(
-        self, module: Module, nodes: dict[str, Node], skipped: dict[str, Mark], entry: object
+        self, module: Module, nodes: dict[str, Node], skipped: dict[str, Mark], entry: YEntry
     ) -> str:
         """Load the modules `module` uses (gsn2x `uses:`, files relative to this one) into
         `nodes`; their findings name their own files. Returns the digest of the whole case:
         this file's and every used file's bytes."""
         digest = hashlib.sha256(self.digest.encode())
-        uses_entry = entry.value.entries().get("uses")  # type: ignore[attr-defined]
+        uses_entry = entry.value.entries().get("uses")
         items = uses_entry.value.items() if uses_entry and uses_entry.value.kind == "seq" else []
         chain = (*self.used_by, str(Path(self.path).resolve()))
         for k, name in enumerate(module.uses):
-            mark = items[k].mark if k < len(items) else entry.key_mark  # type: ignore[attr-defined]
+            mark = items[k].mark if k < len(items) else entry.key_mark
             target = Path(self.path).parent / name
             try:  # a NUL byte or a 300-character name is no file name (ValueError, OSError)
                 if not target.exists() and name in PACKAGED_MODULES:
@@ -498,7 +499,7 @@ class _Builder:
 
     # -- reserved blocks -------------------------------------------------------------------
 
-    def module(self, entry: object) -> Module | None:
+    def module(self, entry: YEntry | None) -> Module | None:
         if entry is None and (self.used_by or self.gsn2x_rules):
             # gsn2x: `module` is optional; the file names the module (`min.gsn.yaml` -> min)
             return Module(name=Path(self.path).stem.removesuffix(".gsn") or "case")
@@ -510,15 +511,15 @@ class _Builder:
                 "add e.g. `module: {name: ego-a-to-b, brief: what this case argues}`",
             )
             return None
-        plain = to_plain(entry.value)  # type: ignore[attr-defined]
+        plain = to_plain(entry.value)
         extra: dict = {}
         if self.gsn2x_rules and isinstance(plain, dict):
             # gsn2x keeps any further module key as information (shown in the legend)
             extra = {k: plain.pop(k) for k in list(plain) if k not in MODULE_KEYS}
         raw = self.validate(
             RawModule,
-            entry.value,  # type: ignore[attr-defined]
-            entry.key_mark,  # type: ignore[attr-defined]
+            entry.value,
+            entry.key_mark,
             "`module`",
             {(): MODULE_KEYS},
             plain=plain,
@@ -539,7 +540,7 @@ class _Builder:
                 del gsn["additionalInformation"]
         return Module(name=raw.name, brief=raw.brief, uses=raw.uses, gsn=gsn)
 
-    def monitor(self, entry: object) -> MonitorConfig | None:
+    def monitor(self, entry: YEntry | None) -> MonitorConfig | None:
         if entry is None:
             self.add(
                 "CW011",
@@ -641,8 +642,8 @@ class _Builder:
         raw = self.validate(model, value, mark, where, levels, plain=plain)
         key_marks = {k: e.key_mark for k, e in entries.items()}
         ref_marks = {rel: _ref_marks(entries[rel].value) for rel in RELATIONS if rel in entries}
-        for text, at in list(ref_marks.get("challenges", {}).items()):
-            if (relation := split_relation(text)) is not None:  # findings look it up as `A -> B`
+        for written, at in list(ref_marks.get("challenges", {}).items()):
+            if (relation := split_relation(written)) is not None:  # found again as `A -> B`
                 ref_marks["challenges"].setdefault(f"{relation[0]} -> {relation[1]}", at)
         if isinstance(raw, RawNode):
             challenged, relations = _split_challenges(raw.challenges)
@@ -894,7 +895,7 @@ class _Builder:
 
     def error_finding(
         self,
-        error: dict,
+        error: Any,  # pydantic's ErrorDetails
         tree: YNode,
         container_mark: Mark,
         where: str,
@@ -1008,13 +1009,13 @@ def _gsn_node_type(value: YNode) -> NodeType | None:
     return NodeType(prefix) if prefix else None
 
 
-def _casewatch_info(entry: object) -> dict:
+def _casewatch_info(entry: YEntry | None) -> dict:
     """What `casewatch export-gsn` keeps for itself in `module.additionalInformation.casewatch`
     (gsn2x shows it in the legend and ignores it otherwise): the `monitor` entry and, per node,
     its `spi`/`hazard` entries, as positioned YAML so findings point into the file."""
-    if entry is None or entry.value.kind != "map":  # type: ignore[attr-defined]
+    if entry is None or entry.value.kind != "map":
         return {}
-    info = entry.value.entries().get("additionalInformation")  # type: ignore[attr-defined]
+    info = entry.value.entries().get("additionalInformation")
     if info is None or info.value.kind != "map" or "casewatch" not in info.value.entries():
         return {}
     kept = info.value.entries()["casewatch"].value
