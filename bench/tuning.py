@@ -20,6 +20,7 @@ import numpy as np
 
 from casewatch import api, batch
 from casewatch.evaluator.ground_truth import Label, read_labels
+from casewatch.evaluator.options import RunOptions
 from casewatch.evaluator.signal_store import SavedSignals, load_signals
 from casewatch.evaluator.tuning import knobs, pr_text, sweep, tune
 
@@ -75,12 +76,9 @@ def main(argv: list[str] | None = None) -> int:
             case.digest,
             streams,
             Path(tmp),
-            2,
-            "auto",
-            False,
-            (),
-            None,
-            save_signals=True,
+            RunOptions(labels="auto"),
+            batch.Outputs(save_signals=True),
+            batch.FleetEngine(jobs=2),
         )
         runs = []
         for log in summary["per_log"]:  # type: ignore[union-attr]

@@ -13,9 +13,11 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
+from casewatch.evaluator.options import RunOptions, RunSinks
 from casewatch.evaluator.result import RunResult, result_digest
-from casewatch.evaluator.session import DEFAULT_MAX_NO_DATA, RunOptions, evaluate_stream
+from casewatch.evaluator.session import evaluate_stream
 from casewatch.safety_case.checks import check_file, sort_findings
 from casewatch.safety_case.findings import CaseError, Finding, has_errors
 from casewatch.safety_case.model import Case
@@ -50,26 +52,23 @@ def run(
     case_path: str | Path,
     stream: str | Path,
     out_dir: str | Path | None = None,
-    labels: str | Path | None = None,
-    strict: bool = False,
+    options: RunOptions | None = None,
     formats: Sequence[str] = ("html", "md", "junit"),
-    max_no_data: float = DEFAULT_MAX_NO_DATA,
-    stl_engine: str = "rtamt",
+    **settings: Any,
 ) -> RunResult:
     """Judge one stream; with `out_dir`, write events.jsonl, result.json and the reports.
 
+    `options` (a `RunOptions`) shape the result; instead, its fields may be given by name
+    (`api.run(case, stream, labels="x.labels.jsonl", max_no_data=0.1)`).
     `result.root_no_data.exceeded` says whether the root goal was `no-data` on more than
     `max_no_data` of the ticks (what `casewatch run` reports as unusable input, exit 2)."""
+    if options is not None and settings:
+        raise TypeError("api.run: give either options or its fields by name, not both")
+    options = options if options is not None else RunOptions(**settings)
     case, spec = prepare(case_path)
     out = Path(out_dir) if out_dir is not None else None
-    options = RunOptions(
-        strict=strict,
-        labels=Path(labels) if labels is not None else None,
-        events_path=out / "events.jsonl" if out is not None else None,
-        max_no_data=max_no_data,
-        stl_engine=stl_engine,
-    )
-    result = evaluate_stream(case, spec, stream, options)
+    sinks = RunSinks(events_path=out / "events.jsonl" if out is not None else None)
+    result = evaluate_stream(case, spec, stream, options, sinks)
     if out is not None:
         write_result(result, out)
         if formats:

@@ -12,7 +12,7 @@ import multiprocessing
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from pydantic import ValidationError
@@ -20,18 +20,17 @@ from pydantic import ValidationError
 from casewatch.crash import write_crash_log
 from casewatch.errors import CasewatchError
 from casewatch.evaluator.ground_truth import LabelsError
-from casewatch.evaluator.inputs import path_digest
+from casewatch.evaluator.options import AUTO_LABELS, RunOptions, RunSinks
 from casewatch.evaluator.result import result_digest
-from casewatch.evaluator.session import DEFAULT_MAX_NO_DATA, InputError, RunOptions, evaluate_stream
+from casewatch.evaluator.session import InputError, evaluate_stream
 from casewatch.evaluator.signal_store import FILE_NAME as SIGNALS_FILE
 from casewatch.evaluator.stl_engines import EngineMismatch
 from casewatch.evaluator.summary import FleetSummary, LogSummary, summarise, summarise_result
-from casewatch.monitor.bags.reader import is_bag
+from casewatch.monitor.source import BAG_SUFFIXES, path_digest, source_kind
 from casewatch.monitor.warmup import warm_up
 from casewatch.safety_case.findings import CaseError
 
 STREAM_SUFFIXES = (".jsonl", ".jsonl.gz", ".ndjson", ".ndjson.gz")
-BAG_SUFFIXES = (".mcap", ".db3")
 LABEL_SUFFIXES = (".labels.jsonl", "-labels.jsonl")
 
 
@@ -43,7 +42,7 @@ def is_stream_file(path: Path) -> bool:
     """A JSON Lines stream or a ROS 2 bag (an .mcap or .db3 file, or a bag folder); a storage
     file inside a bag folder belongs to that bag, not a log of its own."""
     name = path.name
-    if is_bag(path):
+    if source_kind(path) == "bag":
         return path.is_dir() or not (path.parent / "metadata.yaml").is_file()
     return name.endswith(STREAM_SUFFIXES) and not name.endswith(LABEL_SUFFIXES)
 
@@ -52,7 +51,7 @@ def find_streams(pattern: str) -> list[Path]:
     """A folder (its stream files, sorted), a glob, or a single file."""
     path = Path(pattern)
     if path.is_dir():
-        if is_bag(path):
+        if source_kind(path) == "bag":
             return [path]
         found = sorted(p for p in path.iterdir() if is_stream_file(p))
         if not found:
@@ -88,25 +87,30 @@ def sibling_labels(path: Path) -> Path | None:
 def labels_for(stream: str, labels: str | None) -> str | None:
     """The labels file for `stream`: `--labels` as given, or with `auto` the sibling
     NAME.labels.jsonl when it exists (never for standard input)."""
-    if labels != "auto":
+    if labels != AUTO_LABELS:
         return labels
     found = None if stream == "-" else sibling_labels(Path(stream))
     return str(found) if found else None
 
 
 @dataclass(frozen=True)
+class Outputs:
+    """What each log's folder gets besides result.json and events.jsonl (never changes a
+    result, so not a run option)."""
+
+    formats: tuple[str, ...] = ()  # reports to render (html, md, junit)
+    save_signals: bool = False  # keep signals.npz (for casewatch tune and calibrate)
+
+
+@dataclass(frozen=True)
 class Job:
+    """One log of a fleet, as a worker gets it: plain values only (it is pickled)."""
+
     case_path: str
     stream: str
     out_dir: str
-    labels: str | None
-    strict: bool
-    formats: tuple[str, ...]
-    max_no_data: float = DEFAULT_MAX_NO_DATA
-    save_signals: bool = False
-    fail_on: str = "any"
-    topics: str | None = None  # a bag's topic mapping (`--topics`); None: the case's
-    stl_engine: str = "rtamt"  # rtamt, numpy or both (evaluator.stl_engines)
+    options: RunOptions  # this log's: `--labels auto` already resolved to its file
+    outputs: Outputs = field(default_factory=Outputs)
 
 
 def run_job(job: Job) -> LogSummary:
@@ -118,20 +122,14 @@ def run_job(job: Job) -> LogSummary:
     out = Path(job.out_dir)
     try:
         case, spec = api.prepare(job.case_path)
-        options = RunOptions(
-            strict=job.strict,
-            labels=Path(job.labels) if job.labels else None,
+        sinks = RunSinks(
             events_path=out / "events.jsonl",
-            max_no_data=job.max_no_data,
-            signals_path=out / SIGNALS_FILE if job.save_signals else None,
-            fail_on=job.fail_on,
-            topics=Path(job.topics) if job.topics else None,
-            stl_engine=job.stl_engine,
+            signals_path=out / SIGNALS_FILE if job.outputs.save_signals else None,
         )
-        result = evaluate_stream(case, spec, job.stream, options)
+        result = evaluate_stream(case, spec, job.stream, job.options, sinks)
         api.write_result(result, out)
-        if job.formats:
-            api.render(out, job.formats)
+        if job.outputs.formats:
+            api.render(out, job.outputs.formats)
     except (InputError, LabelsError, CaseError, OSError) as exc:
         return LogSummary(
             stream=job.stream,
@@ -215,30 +213,21 @@ def reusable(job: Job, case_digest: str) -> LogSummary | None:
     return summarise_result(result, job.out_dir, 0.0)
 
 
-def run_many(
-    case_path: str,
-    case_digest: str,
-    streams: Sequence[Path],
-    out_dir: Path,
-    jobs: int,
-    labels: str | None,
-    strict: bool,
-    formats: Sequence[str],
-    on_done: Callable[[LogSummary], None] | None = None,
-    max_no_data: float = DEFAULT_MAX_NO_DATA,
-    save_signals: bool = False,
-    fail_on: str = "any",
-    *,
-    topics: str | None = None,
-    stl_engine: str = "rtamt",
-    engine: str = "processes",
-    scheduler: str | None = None,
-    resume: bool = False,
-) -> dict[str, object]:
-    """Judge every stream (in `jobs` processes, or as Dask tasks with `engine="dask"`) and
-    write `out_dir/summary.json`; with `save_signals`, each log's folder keeps its
-    `signals.npz` too; with `resume`, a log whose complete `result.json` was judged with this
-    case (digest) from this very stream (sha256) is not judged again."""
+@dataclass(frozen=True)
+class FleetEngine:
+    """How the logs are spread: `processes` (`jobs` local processes) or `dask` (tasks on a
+    LocalCluster of `jobs` workers, or on the cluster at `scheduler`)."""
+
+    kind: str = "processes"
+    jobs: int = 1
+    scheduler: str | None = None
+
+
+def plan_jobs(
+    case_path: str, streams: Sequence[Path], out_dir: Path, options: RunOptions, outputs: Outputs
+) -> list[Job]:
+    """One job per stream, each in its own folder under `out_dir` (named after the stream,
+    `-2`, `-3`, ... when two streams share a name), with `--labels auto` resolved."""
     used: set[str] = set()
     work: list[Job] = []
     for stream in streams:
@@ -247,21 +236,29 @@ def run_many(
         while name in used:
             name, n = f"{stem}-{n}", n + 1
         used.add(name)
+        labels = labels_for(str(stream), options.labels)
         work.append(
-            Job(
-                case_path,
-                str(stream),
-                str(out_dir / name),
-                labels_for(str(stream), labels),
-                strict,
-                tuple(formats),
-                max_no_data,
-                save_signals,
-                fail_on,
-                topics,
-                stl_engine,
-            )
+            Job(case_path, str(stream), str(out_dir / name), options.with_labels(labels), outputs)
         )
+    return work
+
+
+def run_many(
+    case_path: str,
+    case_digest: str,
+    streams: Sequence[Path],
+    out_dir: Path,
+    options: RunOptions,
+    outputs: Outputs = Outputs(),
+    engine: FleetEngine = FleetEngine(),
+    *,
+    on_done: Callable[[LogSummary], None] | None = None,
+    resume: bool = False,
+) -> dict[str, object]:
+    """Judge every stream with `options` (as `engine` says) and write `out_dir/summary.json`;
+    with `resume`, a log whose complete `result.json` was judged with this case (digest) from
+    this very stream (sha256) is not judged again."""
+    work = plan_jobs(case_path, streams, out_dir, options, outputs)
     done: dict[int, LogSummary] = {}
     if resume:
         for k, job in enumerate(work):
@@ -272,11 +269,11 @@ def run_many(
                     on_done(reused)
     todo = [job for k, job in enumerate(work) if k not in done]
     results: list[LogSummary] = []
-    if engine == "dask":
+    if engine.kind == "dask":
         from casewatch.dask_engine import run_on_dask
 
-        results = run_on_dask(todo, jobs, scheduler, on_done)
-    elif jobs <= 1:
+        results = run_on_dask(run_job, todo, engine.jobs, engine.scheduler, on_done)
+    elif engine.jobs <= 1:
         for job in todo:
             results.append(run_job(job))
             if on_done:
@@ -287,7 +284,7 @@ def run_many(
         warm_up()
         methods = multiprocessing.get_all_start_methods()
         context = multiprocessing.get_context("fork" if "fork" in methods else None)
-        with ProcessPoolExecutor(max_workers=jobs, mp_context=context) as pool:
+        with ProcessPoolExecutor(max_workers=engine.jobs, mp_context=context) as pool:
             for summary in pool.map(run_job, todo):
                 results.append(summary)
                 if on_done:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import contextlib
 from collections.abc import Callable, Sequence
+from typing import Any
 
 from casewatch.errors import CasewatchError
 from casewatch.evaluator.summary import LogSummary
@@ -25,20 +26,20 @@ class EngineError(CasewatchError, RuntimeError):
 
 
 def run_on_dask(
+    task: Callable[[Any], LogSummary],
     jobs: Sequence,
     workers: int,
     scheduler: str | None,
     on_done: Callable[[LogSummary], None] | None = None,
 ) -> list[LogSummary]:
-    """Every job (a `casewatch.batch.Job`) as a task; summaries in job order."""
+    """`task` (`casewatch.batch.run_job`, passed in: this module never imports the batch
+    module that calls it) over every job as a Dask task; summaries in job order."""
     try:
         from distributed import Client, LocalCluster, as_completed
     except ImportError:
         raise EngineError(
             "--engine dask needs Dask's distributed scheduler: pip install 'casewatch[fleet]'"
         ) from None
-    from casewatch.batch import run_job
-
     with contextlib.ExitStack() as stack:
         if scheduler:
             try:
@@ -82,7 +83,7 @@ def run_on_dask(
                     "run again, or use --engine processes"
                 ) from None
             client = stack.enter_context(Client(cluster))
-        futures = client.map(run_job, list(jobs), retries=RETRIES, pure=False)
+        futures = client.map(task, list(jobs), retries=RETRIES, pure=False)
         index = {f.key: k for k, f in enumerate(futures)}
         results: list[LogSummary | None] = [None] * len(futures)
         for future in as_completed(futures):

@@ -26,6 +26,7 @@ from casewatch.evaluator.faults import (
     read_fault_labels,
 )
 from casewatch.evaluator.ground_truth import Label, LabelsError, read_labels
+from casewatch.evaluator.options import RunOptions
 from casewatch.evaluator.signal_store import FILE_NAME, SavedSignals, SignalsError, load_signals
 
 
@@ -90,7 +91,13 @@ def _run_folders(arguments: list[str], case_path: str, out: Path, jobs: int) -> 
     if streams:
         runs = out / "runs"
         summary = batch.run_many(
-            case_path, "", streams, runs, jobs, "auto", False, (), None, save_signals=True
+            case_path,
+            "",
+            streams,
+            runs,
+            RunOptions(labels="auto"),
+            batch.Outputs(save_signals=True),
+            batch.FleetEngine(jobs=jobs),
         )
         for log in summary["per_log"]:  # type: ignore[union-attr]
             if not log["ok"]:

@@ -24,11 +24,12 @@ import orjson
 import yaml
 
 from casewatch.monitor.bags.mapping import MappingError, TopicMapping, load_mapping, resolve_mapping
-from casewatch.monitor.bags.reader import BagError, is_bag, read_bag
+from casewatch.monitor.bags.reader import BagError
 from casewatch.monitor.bags.storage import StorageError, open_storage
 from casewatch.monitor.bags.writer import BagWriteError, default_mapping, write_bag
 from casewatch.monitor.encode import frame_to_dict, header_to_dict
-from casewatch.monitor.reader import StreamError, read_stream
+from casewatch.monitor.reader import StreamError
+from casewatch.monitor.source import SourceError, open_source, source_kind
 from casewatch.safety_case.findings import CaseError
 
 
@@ -93,13 +94,13 @@ def main(args: argparse.Namespace) -> int:
         if args.out is None:
             raise _Usage("-o/--out is required (a .jsonl.gz file or a new bag folder)")
         _check_numbers(args)
-        if is_bag(args.source):
+        if source_kind(args.source) == "bag":
             return _bag_to_stream(args)
         return _stream_to_bag(args)
     except _Usage as exc:
         print(f"casewatch convert: {exc}", file=sys.stderr)
         return 2
-    except (MappingError, BagError, BagWriteError, StreamError) as exc:
+    except (MappingError, BagError, BagWriteError, StreamError, SourceError) as exc:
         print(f"casewatch convert: {exc}", file=sys.stderr)
         return 2
     except CaseError as exc:
@@ -135,7 +136,7 @@ def _check_numbers(args: argparse.Namespace) -> None:
 
 
 def _list_topics(source: str) -> int:
-    if not is_bag(source):
+    if source_kind(source) != "bag":
         raise _Usage(f"{source}: not a ROS 2 bag (an .mcap or .db3 file or a bag folder)")
     try:  # as `run` opens it: an MCAP file cut short is listed up to the cut
         storage = open_storage(Path(source))
@@ -181,8 +182,15 @@ def _case_settings(args) -> tuple[list[str] | None, float, str | None, str | dic
 
 def _bag_to_stream(args) -> int:
     channels, period, case_path, case_topics = _case_settings(args)
-    mapping = resolve_mapping(args.topics, case_path, case_topics)
-    reader = read_bag(args.source, mapping, channels=channels, period=period)
+    source = open_source(
+        args.source,
+        channels=channels,
+        period=period,
+        topics=args.topics,
+        case_path=case_path,
+        case_topics=case_topics,
+    )
+    reader = source.reader
     out: Path = args.out
     if not out.name.endswith((".jsonl", ".jsonl.gz", ".ndjson", ".ndjson.gz")):
         raise _Usage(f"{out}: a bag converts to a .jsonl or .jsonl.gz file")
@@ -207,7 +215,7 @@ def _bag_to_stream(args) -> int:
     )
     for d in reader.defects[:10]:
         print(f"  {d.format()}", file=sys.stderr)
-    for topic, report in reader.topic_report().items():
+    for topic, report in source.topic_report().items():
         if report["missing_ticks"] or report["late_messages"]:
             print(
                 f"  {topic}: missing or stale at {report['missing_ticks']} ticks, "
@@ -222,7 +230,7 @@ def _stream_to_bag(args) -> int:
     if not Path(source).is_file():
         raise _Usage(f"{source}: no such stream or bag")
     channels, period, case_path, case_topics = _case_settings(args)
-    frames = read_stream(source, strict=True, channels=channels, period=period)
+    frames = _frames(source, channels, period)
     if args.topics is not None or case_topics is not None:
         mapping: TopicMapping = resolve_mapping(args.topics, case_path, case_topics).mapping
         written = write_bag(frames, args.out, mapping, args.storage, compress=args.compress)
@@ -242,7 +250,7 @@ def _stream_to_bag(args) -> int:
         )
         mapping = TopicMapping.model_validate(plain)
         written = write_bag(
-            read_stream(source, strict=True, channels=channels, period=period),
+            _frames(source, channels, period),
             args.out,
             mapping,
             args.storage,
@@ -265,12 +273,20 @@ def _stream_to_bag(args) -> int:
     return 0
 
 
+def _frames(source: str, channels: list[str] | None, period: float | None):
+    """A stream's frames, strictly (a converted bag holds only what was read), closed once
+    read."""
+    with open_source(source, channels=channels, period=period, strict=True) as opened:
+        yield from opened.reader
+
+
 def _peek(source: str, channels: list[str] | None):
     """The first frame and the header of a stream."""
-    reader = read_stream(source, strict=True, channels=channels)
-    for frame in reader:
-        return frame, reader.header
-    return None, reader.header
+    with open_source(source, channels=channels, strict=True) as opened:
+        reader = opened.reader
+        for frame in reader:
+            return frame, reader.header
+        return None, reader.header
 
 
 def _ego_box(frame) -> tuple[float, float]:

@@ -29,13 +29,15 @@ from casewatch.crash import ENGINES_DISAGREE, INTERNAL_ERROR
 from casewatch.dask_engine import EngineError
 from casewatch.evaluator.eventlog import Event
 from casewatch.evaluator.ground_truth import LabelsError
+from casewatch.evaluator.options import DEFAULT_MAX_NO_DATA, OptionsError, RunOptions, RunSinks
 from casewatch.evaluator.policy import FAIL_ON, damaged, gated
 from casewatch.evaluator.result import DataGap, Episode, EpisodeOpen, NearMiss, OddChange, RunResult
-from casewatch.evaluator.session import DEFAULT_MAX_NO_DATA, InputError, RunOptions, evaluate_stream
+from casewatch.evaluator.session import InputError, evaluate_stream
 from casewatch.evaluator.signal_store import FILE_NAME as SIGNALS_FILE
 from casewatch.evaluator.stl_engines import ENGINES, EngineMismatch
 from casewatch.evaluator.summary import LogSummary
-from casewatch.monitor.bags.reader import is_bag
+from casewatch.live import flags as live_flags
+from casewatch.monitor.source import source_kind
 from casewatch.monitor.warmup import warm_up
 from casewatch.progress import FleetProgress, StreamProgress
 from casewatch.reports.render import FORMATS, parse_formats
@@ -130,6 +132,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "export-scenarios, prefixed scenario-)",
     )
     add_scenario_options(p, prefix="scenario-")
+    live_flags.add_options(p)  # --serve, --serve-public, --serve-linger, --annotate
     p.add_argument(
         "--save-signals",
         action="store_true",
@@ -199,10 +202,25 @@ def event_line(event: Event) -> str:
     )
 
 
+def run_options(args: argparse.Namespace) -> RunOptions:
+    """The run options of this command line, built once and handed unchanged to the single
+    run, to every `--jobs` worker and to every Dask task (`--labels auto` is resolved per
+    stream)."""
+    return RunOptions(
+        labels=args.labels,
+        strict=args.strict,
+        max_no_data=args.max_no_data,
+        fail_on=args.fail_on,
+        topics=str(args.topics) if args.topics else None,
+        stl_engine=args.stl_engine,
+    )
+
+
 def main(args: argparse.Namespace) -> int:
     try:
         formats = _formats(args.format)
-    except ValueError as exc:
+        options = run_options(args)
+    except (ValueError, OptionsError) as exc:
         print(f"casewatch run: {exc}", file=sys.stderr)
         return 2
     if args.jobs < 1:
@@ -217,19 +235,21 @@ def main(args: argparse.Namespace) -> int:
         return 2
     first = args.streams[0]
     single = len(args.streams) == 1 and (
-        first == "-"
-        or is_bag(first)
+        source_kind(first) in ("stdin", "bag")
         or not (Path(first).is_dir() or any(c in first for c in "*?["))
     )
+    if problem := live_flags.refusal(args, single):
+        print(f"casewatch run: {problem}", file=sys.stderr)
+        return 2
     if single:
-        return _run_single(args, case, spec, formats)
-    return _run_many(args, case, formats)
+        return _run_single(args, case, spec, formats, options)
+    return _run_many(args, case, formats, options)
 
 
-def _run_single(args, case, spec, formats: tuple[str, ...]) -> int:
+def _run_single(args, case, spec, formats: tuple[str, ...], options: RunOptions) -> int:
     stream = args.streams[0]
     live = stream == "-"
-    labels = batch.labels_for(stream, args.labels)
+    options = options.with_labels(batch.labels_for(stream, options.labels))
 
     def on_event(event: Event) -> None:
         if (
@@ -240,24 +260,20 @@ def _run_single(args, case, spec, formats: tuple[str, ...]) -> int:
             print(event_line(event), flush=True)
 
     bar = StreamProgress(enabled=not (live or args.quiet))  # silent unless on a terminal
-
-    options = RunOptions(
-        strict=args.strict,
-        labels=Path(labels) if labels else None,
+    view = live_flags.start_view(args, case, spec, stream)  # --serve: the live page, or None
+    sinks = RunSinks(
         events_path=args.out / "events.jsonl",
-        on_event=on_event,
-        progress=None if live else bar.update,
-        max_no_data=args.max_no_data,
         signals_path=args.out / SIGNALS_FILE if args.save_signals else None,
-        fail_on=args.fail_on,
-        topics=args.topics,
-        stl_engine=args.stl_engine,
+        on_event=live_flags.chain(view, on_event),
+        progress=None if live else bar.update,
+        on_tick=live_flags.tick_hook(view),
     )
     warm_up()  # compiled kernels ready before the first frame (matters for a live stream)
     try:
         with bar:
-            result = evaluate_stream(case, spec, stream, options)
+            result = evaluate_stream(case, spec, stream, options, sinks)
     except (InputError, LabelsError) as exc:
+        live_flags.finish(view, None, args, str(exc))
         print(f"casewatch run: {exc}", file=sys.stderr)
         return 2
     except EngineMismatch as exc:
@@ -267,6 +283,9 @@ def _run_single(args, case, spec, formats: tuple[str, ...]) -> int:
     written = api.render(args.out, formats) if formats else {}
     if not args.quiet:
         _print_summary(result, path, written)
+    live_flags.finish(view, result, args)  # the final verdict stays on the page
+    if live_flags.annotate_after(args, stream):
+        return 2
     if args.scenarios and not live and any(e.kind == "hazard" for e in result.episodes):
         # an event that cannot be exported is named and recorded; the exit code stays the run's
         scenarios = options_from(args, "scenario_")
@@ -333,7 +352,7 @@ def _print_summary(result: RunResult, path: Path, written: dict[str, Path]) -> N
         print(f"  {fmt}: {report}")
 
 
-def _run_many(args, case, formats: tuple[str, ...]) -> int:
+def _run_many(args, case, formats: tuple[str, ...], options: RunOptions) -> int:
     streams: list[Path] = []
     try:
         for pattern in args.streams:
@@ -379,18 +398,10 @@ def _run_many(args, case, formats: tuple[str, ...]) -> int:
                 case.digest,
                 streams,
                 args.out,
-                args.jobs,
-                args.labels,
-                args.strict,
-                formats,
-                on_done,
-                args.max_no_data,
-                args.save_signals,
-                args.fail_on,
-                topics=str(args.topics) if args.topics else None,
-                stl_engine=args.stl_engine,
-                engine=args.engine,
-                scheduler=args.scheduler,
+                options,
+                batch.Outputs(formats, args.save_signals),
+                batch.FleetEngine(args.engine, args.jobs, args.scheduler),
+                on_done=on_done,
                 resume=args.resume,
             )
     except EngineError as exc:

@@ -1,33 +1,37 @@
-"""One run: read frames, compute metrics, judge them, and assemble the `RunResult`.
+"""One run: open the source, read frames, compute metrics, judge them, assemble the `RunResult`.
 
-This is the composition the CLI and the Python API call. It streams: frames are read, scored
-and dropped one at a time, so memory does not grow with run length beyond the result records
+This is the composition the CLI and the Python API call, as named stages (`evaluate_stream`
+reads as the list of them): check the run can be judged, read the labels, open the source
+(`monitor.source`), then per frame the metrics, the ODD conditions, the signal recording and
+the STL engine (tick by tick, or the whole log at the end), and last the assembly of the
+stream record, timings, ground truth and scores. It streams: frames are read, scored and
+dropped one at a time, so memory does not grow with run length beyond the result records
 (episodes, gaps, status intervals and the bounded plot series).
 """
 
 from __future__ import annotations
 
 import datetime as dt
-import io
+import importlib.metadata
 import math
 import time
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Iterator
 from dataclasses import dataclass, field
+from functools import cache
 from pathlib import Path
-from typing import Any
 
-from casewatch import __version__
 from casewatch.errors import CasewatchError
 from casewatch.evaluator.core import Evaluator, rtamt_monitor
 from casewatch.evaluator.drive_log import DriveLog
 from casewatch.evaluator.eventlog import Event, EventLog
-from casewatch.evaluator.ground_truth import read_labels, score_events
-from casewatch.evaluator.inputs import open_hashed, path_digest
+from casewatch.evaluator.ground_truth import Label, read_labels, score_events
 from casewatch.evaluator.intervals import RunLength
+from casewatch.evaluator.options import DEFAULT_MAX_NO_DATA, RunOptions, RunSinks
 from casewatch.evaluator.result import (
     ArbitrationInterval,
     CaseInfo,
     Episode,
+    GroundTruth,
     RootNoData,
     RunResult,
     StreamDefect,
@@ -37,7 +41,6 @@ from casewatch.evaluator.result import (
 from casewatch.evaluator.scoring import score_run
 from casewatch.evaluator.signal_store import Columns, SignalRecorder
 from casewatch.evaluator.stl_engines import (
-    ENGINES,
     CheckedMonitor,
     EngineMismatch,
     Mismatch,
@@ -45,46 +48,28 @@ from casewatch.evaluator.stl_engines import (
     evaluate_whole_log,
     input_names,
 )
-from casewatch.monitor.bags.mapping import MappingError, resolve_mapping
-from casewatch.monitor.bags.reader import BagError, BagReader, is_bag, read_bag
 from casewatch.monitor.engine import MetricEngine
-from casewatch.monitor.frames import Coverage, Header
-from casewatch.monitor.reader import StreamError, read_stream
+from casewatch.monitor.frames import Coverage, Frame, Header
+from casewatch.monitor.reader import StreamError
+from casewatch.monitor.source import Source, SourceError, open_source
 from casewatch.monitor.world import condition_values
 from casewatch.safety_case.model import Case, NodeType
 from casewatch.spec.model import CompiledFormula, CompiledSpec
 
+__all__ = [
+    "DEFAULT_MAX_NO_DATA",
+    "InputError",
+    "RunOptions",
+    "RunSinks",
+    "evaluate_stream",
+]
+
 #: How many defects result.json lists in full (the count is always exact).
 MAX_LISTED_DEFECTS = 1000
-
-#: Default of `--max-no-data`: the bundled drives' root goal is `no-data` on 2-3 % of ticks
-#: (warm-up), a drive with a channel missing throughout on all of them.
-DEFAULT_MAX_NO_DATA = 0.5
 
 
 class InputError(CasewatchError):
     """Input the run cannot use (unreadable stream, period mismatch, strict-mode defect)."""
-
-
-@dataclass
-class RunOptions:
-    strict: bool = False
-    labels: Path | None = None
-    events_path: Path | None = None  # events.jsonl, appended and flushed as events close
-    on_event: Callable[[Event], None] | None = None
-    progress: Callable[[int, float], None] | None = None  # (frames, stream time) every ~1 s
-    series_points: int = 1000
-    # the largest share of ticks the root goal may be `no-data` before the run is unusable input
-    max_no_data: float = DEFAULT_MAX_NO_DATA
-    # where to save every per-tick signal value (`signals.npz`, evaluator.signal_store); None: not
-    signals_path: Path | None = None
-    fail_on: str = "any"  # which episodes fail the run (evaluator.policy), recorded in the result
-    # the topic mapping for a ROS 2 bag (`--topics`); None: the case's `monitor.topics`
-    topics: Path | None = None
-    stl_engine: str = "rtamt"  # rtamt, numpy or both (evaluator.stl_engines)
-    # after each frame judged tick by tick: (frame, every node's status, evaluator, reader);
-    # how live views (casewatch.live) follow a run without reaching into this loop
-    on_tick: Callable[[Any, Mapping[str, str], Evaluator, Any], None] | None = None
 
 
 @dataclass
@@ -100,167 +85,353 @@ def case_info(case: Case, spec: CompiledSpec) -> CaseInfo:
 
 
 def evaluate_stream(
-    case: Case, spec: CompiledSpec, source: str | Path, options: RunOptions | None = None
+    case: Case,
+    spec: CompiledSpec,
+    source: str | Path,
+    options: RunOptions | None = None,
+    sinks: RunSinks | None = None,
+    *,
+    payload: bytes | None = None,
 ) -> RunResult:
     """Judge one stream (a path, or `-` for standard input) against a compiled case.
 
-    Raises `InputError` for input that cannot be judged; labels are read before the stream so
-    a bad labels file fails fast.
+    `options` shape the result; `sinks` say where the event log, the signals and live events
+    go; `payload` is a JSON Lines log's bytes when they were shipped instead of read from
+    `source`. Raises `InputError` for input that cannot be judged; labels are read before the
+    stream so a bad labels file fails fast.
     """
     options = options or RunOptions()
+    sinks = sinks or RunSinks()
+    check_judgeable(case, source, options)
+    labels = read_run_labels(options)
+    opened = open_run_source(case, source, options, payload)
+    run = Judging(case, spec, options, sinks)
+    complete = run.read(opened)
+    return assemble_result(case, spec, options, opened, run, labels, complete)
+
+
+def check_judgeable(case: Case, source: str | Path, options: RunOptions) -> None:
+    """Stage 0: the case has something to monitor, and the engine can judge this source."""
     if not case.monitor.channels:
         raise InputError(
             f"{case.path} has no `monitor` block: it is a pure argument (checked, "
             "nothing to judge); add monitor: {channels: [...], period: 0.1s} and "
             "bind evidence with spi: to monitor it"
         )
-    whole_log = options.stl_engine != "rtamt"
-    if options.stl_engine not in ENGINES:
-        raise InputError(f"unknown STL engine {options.stl_engine!r} (one of {', '.join(ENGINES)})")
-    if whole_log and str(source) == "-":
+    if options.stl_engine != "rtamt" and str(source) == "-":
         raise InputError(
             f"--stl-engine {options.stl_engine} judges whole logs; a live stream on "
             "standard input needs --stl-engine rtamt"
         )
-    labels = None
-    if options.labels is not None:
-        labels = read_labels(options.labels)
-    bag = is_bag(source)
-    if bag:
-        reader, name, digest = _open_bag(case, source, options)
-        binary = hashing = None
-    else:
-        try:
-            binary, hashing, name = open_hashed(source)
-        except OSError as exc:
-            raise InputError(f"{source}: cannot read stream: {exc.strerror or exc}") from None
-    log = EventLog(options.events_path) if options.events_path else None
-    where = DriveLog()  # the ego's position and what the scores read, per tick
 
-    def emit(event: Event) -> None:
-        if isinstance(event, Episode):
-            where.place([event])  # its position, in events.jsonl as in result.json
-        if log is not None:
-            log.write(event)
-        if options.on_event is not None:
-            options.on_event(event)
 
-    evaluator = Evaluator(case, spec, on_event=emit, series_points=options.series_points)
-    columns = Columns(input_names(spec)) if whole_log else None
-    conditions: dict = {}  # the stream's conditions (docs/odd.md), one mapping per change
-    as_signals = condition_values(conditions)  # their `night` and `fog` signals
-    tick_conditions: list[dict] = []  # per tick, for the whole-log replay
-    engine = MetricEngine(case.monitor.metrics, list(case.monitor.channels))
-    recorder = None
-    if options.signals_path is not None:
-        inputs = {name for f in spec.formulas for g in f.monitored() for name in g.signals}
-        names = [*engine.signal_names, *sorted(inputs - set(engine.signal_names))]
-        recorder = SignalRecorder(names, case.monitor.period, case.monitor.metrics.max_gap)
-    if not bag:
-        text = io.TextIOWrapper(binary, encoding="utf-8", errors="strict")
-        reader = read_stream(
-            text,
-            strict=options.strict,
+def read_run_labels(options: RunOptions) -> tuple[list[Label], str] | None:
+    """Stage 1: the ground-truth labels and their sha256 (`LabelsError` for a bad file)."""
+    path = options.labels_path
+    return None if path is None else read_labels(path)
+
+
+def open_run_source(
+    case: Case, source: str | Path, options: RunOptions, payload: bytes | None = None
+) -> Source:
+    """Stage 2: the stream or bag, opened with the case's channels and period."""
+    try:
+        return open_source(
+            source,
             channels=list(case.monitor.channels),
             period=case.monitor.period,
+            strict=options.strict,
+            topics=options.topics_path,
+            case_path=case.path,
+            case_topics=case.monitor.topics,
+            payload=payload,
         )
-    arbitration = RunLength()
-    clock = _Clock()
-    complete = True
-    t_first: float | None = None
-    t_last: float | None = None
-    next_progress = time.perf_counter() + 1.0
-    period_checked = False
-    try:
+    except SourceError as exc:
+        raise InputError(str(exc)) from None
+
+
+class _Events:
+    """Where a closed event goes: its position from the drive log, events.jsonl, the caller."""
+
+    def __init__(self, sinks: RunSinks, where: DriveLog) -> None:
+        self.sinks = sinks
+        self.where = where
+        self.log = EventLog(sinks.events_path) if sinks.events_path else None
+
+    def emit(self, event: Event) -> None:
+        if isinstance(event, Episode):
+            self.where.place([event])  # its position, in events.jsonl as in result.json
+        if self.log is not None:
+            self.log.write(event)
+        if self.sinks.on_event is not None:
+            self.sinks.on_event(event)
+
+    def close(self) -> None:
+        if self.log is not None:
+            self.log.close()
+
+
+class OddTracker:
+    """The stream's reported conditions (docs/odd.md): the header's, updated by each frame's
+    `odd` changes, and their `night` and `fog` signals (recomputed only when they change)."""
+
+    def __init__(self) -> None:
+        self.conditions: dict = {}
+        self.signals = condition_values(self.conditions)
+
+    def start(self, header: Header | None) -> None:
+        if header is not None:
+            self.conditions = dict(header.conditions)
+        self.signals = condition_values(self.conditions)
+
+    def update(self, frame: Frame) -> None:
+        if frame.odd:
+            self.conditions = {**self.conditions, **frame.odd}
+            self.signals = condition_values(self.conditions)
+
+
+def signal_recorder(
+    case: Case, spec: CompiledSpec, engine: MetricEngine, sinks: RunSinks
+) -> SignalRecorder | None:
+    """Records every per-tick signal value for `signals.npz` when the run keeps them: the
+    metric engine's signals, then the formulas' other inputs in name order."""
+    if sinks.signals_path is None:
+        return None
+    inputs = {name for f in spec.formulas for g in f.monitored() for name in g.signals}
+    names = [*engine.signal_names, *sorted(inputs - set(engine.signal_names))]
+    return SignalRecorder(names, case.monitor.period, case.monitor.metrics.max_gap)
+
+
+class TickJudge:
+    """The rtamt engine: every tick judged as it arrives (a live stream's only engine)."""
+
+    def __init__(self, evaluator: Evaluator) -> None:
+        self.evaluator = evaluator
+
+    def step(self, t: float, values: dict, conditions: dict) -> dict[str, str]:
+        return self.evaluator.step(t, values, conditions)  # every node's status at t
+
+    def judged(self, clock: _Clock) -> Evaluator:
+        return self.evaluator
+
+
+class WholeLogJudge:
+    """The numpy (or `both`) engine: the ticks kept as columns, every formula judged over the
+    whole log once it is read, then the ticks replayed through an evaluator with those values;
+    with `both`, rtamt runs too and must agree on every value (`EngineMismatch`)."""
+
+    def __init__(self, case: Case, spec: CompiledSpec, options: RunOptions, emit) -> None:
+        self.case, self.spec, self.options, self.emit = case, spec, options, emit
+        self.columns = Columns(input_names(spec))
+        self.conditions: list[dict] = []  # per tick, for the replay
+
+    def step(self, t: float, values: dict, conditions: dict) -> None:
+        self.columns.add(t, values)
+        self.conditions.append(conditions)
+
+    def judged(self, clock: _Clock) -> Evaluator:
+        case, spec, options, columns = self.case, self.spec, self.options, self.columns
+        started = time.perf_counter()
+        whole = evaluate_whole_log(spec, columns, case.monitor.metrics.max_gap)
+        vector_s = time.perf_counter() - started
+        found: list[Mismatch] = []
+        counter = [0]
+
+        def factory(f: CompiledFormula, period: float) -> PrecomputedMonitor | CheckedMonitor:
+            if options.stl_engine == "numpy":
+                return PrecomputedMonitor(whole.values[f.id])
+            return CheckedMonitor(rtamt_monitor(f, period), f, whole, found, counter)
+
+        evaluator = Evaluator(
+            case,
+            spec,
+            on_event=self.emit,
+            monitor_factory=factory,
+            series_points=options.series_points,
+        )
+        t = columns.t.tolist()
+        replay = time.perf_counter()
+        for i, ti in enumerate(t):
+            evaluator.step(ti, columns.row(i), self.conditions[i])
+        clock.judge += time.perf_counter() - replay + vector_s
+        evaluator.stl_seconds += vector_s
+        if counter[0]:
+            raise EngineMismatch(found, counter[0])
+        return evaluator
+
+
+class Judging:
+    """Stages 3-6 over the frames of one source: metrics, ODD tracking, signal recording and
+    the STL engine, with the drive log and the arbitration record the result is assembled
+    from. `read` consumes the source; `evaluator` is the judged one afterwards."""
+
+    def __init__(
+        self, case: Case, spec: CompiledSpec, options: RunOptions, sinks: RunSinks
+    ) -> None:
+        self.case, self.spec, self.options, self.sinks = case, spec, options, sinks
+        self.where = DriveLog()  # the ego's position and what the scores read, per tick
+        self.events = _Events(sinks, self.where)
+        self.evaluator = Evaluator(
+            case, spec, on_event=self.events.emit, series_points=options.series_points
+        )
+        self.judge: TickJudge | WholeLogJudge = (
+            TickJudge(self.evaluator)
+            if options.stl_engine == "rtamt"
+            else WholeLogJudge(case, spec, options, self.events.emit)
+        )
+        self.odd = OddTracker()
+        self.engine = MetricEngine(case.monitor.metrics, list(case.monitor.channels))
+        self.recorder = signal_recorder(case, spec, self.engine, sinks)
+        self.arbitration = RunLength()
+        self.clock = _Clock()
+        self.t_first: float | None = None
+        self.t_last: float | None = None
+
+    def read(self, source: Source) -> bool:
+        """Judge every frame of `source`; False when interrupted (Ctrl-C) before its end."""
+        complete = True
         try:
-            for frame in _timed(reader, clock):
+            try:
+                complete = self._frames(source)
+            finally:
+                source.close()
+            self.evaluator = self.judge.judged(self.clock)
+            self.evaluator.finish()
+        finally:
+            self.events.close()
+            if self.recorder is not None:
+                self.recorder.save(self.sinks.signals_path)
+        return complete
+
+    def _frames(self, source: Source) -> bool:
+        reader = source.reader
+        next_progress = time.perf_counter() + 1.0
+        started = False
+        try:
+            for frame in _timed(reader, self.clock):
                 t1 = time.perf_counter()
-                if not period_checked:
-                    period_checked = True
-                    _check_period(reader, case, name)
-                    engine.coverage = channel_coverage(case, reader.header)
-                    if reader.header is not None:
-                        conditions = dict(reader.header.conditions)
-                    as_signals = condition_values(conditions)
-                if frame.odd:
-                    conditions = {**conditions, **frame.odd}
-                    as_signals = condition_values(conditions)  # only when they change
-                values = engine.step(frame)
-                values.update(as_signals)
-                where.add(frame, engine.last_arbitration, values)  # before any episode closes
-                if recorder is not None:
-                    recorder.add(frame.t, values)
+                if not started:
+                    started = True
+                    _check_period(reader, self.case, source.name)
+                    self.engine.coverage = channel_coverage(self.case, reader.header)
+                    self.odd.start(reader.header)
+                self.odd.update(frame)
+                values = self.engine.step(frame)
+                values.update(self.odd.signals)
+                # before any episode closes: an episode's position is read from here
+                self.where.add(frame, self.engine.last_arbitration, values)
+                if self.recorder is not None:
+                    self.recorder.add(frame.t, values)
                 t2 = time.perf_counter()
-                if columns is not None:
-                    columns.add(frame.t, values)  # judged once the whole log is read
-                    tick_conditions.append(conditions)
-                else:
-                    statuses = evaluator.step(frame.t, values, conditions)
-                    if options.on_tick is not None:
-                        options.on_tick(frame, statuses, evaluator, reader)
+                statuses = self.judge.step(frame.t, values, self.odd.conditions)
+                if statuses is not None and self.sinks.on_tick is not None:  # casewatch.live
+                    self.sinks.on_tick(frame, statuses, self.evaluator, reader)
                 t3 = time.perf_counter()
-                arbitration.add(frame.t, engine.last_arbitration)
-                clock.metrics += t2 - t1
-                clock.judge += t3 - t2
-                if t_first is None:
-                    t_first = frame.t
-                t_last = frame.t
-                if options.progress is not None and t3 >= next_progress:
-                    options.progress(reader.frames_read, frame.t)
+                self.arbitration.add(frame.t, self.engine.last_arbitration)
+                self.clock.metrics += t2 - t1
+                self.clock.judge += t3 - t2
+                if self.t_first is None:
+                    self.t_first = frame.t
+                self.t_last = frame.t
+                if self.sinks.progress is not None and t3 >= next_progress:
+                    self.sinks.progress(reader.frames_read, frame.t)
                     next_progress = t3 + 1.0
         except StreamError as exc:
-            evaluator.finish()  # episodes closed so far still reach events.jsonl
+            self.evaluator.finish()  # episodes closed so far still reach events.jsonl
             raise InputError(f"{exc} (--strict stops at the first defect)") from None
         except UnicodeDecodeError as exc:
-            raise InputError(f"{name}: stream is not UTF-8 text ({exc.reason})") from None
+            raise InputError(f"{source.name}: stream is not UTF-8 text ({exc.reason})") from None
         except KeyboardInterrupt:
-            complete = False
-        finally:
-            if binary is not None:
-                binary.close()
-                hashing.close()
-        if columns is not None:
-            evaluator = _judge_whole_log(case, spec, columns, tick_conditions, options, emit, clock)
-        evaluator.finish()
-    finally:
-        if log is not None:
-            log.close()
-        if recorder is not None:
-            recorder.save(options.signals_path)
-    total = time.perf_counter() - clock.started
-    stream = StreamInfo(
-        path=str(source),
-        digest=digest if bag else hashing.sha256.hexdigest(),
+            return False
+        return True
+
+
+def stream_info(case: Case, source: Source, run: Judging) -> StreamInfo:
+    """What the result records of the source: path, digest, header meta, frames, defects."""
+    reader = source.reader
+    t_first, t_last = run.t_first, run.t_last
+    return StreamInfo(
+        path=source.path,
+        digest=source.digest(),
         meta=dict(reader.header.meta) if reader.header is not None else {},
         frames_read=reader.frames_read,
         t_start=t_first,
         t_end=t_last,
-        duration=0.0 if t_first is None else round(t_last - t_first + case.monitor.period, 6),
+        duration=0.0
+        if t_first is None or t_last is None
+        else round(t_last - t_first + case.monitor.period, 6),
         defects=[
             StreamDefect(line=d.line, kind=d.kind, message=d.message)
             for d in reader.defects[:MAX_LISTED_DEFECTS]
         ],
         defect_count=len(reader.defects),
         dropouts=dict(reader.dropouts),
-        topics=reader.topic_report() if bag else {},
+        topics=source.topic_report(),
     )
+
+
+def ground_truth(
+    case: Case,
+    evaluator: Evaluator,
+    options: RunOptions,
+    labels: tuple[list[Label], str] | None,
+) -> GroundTruth | None:
+    """The hazard events scored against the labels (None without labels)."""
+    if labels is None:
+        return None
+    hazards = {
+        n.id: n.text
+        for n in case.nodes.values()
+        if n.type is NodeType.COUNTER_SOLUTION and n.hazard is not None
+    }
+    return score_events(evaluator.episodes, labels[0], hazards, str(options.labels_path), labels[1])
+
+
+def timings(run: Judging, frames: int) -> Timings:
+    """Where the run's time went (the STL share from the evaluator's own clock)."""
+    clock, evaluator = run.clock, run.evaluator
+    total = time.perf_counter() - clock.started
+    return Timings(
+        total_s=round(total, 6),
+        read_s=round(clock.read, 6),
+        metrics_s=round(clock.metrics, 6),
+        stl_s=round(evaluator.stl_seconds, 6),
+        episodes_status_s=round(clock.judge - evaluator.stl_seconds, 6),
+        frames_per_s=round(frames / total, 1) if total > 0 else 0.0,
+        peak_rss_mib=peak_rss_mib(),
+    )
+
+
+@cache
+def casewatch_version() -> str:
+    """The installed distribution's version (read here, not from the `casewatch` package: the
+    evaluator sits below the front door and never imports it)."""
+    try:
+        return importlib.metadata.version("casewatch")
+    except importlib.metadata.PackageNotFoundError:  # a source tree that was never installed
+        return "unknown"
+
+
+def assemble_result(
+    case: Case,
+    spec: CompiledSpec,
+    options: RunOptions,
+    source: Source,
+    run: Judging,
+    labels: tuple[list[Label], str] | None,
+    complete: bool,
+) -> RunResult:
+    """Stage 7: the `RunResult` from the judged evaluator, the drive log and the source."""
+    evaluator = run.evaluator
+    stream = stream_info(case, source, run)
     statuses = evaluator.node_statuses()
     root = next(s for s in statuses if s.node_id == spec.root_id)
     root_ticks = sum(root.ticks.values())
     no_data_ticks = root.ticks.get("no-data", 0)
     share = no_data_ticks / root_ticks if root_ticks else 1.0
-    ground_truth = None
-    if labels is not None:
-        hazards = {
-            n.id: n.text
-            for n in case.nodes.values()
-            if n.type is NodeType.COUNTER_SOLUTION and n.hazard is not None
-        }
-        ground_truth = score_events(
-            evaluator.episodes, labels[0], hazards, str(options.labels), labels[1]
-        )
+    truth = ground_truth(case, evaluator, options, labels)
     return RunResult(
-        casewatch_version=__version__,
+        casewatch_version=casewatch_version(),
         created=dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
         case=case_info(case, spec),
         stream=stream,
@@ -275,18 +446,10 @@ def evaluate_stream(
             ArbitrationInterval(
                 channel=r.value, start=round(r.start, 6), end=round(r.end, 6), ticks=r.ticks
             )
-            for r in arbitration.runs
+            for r in run.arbitration.runs
         ],
-        ground_truth=ground_truth,
-        timings=Timings(
-            total_s=round(total, 6),
-            read_s=round(clock.read, 6),
-            metrics_s=round(clock.metrics, 6),
-            stl_s=round(evaluator.stl_seconds, 6),
-            episodes_status_s=round(clock.judge - evaluator.stl_seconds, 6),
-            frames_per_s=round(reader.frames_read / total, 1) if total > 0 else 0.0,
-            peak_rss_mib=peak_rss_mib(),
-        ),
+        ground_truth=truth,
+        timings=timings(run, stream.frames_read),
         complete=complete,
         fail_on=options.fail_on,
         root_no_data=RootNoData(
@@ -298,70 +461,16 @@ def evaluate_stream(
         ),
         conditions=evaluator.condition_stats(),
         odd=evaluator.odd_summaries(),
-        track=where.track(),
+        track=run.where.track(),
         scores=score_run(
             evaluator.episodes,
             evaluator.formula_stats(),
-            where.times(),
-            where.columns(),
+            run.where.times(),
+            run.where.columns(),
             case.monitor.period,
             case.monitor.scoring,
         ),
     )
-
-
-def _judge_whole_log(
-    case: Case,
-    spec: CompiledSpec,
-    columns: Columns,
-    conditions: list[dict],
-    options: RunOptions,
-    emit: Callable[[Event], None],
-    clock: _Clock,
-) -> Evaluator:
-    """Every formula over the whole log at once (numpy), then the ticks replayed through the
-    evaluator with those values; with `both`, rtamt runs too and must agree on every value."""
-    started = time.perf_counter()
-    whole = evaluate_whole_log(spec, columns, case.monitor.metrics.max_gap)
-    vector_s = time.perf_counter() - started
-    found: list[Mismatch] = []
-    counter = [0]
-
-    def factory(f: CompiledFormula, period: float) -> PrecomputedMonitor | CheckedMonitor:
-        if options.stl_engine == "numpy":
-            return PrecomputedMonitor(whole.values[f.id])
-        return CheckedMonitor(rtamt_monitor(f, period), f, whole, found, counter)
-
-    evaluator = Evaluator(
-        case, spec, on_event=emit, monitor_factory=factory, series_points=options.series_points
-    )
-    t = columns.t.tolist()
-    replay = time.perf_counter()
-    for i, ti in enumerate(t):
-        evaluator.step(ti, columns.row(i), conditions[i])
-    clock.judge += time.perf_counter() - replay + vector_s
-    evaluator.stl_seconds += vector_s
-    if counter[0]:
-        raise EngineMismatch(found, counter[0])
-    return evaluator
-
-
-def _open_bag(case: Case, source: str | Path, options: RunOptions) -> tuple[BagReader, str, str]:
-    """A bag's reader, display name and digest (sha256 of its files), or `InputError`."""
-    try:
-        mapping = resolve_mapping(options.topics, case.path, case.monitor.topics)
-        reader = read_bag(
-            source,
-            mapping,
-            channels=list(case.monitor.channels),
-            period=case.monitor.period,
-            strict=options.strict,
-        )
-        return reader, str(source), path_digest(source)
-    except (MappingError, BagError) as exc:
-        raise InputError(str(exc)) from None
-    except OSError as exc:
-        raise InputError(f"{source}: cannot read the bag: {exc.strerror or exc}") from None
 
 
 def _timed(reader, clock: _Clock) -> Iterator:

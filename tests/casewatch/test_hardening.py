@@ -125,10 +125,10 @@ def test_a_crash_in_one_of_many_logs_exits_3_and_the_others_are_judged(tmp_path,
     write_stream(logs / "b.jsonl", frames=50)
     real = __import__("casewatch.batch", fromlist=["evaluate_stream"]).evaluate_stream
 
-    def flaky(case_value, spec, stream, options):
+    def flaky(case_value, spec, stream, *rest):
         if stream.endswith("b.jsonl"):
             raise KeyError("forced")
-        return real(case_value, spec, stream, options)
+        return real(case_value, spec, stream, *rest)
 
     monkeypatch.setattr("casewatch.batch.evaluate_stream", flaky)
     out = tmp_path / "out"

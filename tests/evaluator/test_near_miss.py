@@ -8,7 +8,7 @@ import json
 import pytest
 
 from casewatch import api
-from casewatch.evaluator.session import RunOptions, evaluate_stream
+from casewatch.evaluator.session import RunOptions, RunSinks, evaluate_stream
 from tests.evaluator.streams import SMALL_CASE, ego
 
 
@@ -37,7 +37,9 @@ def test_near_misses_are_reported_not_violations(tmp_path):
     stream = tmp_path / "s.jsonl"
     stream.write_text("".join(json.dumps(near_frame(i)) + "\n" for i in range(100)))
     case, spec = api.prepare(case_path)
-    result = evaluate_stream(case, spec, stream, RunOptions(events_path=tmp_path / "events.jsonl"))
+    result = evaluate_stream(
+        case, spec, stream, RunOptions(), RunSinks(events_path=tmp_path / "events.jsonl")
+    )
     # the violation is an episode, as without a margin
     assert [(e.node_id, e.start, e.end) for e in result.episodes] == [("Sn1", 2.0, 3.0)]
     near = {(n.node_id, n.start, n.end): n for n in result.near_misses}

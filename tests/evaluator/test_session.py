@@ -7,7 +7,7 @@ import json
 import pytest
 
 from casewatch import api
-from casewatch.evaluator.session import InputError, RunOptions, evaluate_stream
+from casewatch.evaluator.session import InputError, RunOptions, RunSinks, evaluate_stream
 from tests.evaluator.streams import frame, write_case, write_stream
 
 
@@ -18,7 +18,7 @@ def run(tmp_path_factory):
     stream = write_stream(folder / "stream.jsonl")
     case, spec = api.prepare(case_path)
     events = folder / "events.jsonl"
-    result = evaluate_stream(case, spec, stream, RunOptions(events_path=events))
+    result = evaluate_stream(case, spec, stream, RunOptions(), RunSinks(events_path=events))
     return result, events
 
 

@@ -162,11 +162,13 @@ def test_signal_store_round_trip_and_errors(tmp_path):
 def test_vectorised_episodes_equal_the_evaluators_on_a_bundled_run(tmp_path):
     """Every formula of the reference case at its own threshold: the same episodes."""
     from casewatch import api
-    from casewatch.evaluator.session import RunOptions, evaluate_stream
+    from casewatch.evaluator.session import RunOptions, RunSinks, evaluate_stream
 
     case, spec = api.prepare("examples/reference-case.yaml")
     stream = "examples/data/highway-tailgated.jsonl.gz"
-    result = evaluate_stream(case, spec, stream, RunOptions(signals_path=tmp_path / "signals.npz"))
+    result = evaluate_stream(
+        case, spec, stream, RunOptions(), RunSinks(signals_path=tmp_path / "signals.npz")
+    )
     log = load_signals(tmp_path)
     found, _ = knobs(case, spec)
     assert len(found) == len(spec.formulas) >= 17
