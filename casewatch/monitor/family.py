@@ -1,0 +1,124 @@
+"""The base of a metric family, and the small histories families keep.
+
+A family computes a group of built-in signals that share inputs and history (the similarity
+metrics share the object pairing, the comfort scores the ego's recent path). The engine
+(`casewatch.monitor.engine.MetricEngine`) resamples each frame once and calls every registered
+family in order (`casewatch.monitor.registry`); a family writes its signals into the tick's
+output dict under the names `casewatch.safety_case.signals.builtin_signals` gives them.
+
+Where a new metric goes (docs/architecture.md): its name in the signal catalogue
+(`casewatch/safety_case/signals.py`), its arithmetic as a vectorised kernel in a monitor module,
+and a `MetricFamily` subclass (a new one, or a method of the family whose inputs it shares)
+registered once in `casewatch.monitor.registry.FAMILIES`.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from typing import ClassVar, Protocol, TypeVar
+
+import numpy as np
+
+from casewatch.monitor.frames import ChannelState, Coverage
+from casewatch.safety_case.model import MetricParams
+
+F = TypeVar("F", bound="MetricFamily")
+
+
+class Engine(Protocol):
+    """What a family sees of the engine that steps it (`MetricEngine`)."""
+
+    params: MetricParams
+    channels: list[str]
+    pairs: list[tuple[str, str]]
+    coverage: dict[str, Coverage]
+    last_arbitration: str | None
+
+    def family(self, kind: type[F]) -> F: ...
+
+
+def worst(values: list[float | None], use_max: bool) -> float | None:
+    """The unsuffixed signal. Decision: when any component has no value, the worst is unknown,
+    so the unsuffixed signal has no value either (missing data is never hidden by a min)."""
+    if not values or any(v is None for v in values):
+        return None
+    return max(values) if use_max else min(values)  # type: ignore[type-var]
+
+
+class TimedHistory:
+    """A deque of (t, value) that restarts when a sample comes more than `max_gap` after the
+    previous one."""
+
+    __slots__ = ("items", "max_gap")
+
+    def __init__(self, size: int | None, max_gap: float):
+        self.items: deque = deque(maxlen=size)
+        self.max_gap = max_gap
+
+    def push(self, t: float, value: object) -> None:
+        if self.items and t - self.items[-1][0] > self.max_gap + 1e-9:
+            self.items.clear()
+        self.items.append((t, value))
+
+    def recent(self, t: float) -> bool:
+        """True when the last sample is within max_gap of t."""
+        return bool(self.items) and t - self.items[-1][0] <= self.max_gap + 1e-9
+
+
+class PoseWindow:
+    """A channel's samples (t, a, b) of the last `span` seconds, oldest first, in one growable
+    array (rows `start:end`), restarting like `TimedHistory` when a sample comes more than `max_gap`
+    after the previous one: ego positions (t, x, y) for hcs and the driven path, reported
+    speeds (t, v, 0) for ego_accel. The kernels read column views of it: no per-frame array
+    building, whatever the frame rate."""
+
+    __slots__ = ("buf", "end", "max_gap", "span", "start")
+
+    def __init__(self, span: float, max_gap: float, capacity: int = 64):
+        self.buf = np.empty((capacity, 3))
+        self.start = 0
+        self.end = 0
+        self.span = span
+        self.max_gap = max_gap
+
+    def push(self, t: float, x: float, y: float) -> None:
+        buf = self.buf
+        if self.end > self.start and t - buf[self.end - 1, 0] > self.max_gap + 1e-9:
+            self.start = self.end = 0
+        if self.end == len(buf):
+            live = buf[self.start : self.end].copy()
+            if len(live) * 2 > len(buf):
+                self.buf = buf = np.empty((2 * len(buf), 3))
+            buf[: len(live)] = live
+            self.start, self.end = 0, len(live)
+        buf[self.end] = (t, x, y)
+        self.end += 1
+        # keep the newest sample at or before t - span: it tells that the span is covered
+        limit = t - self.span + 1e-9
+        while self.end - self.start > 1 and buf[self.start + 1, 0] <= limit:
+            self.start += 1
+
+    def window(self) -> np.ndarray:
+        """(n, 3) rows [t, x, y], oldest first (a view)."""
+        return self.buf[self.start : self.end]
+
+
+class MetricFamily:
+    """One family of signals and the history it needs, stepped once per tick.
+
+    `name` is what the benchmark reports (`MetricEngine.timings`). A family reads another's
+    state through `self.engine.family(OtherFamily)` (the registry orders them so that what it
+    reads is already computed this tick)."""
+
+    name: ClassVar[str]
+
+    def __init__(self, engine: Engine):
+        self.engine = engine
+        self.params = engine.params
+        self.channels = engine.channels
+        self.pairs = engine.pairs
+        self.coverage = engine.coverage
+
+    def step(self, t: float, states: dict[str, ChannelState], out: dict[str, float | None]) -> None:
+        """Write this family's signals for the tick at `t` into `out` (None: no value)."""
+        raise NotImplementedError
