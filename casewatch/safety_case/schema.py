@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 import re
-from typing import Annotated
+from typing import Annotated, Literal
 
 import annotated_types
 from pydantic import (
@@ -283,6 +283,60 @@ class RawContract(BaseModel):
         return self
 
 
+def _horizontal_index(raw: object) -> object:
+    """gsn2x's `horizontalIndex`: `{relative: N}` (any whole number) or `{absolute: N}` (N >= 0,
+    or `last`), kept as written. gsn2x 2's plain number (negative: relative) is read too and kept
+    in today's form, which `export-gsn` writes."""
+    if raw is None:
+        return None
+    if isinstance(raw, int) and not isinstance(raw, bool):
+        return {"relative": raw} if raw < 0 else {"absolute": raw}
+    value = next(iter(raw.values())) if isinstance(raw, dict) and len(raw) == 1 else None
+    whole = isinstance(value, int) and not isinstance(value, bool)
+    key = next(iter(raw)) if isinstance(raw, dict) and len(raw) == 1 else None
+    if (key == "relative" and whole) or (
+        key == "absolute" and (value == "last" or (whole and value >= 0))  # type: ignore[operator]
+    ):
+        return raw
+    raise PydanticCustomError(
+        "horizontal_index",
+        "expected gsn2x's `relative: N` or `absolute: N` (N >= 0, or last), got {got}",
+        {"got": _describe(raw)},
+    )
+
+
+def _acp(raw: object) -> object:
+    """gsn2x's assurance claim points: a name -> one element id or a list of ids."""
+    if raw is None:
+        return None
+    if isinstance(raw, dict) and all(
+        isinstance(v, str) or (isinstance(v, list) and all(isinstance(i, str) for i in v))
+        for v in raw.values()
+    ):
+        return raw
+    raise PydanticCustomError(
+        "acp",
+        "expected gsn2x's assurance claim points, each a name and an element id or a list of "
+        "ids (`acp: {ACP1: Sn1}`), got {got}",
+        {"got": _describe(raw)},
+    )
+
+
+HorizontalIndex = Annotated[object, AfterValidator(_horizontal_index)]
+Acp = Annotated[object, AfterValidator(_acp)]
+#: gsn2x's `nodeType` values
+NodeTypeName = Literal[
+    "Goal",
+    "Strategy",
+    "Solution",
+    "Context",
+    "Assumption",
+    "Justification",
+    "CounterGoal",
+    "CounterSolution",
+]
+
+
 class RawNode(BaseModel):
     """One node as written (keys in gsn2x spelling)."""
 
@@ -300,11 +354,11 @@ class RawNode(BaseModel):
     # gsn2x presentation attributes: kept as written for export-gsn, otherwise not read
     classes: StrictStr | list[StrictStr] | None = None
     level: StrictStr | None = None
-    horizontalIndex: object = None
+    horizontalIndex: HorizontalIndex = None
     rankIncrement: Annotated[StrictInt, Field(ge=0)] | None = None
-    nodeType: StrictStr | None = None
+    nodeType: NodeTypeName | None = None
     charWrap: Annotated[StrictInt, Field(ge=0)] | None = None
-    acp: object = None
+    acp: Acp = None
     additionalInformation: object = None
     defeated: StrictBool | None = None  # gsn2x dialectic extension
     defeatedRelation: StrictStr | list[StrictStr] | None = None
@@ -380,7 +434,7 @@ class RawModule(BaseModel):
     uses: list[StrictStr] = []  # gsn2x: module files this one uses, relative to it
     extends: list[RawExtends] | None = None  # gsn2x: develop another module's elements
     additionalInformation: object = None
-    horizontalIndex: object = None
+    horizontalIndex: HorizontalIndex = None
     rankIncrement: Annotated[StrictInt, Field(ge=0)] | None = None
     charWrap: Annotated[StrictInt, Field(ge=0)] | None = None
     stylesheets: list[StrictStr] | None = None

@@ -561,3 +561,32 @@ def test_a_pure_argument_node_may_be_empty_or_null(tmp_path: Path) -> None:
         ("CW012", "error", 6),  # C1 is no mapping
         ("CW014", "error", 7),  # Sn1 has no text
     ]
+
+
+@pytest.mark.parametrize(
+    ("attribute", "kept", "error"),
+    [
+        ("horizontalIndex: {relative: -1}", {"horizontalIndex": {"relative": -1}}, None),
+        ("horizontalIndex: {absolute: last}", {"horizontalIndex": {"absolute": "last"}}, None),
+        ("horizontalIndex: -2", {"horizontalIndex": {"relative": -2}}, None),  # gsn2x 2's form
+        ("horizontalIndex: 3", {"horizontalIndex": {"absolute": 3}}, None),
+        ("horizontalIndex: {absolute: -1}", None, "`horizontalIndex`: expected gsn2x's"),
+        ("horizontalIndex: {relative: 1, absolute: 0}", None, "`horizontalIndex`: expected"),
+        ("rankIncrement: -1", None, "`rankIncrement`"),
+        ("charWrap: 20", {"charWrap": 20}, None),
+        ("nodeType: Claim", None, "`nodeType` should be 'Goal'"),
+        ("acp: {ACP1: [G1, 2]}", None, "`acp`: expected gsn2x's assurance claim points"),
+        ("defeatedRelation: [G2, G3]", {"defeatedRelation": ["G2", "G3"]}, None),
+    ],
+)
+def test_gsn2x_attributes_are_read_by_gsn2x_s_types(
+    tmp_path: Path, attribute: str, kept: dict | None, error: str | None
+) -> None:
+    text = f"G1:\n  text: t\n  undeveloped: true\n  {attribute}\n"
+    case, findings = check_file(write(tmp_path, "arg.gsn.yaml", text))
+    errors = [f for f in findings if f.severity == "error"]
+    if error is None:
+        assert errors == [] and case.nodes["G1"].gsn == kept
+    else:
+        assert [(f.code, f.line) for f in errors] == [("CW012", 4)]
+        assert error in errors[0].message, errors[0].message
