@@ -87,14 +87,17 @@ class LiveRun:
         stdin.flush()
         start = time.monotonic()
         t0 = frames[0][0]
-        for t, line in frames:
-            delay = start + (t - t0) / speed - time.monotonic()
-            if delay > 0:
-                time.sleep(delay)
-            stdin.write(line)
-            stdin.flush()
-            self.sent[round(t, 6)] = time.time()
-        stdin.close()
+        try:
+            for t, line in frames:
+                delay = start + (t - t0) / speed - time.monotonic()
+                if delay > 0:
+                    time.sleep(delay)
+                stdin.write(line)
+                stdin.flush()
+                self.sent[round(t, 6)] = time.time()
+            stdin.close()
+        except BrokenPipeError:  # the run ended (or was killed by a failing test)
+            pass
 
     def feed_in_background(self, header: str, frames: list[tuple[float, str]]) -> threading.Thread:
         thread = threading.Thread(target=self.feed, args=(header, frames), daemon=True)
