@@ -21,8 +21,9 @@ import numpy as np
 from casewatch import api, batch
 from casewatch.evaluator.ground_truth import Label, read_labels
 from casewatch.evaluator.options import RunOptions
+from casewatch.evaluator.score_text import pr_text
 from casewatch.evaluator.signal_store import SavedSignals, load_signals
-from casewatch.evaluator.tuning import knobs, pr_text, sweep, tune
+from casewatch.evaluator.tuning import knobs, sweep, tune
 
 REPO = Path(__file__).resolve().parent.parent
 CASE = REPO / "examples" / "reference-case.yaml"

@@ -20,8 +20,9 @@ import textwrap
 from pathlib import Path
 
 from casewatch.commands.common import prepare_case, sweep_options_ok
+from casewatch.evaluator.score_text import pr_text
 from casewatch.evaluator.signal_store import SignalsError
-from casewatch.evaluator.tuning import TuningError, knobs, labels_of, pr_text, sweep, tune
+from casewatch.evaluator.tuning import TuningError, knobs, labels_of, sweep, tune
 from casewatch.reports.tuning import render_tuning
 from casewatch.safety_case.rewrite import Change, RewriteError, rewrite
 from casewatch.tuning_logs import LogsError, load_logs

@@ -359,16 +359,6 @@ def scores(tp: int, fp: int, fn: int) -> dict[str, float | int | None]:
     }
 
 
-def pr_text(row: dict | None, counts: bool = False) -> str:
-    """`P 83% R 100%` of a scores row (`n/a` where undefined), with `(tp/fp/fn)` if asked."""
-    if row is None:
-        return "n/a"
-    p = "n/a" if row["precision"] is None else f"{row['precision']:.0%}"
-    r = "n/a" if row["recall"] is None else f"{row['recall']:.0%}"
-    tail = f" ({row['tp']}/{row['fp']}/{row['fn']})" if counts else ""
-    return f"P {p} R {r}{tail}"
-
-
 def _score_keys(totals: np.ndarray, objective: str, min_precision: float | None) -> np.ndarray:
     """(..., 3) keys of (..., 3) (tp, fp, fn) totals, larger is better, compared in order:
     whether the precision asked is reached (always 1 for f1), then recall (min-precision) or

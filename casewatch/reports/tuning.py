@@ -7,7 +7,7 @@ autoescaping; it reads only the plain values `evaluator.tuning.tune` returns.
 
 from __future__ import annotations
 
-from casewatch.evaluator.tuning import pr_text
+from casewatch.evaluator.score_text import pr_text
 from casewatch.reports.page import render_page
 from casewatch.reports.plot import PlotFrame
 
