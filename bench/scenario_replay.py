@@ -20,7 +20,7 @@ from pathlib import Path
 
 from casewatch import api
 from casewatch.scenarios import ExportOptions, export_scenarios
-from tests.reports.test_scenario_replay import replay_checks
+from tests.reports.xosc_checks import replay_checks
 
 REPO = Path(__file__).resolve().parents[1]
 DATA = REPO / "examples" / "data"

@@ -329,6 +329,7 @@ def _scenario(
     init = xosc.Init()
     act = xosc.Act("replay", _at_or_after("replay_start", 0.0))
     presence: dict[str, int] = {}
+    groups = 0
     for name, (track, kind) in entities.items():
         objects.add_scenario_object(name, _entity(name, track, kind))
         maneuver = xosc.Maneuver(f"{name}_maneuver")
@@ -341,8 +342,10 @@ def _scenario(
             group.add_actor(name)
             group.add_maneuver(maneuver)
             act.add_maneuver_group(group)
+            groups += 1
     board = xosc.StoryBoard(init, _after("end", w.t1 - w.t0, "stop"))
-    board.add_act(act)
+    if groups:  # a one-frame window moves nobody: Init alone (an act needs a group)
+        board.add_act(act)
     e = w.event
     road_note = "" if road else "; no road network attached (casewatch does not invent roads)"
     description = (

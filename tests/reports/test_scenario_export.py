@@ -14,7 +14,11 @@ import pytest
 from casewatch import api
 from casewatch.cli import main
 from casewatch.monitor.reader import read_stream
-from tests.reports.test_scenario_replay import assert_replays_as_recorded, replay_checks
+from tests.reports.xosc_checks import (
+    assert_replays_as_recorded,
+    assert_valid_openscenario,
+    replay_checks,
+)
 
 REPO = Path(__file__).resolve().parents[2]
 STREAM = REPO / "examples" / "data" / "highway-tailgating.jsonl.gz"
@@ -48,33 +52,11 @@ def test_one_file_per_hazard_event_traced_back(exported):
 
 
 def test_every_file_passes_the_xsd_and_the_asam_checker(exported):
-    import qc_openscenario
-    import xmlschema
-    from qc_baselib import Configuration, Result, StatusType
-    from qc_openscenario import constants
-    from qc_openscenario.main import run_checks
-
     _, out = exported
-    xsd = Path(qc_openscenario.__file__).parent / "schema" / "1.2.0" / "OpenSCENARIO.xsd"
-    schema = xmlschema.XMLSchema(str(xsd))
     files = sorted(out.glob("*.xosc"))
-    assert files
+    assert len(files) == 4
     for path in files:
-        assert list(schema.iter_errors(str(path))) == [], path.name
-        config = Configuration()
-        config.set_config_param("InputFile", str(path))
-        result = Result()
-        result.register_checker_bundle(
-            name=constants.BUNDLE_NAME, description="", version=constants.BUNDLE_VERSION, summary=""
-        )
-        result.set_result_version(version=constants.BUNDLE_VERSION)
-        run_checks(config, result)
-        checks = result.get_checker_results(constants.BUNDLE_NAME)
-        assert all(c.status != StatusType.ERROR for c in checks), path.name
-        assert result.get_checker_bundle_issue_count(constants.BUNDLE_NAME) == 0, path.name
-        # the schema and reference checks ran (not skipped)
-        ran = {c.checker_id for c in checks if c.status == StatusType.COMPLETED}
-        assert "check_asam_xosc_xml_valid_schema" in ran
+        assert_valid_openscenario(path)
 
 
 def test_positions_round_trip_within_a_centimetre(exported):
