@@ -88,6 +88,8 @@ _TABLE: tuple[tuple[str, Severity, str], ...] = (
     ),
     ("CW064", "warning", "a challenged relation is drawn but not judged at run time"),
     ("CW065", "error", "gsn2x `extends` that cannot be applied (module or element missing)"),
+    ("CW066", "error", "`defeated` or `defeatedRelation` that nothing in the argument backs"),
+    ("CW067", "error", "assurance claim point (`acp`) on an element the node is not linked to"),
 )
 
 #: code -> CheckCode, in code order.

@@ -108,7 +108,9 @@ _BOUND_ERRORS = frozenset(
     {"greater_than", "greater_than_equal", "less_than", "less_than_equal", "finite_number"}
 )
 #: Our own CW012 errors whose message already says everything.
-_OWN_MESSAGES = frozenset({"max_gap_below_period", "unknown_rule", "horizontal_index", "acp"})
+_OWN_MESSAGES = frozenset(
+    {"max_gap_below_period", "unknown_rule", "horizontal_index", "acp", "ids"}
+)
 
 _EXPECTED = {
     "string_type": "text",

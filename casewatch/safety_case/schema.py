@@ -291,13 +291,13 @@ def _horizontal_index(raw: object) -> object:
         return None
     if isinstance(raw, int) and not isinstance(raw, bool):
         return {"relative": raw} if raw < 0 else {"absolute": raw}
-    value = next(iter(raw.values())) if isinstance(raw, dict) and len(raw) == 1 else None
-    whole = isinstance(value, int) and not isinstance(value, bool)
-    key = next(iter(raw)) if isinstance(raw, dict) and len(raw) == 1 else None
-    if (key == "relative" and whole) or (
-        key == "absolute" and (value == "last" or (whole and value >= 0))  # type: ignore[operator]
-    ):
-        return raw
+    if isinstance(raw, dict) and len(raw) == 1:
+        ((key, value),) = raw.items()
+        whole = isinstance(value, int) and not isinstance(value, bool)
+        if key == "relative" and whole:
+            return raw
+        if key == "absolute" and (value == "last" or (whole and int(value) >= 0)):
+            return raw
     raise PydanticCustomError(
         "horizontal_index",
         "expected gsn2x's `relative: N` or `absolute: N` (N >= 0, or last), got {got}",
@@ -322,7 +322,19 @@ def _acp(raw: object) -> object:
     )
 
 
+def _ids_as_written(raw: object) -> object:
+    """One node id or a list of them (gsn2x's `defeatedRelation`), kept as written."""
+    if raw is None or isinstance(raw, str):
+        return raw
+    if isinstance(raw, list) and all(isinstance(i, str) for i in raw):
+        return raw
+    raise PydanticCustomError(
+        "ids", "expected a node id or a list of node ids, got {got}", {"got": _describe(raw)}
+    )
+
+
 HorizontalIndex = Annotated[object, AfterValidator(_horizontal_index)]
+IdsAsWritten = Annotated[object, AfterValidator(_ids_as_written)]
 Acp = Annotated[object, AfterValidator(_acp)]
 #: gsn2x's `nodeType` values
 NodeTypeName = Literal[
@@ -361,7 +373,7 @@ class RawNode(BaseModel):
     acp: Acp = None
     additionalInformation: object = None
     defeated: StrictBool | None = None  # gsn2x dialectic extension
-    defeatedRelation: StrictStr | list[StrictStr] | None = None
+    defeatedRelation: IdsAsWritten = None
 
     @field_validator("spi", "hazard", "contract", mode="before")
     @classmethod

@@ -139,6 +139,8 @@ class _Checker:
             self.counter(node)
             self.references(node)
             self.challenged_relations(node)
+            self.defeats(node)
+            self.claim_points(node)
         self.cycles()
         roots = self.gsn2x_roots() if self.gsn2x_rules else self.roots()
         goals = [r for r in roots if self.nodes[r].type is G]
@@ -231,6 +233,48 @@ class _Checker:
                     mark,
                     "name a `supportedBy`, `inContextOf` or `challenges` link as `FROM -> TO`",
                 )
+
+    def defeats(self, node: Node) -> None:
+        """gsn2x's dialectic attributes say what the argument shows: a `defeated` node is one
+        a counter node challenges (gsn2x's V10), a `defeatedRelation` one of this node's
+        relations (V13)."""
+        if node.gsn.get("defeated") is True and not any(
+            node.id in other.challenges for other in self.nodes.values()
+        ):
+            self.add(
+                "CW066",
+                f"{node.id} is marked `defeated`, but no counter node challenges it",
+                node.key_marks.get("defeated", node.mark),
+                f"add a counter node with `challenges: {node.id}`, or drop `defeated`",
+            )
+        written = node.gsn.get("defeatedRelation")
+        for target in [written] if isinstance(written, str) else list(written or []):
+            if target not in (t for _, t in relations(node)):
+                self.add(
+                    "CW066",
+                    f"{node.id} marks its relation to {target} as defeated, but it has no "
+                    f"relation to {target}",
+                    node.key_marks.get("defeatedRelation", node.mark),
+                    "name one of its own `supportedBy`, `inContextOf` or `challenges` targets",
+                )
+
+    def claim_points(self, node: Node) -> None:
+        """gsn2x's assurance claim points (`acp`) sit on the node or on one of its own
+        `supportedBy` / `inContextOf` links (gsn2x's V09)."""
+        acp = node.gsn.get("acp")
+        if not isinstance(acp, dict):
+            return
+        allowed = {node.id, *node.supported_by, *node.in_context_of}
+        for name, targets in acp.items():
+            for target in [targets] if isinstance(targets, str) else targets:
+                if target not in allowed:
+                    self.add(
+                        "CW067",
+                        f"{node.id}'s assurance claim point {name} names {target}, which is "
+                        f"neither {node.id} nor one of its `supportedBy` / `inContextOf`",
+                        node.key_marks.get("acp", node.mark),
+                        f"name {node.id} or a node it links to",
+                    )
 
     def unjudged(self) -> None:
         """A monitored case: a challenged relation is drawn, never judged; say so."""

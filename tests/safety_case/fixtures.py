@@ -198,4 +198,6 @@ CHECK_FIXTURES: list[tuple[str, str, int, int | None]] = [
         15,
     ),
     ("CW064", BASE + "CSn1:\n  text: d\n  challenges: G1 -> Sn1\n", 10, 15),
+    ("CW066", case("G1:\n  text: top\n  undeveloped: true\n  defeated: true\n"), 6, 3),
+    ("CW067", case("G1:\n  text: top\n  undeveloped: true\n  acp: {ACP1: Sn1}\n"), 6, 3),
 ]

@@ -45,8 +45,9 @@ C_A_certain_context:
 G2:
   text: A sub-goal
   undeveloped: true
+  defeated: true
   acp:
-    ACP1: supportedBy
+    ACP1: G2
 Top:
   nodeType: Goal
   text: An element named freely, typed by nodeType
@@ -54,7 +55,7 @@ Top:
 CG1:
   text: A counter goal
   challenges: G2
-  defeated: true
+  defeatedRelation: G2
   supportedBy: [CSn1]
 CSn1:
   text: A counter solution
@@ -79,7 +80,8 @@ def test_a_plain_gsn2x_file_checks_as_a_pure_argument(tmp_path: Path) -> None:
         "level": "top",
     }
     assert case.nodes["S1"].gsn == {"horizontalIndex": {"relative": -1}, "rankIncrement": 2}
-    assert case.nodes["CG1"].gsn == {"defeated": True}
+    assert case.nodes["CG1"].gsn == {"defeatedRelation": "G2"}
+    assert case.nodes["G2"].gsn == {"defeated": True, "acp": {"ACP1": "G2"}}
     assert case.module.gsn["additionalInformation"] == {
         "v1": "Changed line 2",
         "v2": "Added line 4",
@@ -576,7 +578,8 @@ def test_a_pure_argument_node_may_be_empty_or_null(tmp_path: Path) -> None:
         ("charWrap: 20", {"charWrap": 20}, None),
         ("nodeType: Claim", None, "`nodeType` should be 'Goal'"),
         ("acp: {ACP1: [G1, 2]}", None, "`acp`: expected gsn2x's assurance claim points"),
-        ("defeatedRelation: [G2, G3]", {"defeatedRelation": ["G2", "G3"]}, None),
+        ("acp: {ACP1: [G1]}", {"acp": {"ACP1": ["G1"]}}, None),
+        ("defeatedRelation: 5", None, "`defeatedRelation`"),
     ],
 )
 def test_gsn2x_attributes_are_read_by_gsn2x_s_types(
@@ -590,3 +593,22 @@ def test_gsn2x_attributes_are_read_by_gsn2x_s_types(
     else:
         assert [(f.code, f.line) for f in errors] == [("CW012", 4)]
         assert error in errors[0].message, errors[0].message
+
+
+def test_defeats_and_claim_points_are_backed_by_the_argument(tmp_path: Path) -> None:
+    """gsn2x's V10, V13 and V09: a defeated node is challenged, a defeated relation is one of
+    the node's, an assurance claim point sits on the node or one of its links."""
+    base = "G1:\n  supportedBy: [S1]\nS1:\n  supportedBy: [G2, G3]\n"  # lines 1-4
+    fine = (
+        base + "  defeatedRelation: [G2, G3]\n  acp: {ACP1: [G2, S1]}\n"  # lines 5-6
+        "G2: {undeveloped: true, defeated: true}\nG3: {undeveloped: true}\n"  # lines 7-8
+        "CG1: {challenges: G2, undeveloped: true}\n"
+    )
+    assert findings_of(tmp_path, fine) == [("CW011", "warning", 1)]
+    wrong = fine.replace("[G2, G3]\n  acp", "[G2, G9]\n  acp").replace("[G2, S1]", "[G1]")
+    wrong = wrong.replace("challenges: G2", "challenges: G3")
+    assert findings_of(tmp_path, wrong)[1:] == [
+        ("CW066", "error", 5),  # S1 has no relation to G9
+        ("CW067", "error", 6),  # G1 is above S1, not one of its links
+        ("CW066", "error", 7),  # G2 is defeated, but CG1 now challenges G3
+    ]
