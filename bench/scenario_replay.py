@@ -37,6 +37,7 @@ def sweep(streams: list[Path]) -> list[dict]:
             report = export_scenarios(result, stream, out, ExportOptions())
             exported = time.perf_counter()
             checks = replay_checks(stream, out) if report.written else []
+            before = replay_checks(stream, out, waiting=True) if report.written else []
             objects = [o for c, _ in checks for o in c["objects"].values()]
             rows.append(
                 {
@@ -52,6 +53,10 @@ def sweep(streams: list[Path]) -> list[dict]:
                     "stream_contacts": sum(c.stream_contacts for _, c in checks),
                     "new_contacts": sum(len(c.new_contacts) for _, c in checks),
                     "presence_errors": sum(len(c.presence_errors) for _, c in checks),
+                    # the same files played as exported before issue 33 (objects waiting at
+                    # their first pose, staying at their last): instants with a new contact
+                    "new_contacts_if_waiting": sum(len(c.new_contacts) for _, c in before),
+                    "files_colliding_if_waiting": sum(1 for _, c in before if c.new_contacts),
                     "max_position_error_m": max(
                         (c.max_position_error for _, c in checks), default=0.0
                     ),

@@ -33,6 +33,7 @@ from tests.reports.xosc_replay import (
     check_replay,
     overlapping,
     stream_state,
+    wait_at_first_pose,
 )
 
 REPO = Path(__file__).resolve().parents[2]
@@ -134,14 +135,7 @@ def test_the_check_finds_the_collisions_of_objects_that_wait_at_their_first_pose
     """Replayed the old way (every object in the scene from the start, waiting at its first
     pose and staying at its last), the same file collides where the stream never did."""
     entry, _ = _export(_drive(), tmp_path)
-    replay = Replay(tmp_path / entry["file"])
-    for entity in replay.entities.values():
-        first = min(
-            (c for c in entity.changes if c.op == "add"), key=lambda c: c.time, default=None
-        )
-        if first is not None:
-            entity.at_start, entity.removed_at_start = first.pose, False
-        entity.changes = []
+    replay = wait_at_first_pose(Replay(tmp_path / entry["file"]))
     assert ("ego", "obj_late") in overlapping(replay.footprints(1.0))
     assert ("ego", "obj_gone") in overlapping(replay.footprints(2.5))
 

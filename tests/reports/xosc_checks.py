@@ -37,7 +37,7 @@ def assert_valid_openscenario(path: Path) -> None:
     assert "check_asam_xosc_xml_valid_schema" in ran
 
 
-def replay_checks(stream: Path, out: Path) -> list[tuple[dict, ReplayCheck]]:
+def replay_checks(stream: Path, out: Path, waiting: bool = False) -> list[tuple[dict, ReplayCheck]]:
     """Every file of an export checked against the stream it came from."""
     catalogue = json.loads((out / "scenarios.json").read_text())["scenarios"]
     frames = list(read_stream(stream))
@@ -49,7 +49,7 @@ def replay_checks(stream: Path, out: Path) -> list[tuple[dict, ReplayCheck]]:
             for f in frames
             if t0 - 1e-9 <= f.t <= t1 + 1e-9 and c["channel"] in f.channels
         ]
-        checks.append((c, check_replay(out / c["file"], seen)))
+        checks.append((c, check_replay(out / c["file"], seen, waiting)))
     return checks
 
 

@@ -238,13 +238,28 @@ class ReplayCheck:
     max_position_error: float = 0.0
 
 
-def check_replay(path: Path, frames: list[tuple[float, dict]]) -> ReplayCheck:
+def wait_at_first_pose(replay: Replay) -> Replay:
+    """The same file played the way casewatch exported before issue 33: every entity in the
+    scene from the start, waiting at its first pose and staying at its last (its adds and
+    deletes ignored). For showing what the presence actions prevent."""
+    for entity in replay.entities.values():
+        adds = [c for c in entity.changes if c.op == "add"]
+        if adds and entity.removed_at_start:
+            entity.at_start = min(adds, key=lambda c: c.time).pose
+        entity.removed_at_start = False
+        entity.changes = []
+    return replay
+
+
+def check_replay(
+    path: Path, frames: list[tuple[float, dict]], waiting: bool = False
+) -> ReplayCheck:
     """Sample the file at every frame time of its channel in the window (`frames`: window
     time, `stream_state(...)`) and halfway between consecutive frames. At a frame time the
     entities present must be exactly those the channel observed, where it observed them; at
     every sample, two footprints may overlap only if the stream's overlapped at that frame
-    (halfway: at either neighbouring frame)."""
-    replay = Replay(path)
+    (halfway: at either neighbouring frame). `waiting`: played as `wait_at_first_pose`."""
+    replay = wait_at_first_pose(Replay(path)) if waiting else Replay(path)
     names = set(replay.entities)
     check = ReplayCheck()
     truth = []
