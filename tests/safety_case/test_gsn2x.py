@@ -612,3 +612,25 @@ def test_defeats_and_claim_points_are_backed_by_the_argument(tmp_path: Path) -> 
         ("CW067", "error", 6),  # G1 is above S1, not one of its links
         ("CW066", "error", 7),  # G2 is defeated, but CG1 now challenges G3
     ]
+
+
+def test_module_information_is_kept_through_the_export(tmp_path: Path) -> None:
+    text = (
+        "module:\n  name: arg\n  brief: b\n  version: 3\n  stylesheets: [a.css]\n"
+        "  charWrap: 30\n  horizontalIndex: {relative: 1}\nG1: {text: t, undeveloped: true}\n"
+    )
+    case = check_file(write(tmp_path, "arg.gsn.yaml", text))[0]
+    expected = {
+        "version": 3,
+        "stylesheets": ["a.css"],
+        "charWrap": 30,
+        "horizontalIndex": {"relative": 1},
+    }
+    assert case.module.gsn == expected
+    (written,) = write_gsn(case, tmp_path / "out")
+    document = yaml.safe_load(written.read_text(encoding="utf-8"))
+    assert gsn2x_problems(document) == [] and document["module"]["version"] == 3
+    assert check_file(written)[0].module.gsn == expected
+    # a monitored case keeps casewatch's module keys: an unknown one is CW013
+    monitored = text.replace("module:", "monitor: {channels: [a, b]}\nmodule:")
+    assert ("CW013", "error", 5) in findings_of(tmp_path, monitored, "case.yaml")
