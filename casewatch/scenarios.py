@@ -150,7 +150,7 @@ def collect(frames: Iterable[Frame], windows: list[EventWindow]) -> None:
             if w.ego is None:
                 w.ego = Track()
             w.ego.add(t, (e.x, e.y, e.yaw), e.footprint, "ego")
-            w.last_t = t
+            w.frames.append(t)
             inside = w.event.start - 1e-9 <= frame.t <= w.event.end + 1e-9
             o = state.objects
             for k, oid in enumerate(o.ids):

@@ -11,9 +11,11 @@ numbers. From those, one `.xosc` per event (built with `scenariogeneration`):
 - every entity exists only while the channel observed it: an object first seen at the window's
   start is teleported there in Init; one first seen later is removed in Init
   (`DeleteEntityAction`) and added where it was first seen when it was first seen
-  (`AddEntityAction`); an object unseen for more than `GAP_PERIODS` periods, or for good, is
+  (`AddEntityAction`); an object the channel reported a frame without (lost, or for good) is
   removed right after its last observation and added again when seen again. A replay thus
-  holds exactly the contacts of the stream, never an object waiting at its first pose;
+  holds exactly the contacts of the stream, never an object waiting at its first pose. Frames
+  the channel has no data for at all (a dropout, a defective line) are bridged for up to
+  `BRIDGE_PERIODS` periods: the object moves straight on, as the ego does;
 - while present, an entity follows a `FollowTrajectoryAction` along a polyline of its observed
   poses in `position` mode, timed absolutely (`Timing domainAbsoluteRelative="absolute"`,
   scale 1, offset 0): vertex time `t` is simulation time `1 * t + 0`, and 0 is the window's
@@ -43,9 +45,11 @@ from casewatch.reports.scenario_entities import MASS, entity_kind
 #: OpenSCENARIO minor version written (1.2).
 OSC_MINOR = 2
 
-#: A track unseen for longer than this many periods leaves the scene until it is seen again: a
-#: replay must not slide an object through a second in which nobody saw where it was.
-GAP_PERIODS = 1.5
+#: Channel frames missing altogether (a dropout, a skipped defective line) are bridged for up to
+#: this many periods: nobody reported the object gone, so it moves straight on between its
+#: poses, as the ego does. A longer silence takes it out of the scene: a replay must not slide
+#: an object through a second in which nobody saw where it was.
+BRIDGE_PERIODS = 5.0
 
 #: Decimals written: positions and sizes (0.1 mm), angles (1 µrad), times (1 µs).
 POSITION_DIGITS = 4
@@ -108,7 +112,12 @@ class EventWindow:
     t1: float
     ego: Track | None = None
     objects: dict[str, Track] = field(default_factory=dict)
-    last_t: float = 0.0  # the channel's last frame in the window, from t0 [s]
+    frames: list[float] = field(default_factory=list)  # the channel's frames, from t0 [s]
+
+    @property
+    def last_t(self) -> float:
+        """The channel's last frame in the window, from t0 [s]."""
+        return self.frames[-1] if self.frames else 0.0
 
 
 def clean(value: float, digits: int) -> float:
@@ -167,11 +176,16 @@ def plan_windows(
     ]
 
 
-def spans(t: np.ndarray, gap: float) -> list[tuple[int, int]]:
-    """Index ranges `[i, j)` of observations with no pause longer than `gap` seconds."""
+def spans(t: np.ndarray, frames: np.ndarray, bridge: float) -> list[tuple[int, int]]:
+    """Index ranges `[i, j)` of observations (times `t`) during which the entity stays in the
+    scene: a range ends where the channel has a frame without it (a frame in `frames` strictly
+    between two observations), or where two observations are more than `bridge` seconds
+    apart."""
     if not len(t):
         return []
-    cuts = (np.nonzero(np.diff(t) > gap + _EPS)[0] + 1).tolist()
+    a, b = t[:-1], t[1:]
+    missed = np.searchsorted(frames, b - _EPS, "left") - np.searchsorted(frames, a + _EPS, "right")
+    cuts = (np.nonzero((missed > 0) | (b - a > bridge + _EPS))[0] + 1).tolist()
     bounds = [0, *cuts, len(t)]
     return list(pairwise(bounds))
 
@@ -280,15 +294,16 @@ def _follow(name: str, track: Track, i: int, j: int, headings: np.ndarray):
 def _stage(
     name: str,
     track: Track,
-    gap: float,
-    last_t: float,
+    frames: np.ndarray,
+    bridge: float,
     init: xosc.Init,
     maneuver: xosc.Maneuver,
 ) -> int:
     """Init actions and events that make entity `name` exist exactly while observed; returns
     the number of spans it is present in."""
     t = np.asarray(track.t)
-    parts = spans(t, gap)
+    last_t = float(frames[-1])
+    parts = spans(t, frames, bridge)
     for k, (i, j) in enumerate(parts, start=1):
         # unwrapped: a player interpolating headings linearly never turns the long way round
         headings = np.unwrap(np.asarray(track.h[i:j]))
@@ -321,7 +336,7 @@ def _stage(
 def _scenario(
     w: EventWindow,
     entities: dict[str, tuple[Track, str]],
-    gap: float,
+    bridge: float,
     road: str | None,
     node_text: str,
 ) -> tuple[xosc.Scenario, dict[str, int]]:
@@ -329,14 +344,14 @@ def _scenario(
     init = xosc.Init()
     act = xosc.Act("replay", _at_or_after("replay_start", 0.0))
     presence: dict[str, int] = {}
+    frames = np.asarray(w.frames)
     groups = 0
     for name, (track, kind) in entities.items():
         objects.add_scenario_object(name, _entity(name, track, kind))
         maneuver = xosc.Maneuver(f"{name}_maneuver")
         # the ego is the system under test: it stays in the scene through channel dropouts
-        presence[name] = _stage(
-            name, track, math.inf if name == "ego" else gap, w.last_t, init, maneuver
-        )
+        reach = math.inf if name == "ego" else bridge
+        presence[name] = _stage(name, track, frames, reach, init, maneuver)
         if maneuver.events:
             group = xosc.ManeuverGroup(f"{name}_group")
             group.add_actor(name)
@@ -391,7 +406,7 @@ def write_event(
             involved[f"obj_{oid}"] = (track, kind)
     nearest = min((track.nearest for track in w.objects.values()), default=math.inf)
     entities = {"ego": (w.ego, "car"), **involved}
-    scenario, presence = _scenario(w, entities, GAP_PERIODS * period, road, node_text)
+    scenario, presence = _scenario(w, entities, BRIDGE_PERIODS * period, road, node_text)
     name = file_name(w)
     scenario.write_xml(str(out / name))
     return {

@@ -129,6 +129,34 @@ def test_objects_exist_only_while_observed_with_known_answers(tmp_path: Path) ->
     assert check.max_position_error < 1e-9 and check.stream_contacts == 4
 
 
+def test_frames_without_channel_data_are_bridged_briefly_not_blinked(tmp_path: Path) -> None:
+    """A frame the channel has no data for (a dropout, or a line skipped as a defect: here a
+    duplicate id) is no sighting of absence: objects move straight on through up to 5 periods
+    of it, as the ego does; a longer silence takes them out of the scene."""
+    frames = _drive()
+    frames[22]["channels"] = {}  # t = 2.2: a dropout of lav
+    twin = _box("late", 70.0, 0.0)  # t = 2.5: "late" twice, 60 m apart: the line is a defect
+    frames[25]["channels"]["lav"]["objects"].append(twin)
+    entry, _ = _export(frames, tmp_path / "short")
+    replay = Replay(tmp_path / "short" / entry["file"])
+    late = replay.entities["obj_late"]
+    assert (
+        entry["objects"]["obj_late"]["spans"] == 1 and entry["objects"]["obj_blink"]["spans"] == 2
+    )
+    assert [late.present(t) for t in (2.2, 2.5)] == [True, True]
+    assert late.pose(2.5) == (10.0, 0.0, 0.0)  # never pulled 60 m away
+    assert all(p.x.max() == p.x.min() == 10.0 for p in late.paths)
+    assert replay.entities["obj_blink"].pose(2.2) == pytest.approx((22.0, 3.0, 0.0))
+    assert replay.entities["ego"].pose(2.5) == pytest.approx((25.0, 0.0, 0.0))
+    frames = _drive()
+    for f in frames[21:28]:  # t = 2.1-2.7: 0.8 s between sightings, beyond 5 periods
+        f["channels"] = {}
+    entry, _ = _export(frames, tmp_path / "long")
+    late = Replay(tmp_path / "long" / entry["file"]).entities["obj_late"]
+    assert entry["objects"]["obj_late"]["spans"] == 2
+    assert [late.present(t) for t in (2.0, 2.0001, 2.79, 2.8)] == [True, False, False, True]
+
+
 def test_the_check_finds_the_collisions_of_objects_that_wait_at_their_first_pose(
     tmp_path: Path,
 ) -> None:
