@@ -86,15 +86,16 @@ class ExportReport:
         return [e for e in self.entries if e["file"] is None]
 
 
-def check_options(options: ExportOptions) -> None:
-    """Refuse numbers out of range and an OpenDRIVE file that is not there (`ExportError`)."""
+def check_options(options: ExportOptions, flag: str = "--") -> None:
+    """Refuse numbers out of range and an OpenDRIVE file that is not there (`ExportError`);
+    `flag` is how the options are spelled on the command line (`--scenario-` under `run`)."""
     for name, value in (
         ("lead-in", options.lead_in),
         ("lead-out", options.lead_out),
         ("radius", options.radius),
     ):
         if not (math.isfinite(value) and value >= 0):
-            raise ExportError(f"--{name} must be a number >= 0, got {value:g}")
+            raise ExportError(f"{flag}{name} must be a number >= 0, got {value:g}")
     road = options.opendrive
     if road is not None and not Path(road).is_file():
         raise ExportError(

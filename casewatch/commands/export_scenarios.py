@@ -73,7 +73,8 @@ def add_options(p: argparse.ArgumentParser, prefix: str = "") -> None:
         type=float,
         default=30.0,
         metavar="M",
-        help="objects this close to the ego during the event are involved",
+        help="objects this close to the ego (centre to centre) during the event are "
+        "replayed; with none, the scenario is ego-only (default %(default)s)",
     )
     p.add_argument(
         f"--{prefix}opendrive",
@@ -123,9 +124,9 @@ def scenario_problem(args: argparse.Namespace, channels: list[str]) -> str | Non
             f"({', '.join(channels)})"
         )
     try:
-        check_options(options)
+        check_options(options, flag="--scenario-")
     except ExportError as exc:
-        return str(exc).replace("--", "--scenario-")
+        return str(exc)
     return None
 
 
