@@ -29,12 +29,18 @@ from casewatch.crash import ENGINES_DISAGREE, INTERNAL_ERROR
 from casewatch.dask_engine import EngineError
 from casewatch.evaluator.eventlog import Event
 from casewatch.evaluator.ground_truth import LabelsError
-from casewatch.evaluator.options import DEFAULT_MAX_NO_DATA, OptionsError, RunOptions, RunSinks
+from casewatch.evaluator.options import (
+    DEFAULT_MAX_NO_DATA,
+    STL_ENGINES,
+    OptionsError,
+    RunOptions,
+    RunSinks,
+)
 from casewatch.evaluator.policy import FAIL_ON, damaged, gated
 from casewatch.evaluator.result import DataGap, Episode, EpisodeOpen, NearMiss, OddChange, RunResult
 from casewatch.evaluator.session import InputError, evaluate_stream
 from casewatch.evaluator.signal_store import FILE_NAME as SIGNALS_FILE
-from casewatch.evaluator.stl_engines import ENGINES, EngineMismatch
+from casewatch.evaluator.stl_engines import EngineMismatch
 from casewatch.evaluator.summary import LogSummary
 from casewatch.live import flags as live_flags
 from casewatch.monitor.source import source_kind
@@ -61,11 +67,23 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--stl-engine",
-        choices=ENGINES,
-        default="rtamt",
-        help="robustness by rtamt tick by tick (default; live streams), numpy over "
-        "the whole log (logs only, same values), or both, every value compared "
-        "(a disagreement exits 3 naming the formula and tick)",
+        choices=STL_ENGINES,
+        default="auto",
+        help="auto (default): a log on disk is judged whole (numpy over every formula), "
+        "standard input tick by tick as it arrives (rtamt); rtamt or numpy force one, both "
+        "runs the two and compares every value (a disagreement exits 4 naming the "
+        "formula and tick); the result is the same either way",
+    )
+    p.add_argument(
+        "--live",
+        action="store_true",
+        help="judge a log tick by tick as a live stream would be (rtamt), not whole",
+    )
+    p.add_argument(
+        "--check-online",
+        action="store_true",
+        help="judge each log whole and tick by tick, and exit 4 naming every field of "
+        "result.json where the two differ (takes twice as long; a self-test)",
     )
     p.add_argument(
         "--topics",
@@ -212,8 +230,18 @@ def run_options(args: argparse.Namespace) -> RunOptions:
         max_no_data=args.max_no_data,
         fail_on=args.fail_on,
         topics=str(args.topics) if args.topics else None,
-        stl_engine=args.stl_engine,
+        stl_engine=_stl_engine(args),
+        check_online=args.check_online,
     )
+
+
+def _stl_engine(args: argparse.Namespace) -> str:
+    """`--stl-engine`, or rtamt with `--live` (which forces the live path)."""
+    if not args.live:
+        return args.stl_engine
+    if args.stl_engine not in ("auto", "rtamt"):
+        raise OptionsError(f"--live judges tick by tick: not with --stl-engine {args.stl_engine}")
+    return "rtamt"
 
 
 def main(args: argparse.Namespace) -> int:

@@ -24,8 +24,10 @@ from casewatch.evaluator.policy import FAIL_ON
 #: (warm-up), a drive with a channel missing throughout on all of them.
 DEFAULT_MAX_NO_DATA = 0.5
 
-#: The STL engines (evaluator.stl_engines.ENGINES, restated so this module stays import-light).
-STL_ENGINES = ("rtamt", "numpy", "both")
+#: The STL engines (evaluator.stl_engines.ENGINES, restated so this module stays import-light),
+#: and `auto`: the whole-log path (numpy) for a log, rtamt tick by tick for a live stream
+#: (evaluator.offline.resolve_engine).
+STL_ENGINES = ("auto", "rtamt", "numpy", "both")
 
 #: `labels` value meaning "NAME.labels.jsonl beside each stream, when there is one".
 AUTO_LABELS = "auto"
@@ -49,8 +51,11 @@ class RunOptions:
     max_no_data: float = DEFAULT_MAX_NO_DATA
     fail_on: str = "any"  # which episodes fail the run (evaluator.policy), recorded in the result
     topics: str | None = None
-    stl_engine: str = "rtamt"  # rtamt, numpy or both (evaluator.stl_engines)
+    stl_engine: str = "auto"  # auto, rtamt, numpy or both (evaluator.stl_engines)
     series_points: int = 1000  # points per plot series in result.json
+    # judge a log both ways too (whole-log and live) and fail unless every field agrees
+    # (evaluator.offline.OnlineMismatch); not recorded: it never changes a result
+    check_online: bool = False
 
     def __post_init__(self) -> None:
         # paths arrive as Path from argparse and API callers; kept as text so the value

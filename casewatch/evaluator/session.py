@@ -16,9 +16,11 @@ import importlib.metadata
 import math
 import time
 from collections.abc import Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cache
 from pathlib import Path
+
+import numpy as np
 
 from casewatch.errors import CasewatchError
 from casewatch.evaluator.core import Evaluator, rtamt_monitor
@@ -26,6 +28,7 @@ from casewatch.evaluator.drive_log import DriveLog
 from casewatch.evaluator.eventlog import Event, EventLog
 from casewatch.evaluator.ground_truth import Label, read_labels, score_events
 from casewatch.evaluator.intervals import RunLength
+from casewatch.evaluator.offline import LIVE_ENGINE, check_online, is_live_source, resolve_engine
 from casewatch.evaluator.options import DEFAULT_MAX_NO_DATA, RunOptions, RunSinks
 from casewatch.evaluator.result import (
     ArbitrationInterval,
@@ -102,10 +105,33 @@ def evaluate_stream(
     """
     options = options or RunOptions()
     sinks = sinks or RunSinks()
-    check_judgeable(case, source, options)
+    if options.check_online and is_live_source(source):
+        raise InputError("--check-online judges a log twice; standard input can be read once")
+    # a sink that follows the ticks as they are judged (casewatch.live) needs the live path
+    result = _evaluate(case, spec, source, options, sinks, payload, sinks.on_tick is not None)
+    if options.check_online:  # issue 36: the whole-log path must give the live path's result
+        online = _evaluate(case, spec, source, options, RunSinks(), payload, True)
+        check_online(source, result, online)
+    return result
+
+
+def _evaluate(
+    case: Case,
+    spec: CompiledSpec,
+    source: str | Path,
+    options: RunOptions,
+    sinks: RunSinks,
+    payload: bytes | None,
+    live: bool,
+) -> RunResult:
+    """The stages, judged by the engine `options.stl_engine` resolves to for this source (the
+    result records the options as given: `--resume` compares them)."""
+    engine = LIVE_ENGINE if live else resolve_engine(options.stl_engine, source)
+    judging = replace(options, stl_engine=engine)
+    check_judgeable(case, source, judging)
     labels = read_run_labels(options)
     opened = open_run_source(case, source, options, payload)
-    run = Judging(case, spec, options, sinks)
+    run = Judging(case, spec, judging, sinks)
     complete = run.read(opened)
     return assemble_result(case, spec, options, opened, run, labels, complete)
 
@@ -260,6 +286,13 @@ class WholeLogJudge:
         return evaluator
 
 
+def _no_monitor(formula: CompiledFormula, period: float) -> PrecomputedMonitor:
+    return PrecomputedMonitor(_NO_VALUES)
+
+
+_NO_VALUES = np.zeros(0)
+
+
 class Judging:
     """Stages 3-6 over the frames of one source: metrics, ODD tracking, signal recording and
     the STL engine, with the drive log and the arbitration record the result is assembled
@@ -271,8 +304,14 @@ class Judging:
         self.case, self.spec, self.options, self.sinks = case, spec, options, sinks
         self.where = DriveLog()  # the ego's position and what the scores read, per tick
         self.events = _Events(sinks, self.where)
+        # the whole-log path judges with the evaluator WholeLogJudge builds: this one only
+        # closes what a stream defect interrupts, so it gets no rtamt monitors to build
         self.evaluator = Evaluator(
-            case, spec, on_event=self.events.emit, series_points=options.series_points
+            case,
+            spec,
+            on_event=self.events.emit,
+            series_points=options.series_points,
+            **({} if options.stl_engine == LIVE_ENGINE else {"monitor_factory": _no_monitor}),
         )
         self.judge: TickJudge | WholeLogJudge = (
             TickJudge(self.evaluator)

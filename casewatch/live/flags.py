@@ -61,8 +61,9 @@ def refusal(args: argparse.Namespace, single: bool) -> str | None:
         return None
     if not single:
         return "--serve and --annotate go with one stream"
-    if args.serve is not None and args.stl_engine != "rtamt":
-        return "--serve shows ticks as they are judged: it needs --stl-engine rtamt"
+    if args.serve is not None and args.stl_engine not in ("auto", "rtamt"):
+        # auto: a run with a live page is judged tick by tick (session: a tick observer)
+        return "--serve shows ticks as they are judged: it needs --stl-engine rtamt or auto"
     if args.serve_linger < 0:
         return "--serve-linger must be 0 or more seconds"
     if args.annotate is not None:
