@@ -21,8 +21,9 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from casewatch.errors import EXIT_ENGINES_DISAGREE, CasewatchError
+from casewatch.errors import CasewatchError
 from casewatch.evaluator.result import RunResult
+from casewatch.evaluator.stl_engines import EngineMismatch
 
 #: The STL engine of the live path (tick by tick) and of the whole-log path.
 LIVE_ENGINE = "rtamt"
@@ -78,22 +79,28 @@ def result_differences(offline: RunResult, online: RunResult) -> list[str]:
     scores, ...)."""
     a = offline.model_dump(mode="json", exclude=set(BOOKKEEPING))
     b = online.model_dump(mode="json", exclude=set(BOOKKEEPING))
+    for side in (a, b):
+        # the option that picks the path, and so the one that must change nothing else
+        (side.get("options") or {}).pop("stl_engine", None)
     return list(_walk(a, b, ""))
 
 
-class OnlineMismatch(CasewatchError):
+class OnlineMismatch(EngineMismatch):
     """The whole-log path and the live path judged one log differently (a bug in one of
-    them, never a verdict)."""
-
-    exit_code = EXIT_ENGINES_DISAGREE
+    them, never a verdict): an engine disagreement, handled and exited (4) as one by the
+    single run and by `--jobs`, whose messages name the log."""
 
     def __init__(self, source: str, differences: list[str]):
         shown = "\n".join(f"  {d}" for d in differences[:MAX_LISTED])
-        super().__init__(
-            f"{source}: the whole-log and the live path disagree in {len(differences)} "
-            f"field(s), first {min(len(differences), MAX_LISTED)}:\n{shown}"
+        CasewatchError.__init__(
+            self,
+            f"the whole-log and the live path disagree in {len(differences)} field(s), "
+            f"first {min(len(differences), MAX_LISTED)}:\n{shown}",
         )
+        self.source = source
         self.differences = differences
+        self.mismatches = []  # EngineMismatch's per-value list: these are per field
+        self.total = len(differences)
 
 
 def check_online(source: str | Path, offline: RunResult, online: RunResult) -> None:
