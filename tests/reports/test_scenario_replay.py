@@ -21,7 +21,7 @@ from casewatch import api
 from casewatch.cli import main
 from casewatch.evaluator.result import Episode
 from casewatch.monitor.reader import read_stream
-from casewatch.reports.scenario_export import EventWindow, write_event
+from casewatch.reports.scenario_export import EventWindow, ExportError, write_event
 from casewatch.scenarios import collect
 from tests.reports.xosc_checks import (
     assert_replays_as_recorded,
@@ -173,6 +173,18 @@ def test_an_event_with_nobody_near_is_an_ego_only_scenario(tmp_path: Path) -> No
     assert entry["ego_only"] is True and entry["entities"] == ["ego"]
     assert entry["nearest_object_m"] == 3.0  # blink, 3 m beside the ego's centre
     assert sorted(Replay(tmp_path / entry["file"]).entities) == ["ego"]
+
+
+def test_a_window_without_a_frame_of_its_channel_cannot_be_written(tmp_path: Path) -> None:
+    frames = _drive()
+    for f in frames:
+        f["channels"] = {}
+    with pytest.raises(ExportError) as err:
+        _export(frames, tmp_path)
+    assert str(err.value) == (
+        "hazard event 1 (H1 at 0 s): channel lav has no frame in its window 0-3 s"
+    )
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_entity_categories_from_class_and_size(tmp_path: Path) -> None:
