@@ -17,6 +17,9 @@
    whether it imports anything heavy.
 3b. The same replay on a Dask LocalCluster (`--engine dask`) of 1 and 2 workers: the speed-up
    (goal >= 1.8x) and the overhead against `--jobs 2` (goal <= 10 %), when dask is installed.
+3c. The same replay on a real `dask scheduler` and 1 and 2 `dask worker` processes on loopback
+   (`bench/dask_cluster.py`): speed-up, overhead against `--jobs 2` measured alongside, and a
+   `--resume` run's rate over the hours it judged (reused logs not counted).
 7. ROS 2 bags: every bundled drive as an MCAP bag (plain and zstd), frames per second of
    reading it against the evaluator's own speed on the same drive (`monitor/bags/bench.py`;
    target: reading >= judging).
@@ -424,6 +427,10 @@ def main(argv: list[str] | None = None) -> int:
             offline(replay, replay_frames, hours, n, BENCH / f"replay-dask{n}", "dask")
             for n in (1, 2)
         ]
+        print("3c. the replay on a real Dask scheduler and workers (loopback) ...", flush=True)
+        from bench.dask_cluster import measure as cluster_bench
+
+        results["dask_cluster"] = cluster_bench(replay, hours, repeat, BENCH / "dask-cluster")
     except ImportError:
         results["dask_replay"] = []
 
@@ -466,6 +473,10 @@ def main(argv: list[str] | None = None) -> int:
             f"{'met' if speedup >= 1.8 else 'MISSED'}); against --jobs 2 ({jobs2:.1f} s): "
             f"{overhead:+.1%} (goal <= +10 %: {'met' if overhead <= 0.10 else 'MISSED'})"
         )
+    if results.get("dask_cluster"):
+        from bench.dask_cluster import report as cluster_report
+
+        print(cluster_report(results["dask_cluster"]))
     print("\n6. threshold tuning on 1 hour of saved signals ...", flush=True)
     from bench.tuning import main as tuning_bench
 

@@ -79,7 +79,7 @@ def main(argv: list[str] | None = None) -> int:
             Path(tmp),
             RunOptions(labels="auto"),
             batch.Outputs(save_signals=True),
-            batch.FleetEngine(jobs=2),
+            batch.local_runner(2),
         )
         runs = []
         for log in summary["per_log"]:  # type: ignore[union-attr]

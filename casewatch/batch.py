@@ -1,7 +1,10 @@
-"""Many logs at once: find them, judge each in a worker process, write summary.json.
+"""Many logs at once: find them, judge each in a worker process or Dask task, write summary.json.
 
 Composition only: each worker does what `casewatch run` does for one stream (prepare, evaluate,
-write, render); `evaluator.summary` does the adding up.
+write, render); `evaluator.summary` does the adding up. Every log ends as an entry of
+summary.json, judged or failed with its reason, whatever happens to a worker or the scheduler
+(docs/fleet.md); the paths a worker gets are absolute, so a worker in another working directory
+reads the same files.
 """
 
 from __future__ import annotations
@@ -9,10 +12,11 @@ from __future__ import annotations
 import glob
 import json
 import multiprocessing
+import os
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from pydantic import ValidationError
@@ -26,7 +30,7 @@ from casewatch.evaluator.session import InputError, evaluate_stream
 from casewatch.evaluator.signal_store import FILE_NAME as SIGNALS_FILE
 from casewatch.evaluator.stl_engines import EngineMismatch
 from casewatch.evaluator.summary import FleetSummary, LogSummary, summarise, summarise_result
-from casewatch.monitor.source import BAG_SUFFIXES, path_digest, source_kind
+from casewatch.monitor.source import BAG_SUFFIXES, file_digest, path_digest, source_kind
 from casewatch.monitor.warmup import warm_up
 from casewatch.safety_case.findings import CaseError
 
@@ -104,22 +108,48 @@ class Outputs:
 
 @dataclass(frozen=True)
 class Job:
-    """One log of a fleet, as a worker gets it: plain values only (it is pickled)."""
+    """One log of a fleet, as a worker gets it: plain values only (it is pickled), every path
+    absolute."""
 
     case_path: str
     stream: str
     out_dir: str
     options: RunOptions  # this log's: `--labels auto` already resolved to its file
     outputs: Outputs = field(default_factory=Outputs)
+    # (path, bytes) of the log and its labels, sent along to a worker that does not share the
+    # file system (`--ship-logs`); the results then come back with the task (casewatch.shipping)
+    shipped: tuple[tuple[str, bytes], ...] = ()
 
 
-def run_job(job: Job) -> LogSummary:
+#: Test-only: a worker judging a log whose file name contains this variable's value exits at
+#: once (`os._exit`), as a log that crashes its worker would: how the tests make a poisonous log.
+EXIT_HOOK = "CASEWATCH_TEST_EXIT_ON"
+
+
+def run_job(job: Job, recorded: Job | None = None) -> LogSummary:
     """Judge one log; never raises (the summary says what went wrong; an internal error leaves
-    its traceback in the log's folder and marks the summary `crashed`)."""
+    its traceback in the log's folder and marks the summary `crashed`). `recorded` is the job
+    as the client sent it when `job` reads shipped copies: the result and summary name its
+    paths, not the copies'."""
     from casewatch import api
 
+    marker = os.environ.get(EXIT_HOOK)
+    if marker and marker in Path(job.stream).name:
+        os._exit(70)
+    recorded = recorded or job
     started = time.perf_counter()
     out = Path(job.out_dir)
+
+    def failed(error: str, **flags: bool) -> LogSummary:
+        return LogSummary(
+            stream=recorded.stream,
+            out_dir=recorded.out_dir,
+            ok=False,
+            error=error.replace(job.stream, recorded.stream),
+            seconds=round(time.perf_counter() - started, 3),
+            **flags,
+        )
+
     try:
         case, spec = api.prepare(job.case_path)
         sinks = RunSinks(
@@ -127,38 +157,33 @@ def run_job(job: Job) -> LogSummary:
             signals_path=out / SIGNALS_FILE if job.outputs.save_signals else None,
         )
         result = evaluate_stream(case, spec, job.stream, job.options, sinks)
+        if recorded is not job:
+            result = as_recorded(result, recorded)
         api.write_result(result, out)
         if job.outputs.formats:
             api.render(out, job.outputs.formats)
     except (InputError, LabelsError, CaseError, OSError) as exc:
-        return LogSummary(
-            stream=job.stream,
-            out_dir=str(out),
-            ok=False,
-            error=str(exc),
-            seconds=round(time.perf_counter() - started, 3),
-        )
+        return failed(str(exc))
     except EngineMismatch as exc:  # a bug in one of the STL engines, never a verdict: exit 4
-        return LogSummary(
-            stream=job.stream,
-            out_dir=str(out),
-            ok=False,
-            engines_disagree=True,
-            error=str(exc),
-            seconds=round(time.perf_counter() - started, 3),
-        )
+        return failed(str(exc), engines_disagree=True)
     except Exception as exc:  # a bug: keep the other logs going, exit 3 at the end
         log = write_crash_log(exc, ["run", job.case_path, job.stream, "-o", job.out_dir], out)
-        return LogSummary(
-            stream=job.stream,
-            out_dir=str(out),
-            ok=False,
+        return failed(
+            f"internal error ({type(exc).__name__}: {exc}); please attach {log} to a bug report",
             crashed=True,
-            error=f"internal error ({type(exc).__name__}: {exc}); please attach "
-            f"{log} to a bug report",
-            seconds=round(time.perf_counter() - started, 3),
         )
-    return summarise_result(result, str(out), time.perf_counter() - started)
+    return summarise_result(result, recorded.out_dir, time.perf_counter() - started)
+
+
+def as_recorded(result, recorded: Job):
+    """A result judged from shipped copies, naming the client's stream and labels paths."""
+    stream = result.stream.model_copy(update={"path": recorded.stream})
+    update: dict[str, object] = {"stream": stream, "options": recorded.options.recorded()}
+    if result.ground_truth is not None and recorded.options.labels is not None:
+        update["ground_truth"] = result.ground_truth.model_copy(
+            update={"labels_path": recorded.options.labels}
+        )
+    return result.model_copy(update=update)
 
 
 class FleetError(CasewatchError, ValueError):
@@ -191,10 +216,10 @@ def read_summary(folder: Path) -> dict:
 
 
 def reusable(job: Job, case_digest: str) -> LogSummary | None:
-    """The summary of a log already judged completely with this case from this stream (its
-    result.json's case digest and stream sha256 match, and its own content digest still
-    matches its content: an edited or damaged result is judged again), else None
-    (`--resume`)."""
+    """The summary of a log already judged completely with this case, these run options and
+    from this stream (its result.json's case digest, recorded options and stream sha256 match,
+    its labels file is the one scored, and its own content digest still matches its content:
+    an edited or damaged result is judged again), else None (`--resume`)."""
     from casewatch.reports.render import ResultError, load_result
 
     try:
@@ -205,29 +230,61 @@ def reusable(job: Job, case_digest: str) -> LogSummary | None:
         return None
     if not result.complete or result.case.digest != case_digest:
         return None
+    if result.options != job.options.recorded():
+        return None
     try:
         if result.stream.digest != path_digest(job.stream):
+            return None
+        labels = job.options.labels_path
+        if labels is not None and (
+            result.ground_truth is None or result.ground_truth.labels_digest != file_digest(labels)
+        ):
             return None
     except OSError:
         return None
     return summarise_result(result, job.out_dir, 0.0)
 
 
-@dataclass(frozen=True)
-class FleetEngine:
-    """How the logs are spread: `processes` (`jobs` local processes) or `dask` (tasks on a
-    LocalCluster of `jobs` workers, or on the cluster at `scheduler`)."""
+#: Runs the jobs it is given, telling `finished(i, summary)` of the i-th as each ends; returns
+#: None, or why the engine was lost before every job finished (the Dask scheduler died).
+Runner = Callable[[list[Job], Callable[[int, LogSummary], None]], "str | None"]
 
-    kind: str = "processes"
-    jobs: int = 1
-    scheduler: str | None = None
+
+def local_runner(jobs: int = 1) -> Runner:
+    """Jobs in this process (`jobs` 1) or in `jobs` forked worker processes."""
+
+    def run(work: list[Job], finished: Callable[[int, LogSummary], None]) -> str | None:
+        if jobs <= 1:
+            for k, job in enumerate(work):
+                finished(k, run_job(job))
+            return None
+        # Compile once here: forked workers inherit the kernels; spawned ones (where fork is
+        # unavailable) load them from the disk cache this fills instead of each compiling.
+        warm_up()
+        methods = multiprocessing.get_all_start_methods()
+        context = multiprocessing.get_context("fork" if "fork" in methods else None)
+        with ProcessPoolExecutor(max_workers=jobs, mp_context=context) as pool:
+            for k, summary in enumerate(pool.map(run_job, work)):
+                finished(k, summary)
+        return None
+
+    return run
 
 
 def plan_jobs(
     case_path: str, streams: Sequence[Path], out_dir: Path, options: RunOptions, outputs: Outputs
 ) -> list[Job]:
     """One job per stream, each in its own folder under `out_dir` (named after the stream,
-    `-2`, `-3`, ... when two streams share a name), with `--labels auto` resolved."""
+    `-2`, `-3`, ... when two streams share a name), with `--labels auto` resolved and every
+    path absolute (a worker may run in another working directory, or on another machine)."""
+    absolute = Path(case_path).absolute()
+    options = replace(
+        options,
+        topics=None if options.topics is None else str(Path(options.topics).absolute()),
+        labels=options.labels
+        if options.labels in (None, AUTO_LABELS)
+        else str(Path(options.labels).absolute()),
+    )
     used: set[str] = set()
     work: list[Job] = []
     for stream in streams:
@@ -236,11 +293,23 @@ def plan_jobs(
         while name in used:
             name, n = f"{stem}-{n}", n + 1
         used.add(name)
-        labels = labels_for(str(stream), options.labels)
+        path = Path(stream).absolute()
+        labels = labels_for(str(path), options.labels)
         work.append(
-            Job(case_path, str(stream), str(out_dir / name), options.with_labels(labels), outputs)
+            Job(
+                str(absolute),
+                str(path),
+                str(out_dir.absolute() / name),
+                options.with_labels(labels),
+                outputs,
+            )
         )
     return work
+
+
+class FleetLost(CasewatchError):
+    """The Dask scheduler was lost mid-fleet: the unfinished logs are failed entries of the
+    summary.json written before this is raised (exit 2: run again with --resume)."""
 
 
 def run_many(
@@ -250,14 +319,18 @@ def run_many(
     out_dir: Path,
     options: RunOptions,
     outputs: Outputs = Outputs(),
-    engine: FleetEngine = FleetEngine(),
+    runner: Runner | None = None,
     *,
     on_done: Callable[[LogSummary], None] | None = None,
+    on_resumed: Callable[[LogSummary], None] | None = None,
     resume: bool = False,
 ) -> dict[str, object]:
-    """Judge every stream with `options` (as `engine` says) and write `out_dir/summary.json`;
-    with `resume`, a log whose complete `result.json` was judged with this case (digest) from
-    this very stream (sha256) is not judged again."""
+    """Judge every stream with `options` (by `runner`: `local_runner`, or
+    `dask_engine.dask_runner`) and write `out_dir/summary.json`; `on_done` hears of each log
+    judged as it finishes, `on_resumed` of each reused one. With `resume`, a log whose complete
+    `result.json` was judged with this case (digest), these options, from this very stream
+    (sha256) is not judged again. Raises `FleetLost` (after writing summary.json, every
+    unfinished log a failed entry) when the runner's cluster is lost."""
     work = plan_jobs(case_path, streams, out_dir, options, outputs)
     done: dict[int, LogSummary] = {}
     if resume:
@@ -265,33 +338,27 @@ def run_many(
             reused = reusable(job, case_digest)
             if reused is not None:
                 done[k] = reused
-                if on_done:
-                    on_done(reused)
-    todo = [job for k, job in enumerate(work) if k not in done]
-    results: list[LogSummary] = []
-    if engine.kind == "dask":
-        from casewatch.dask_engine import run_on_dask
+                if on_resumed:
+                    on_resumed(reused)
+    todo = [k for k in range(len(work)) if k not in done]
 
-        results = run_on_dask(run_job, todo, engine.jobs, engine.scheduler, on_done)
-    elif engine.jobs <= 1:
-        for job in todo:
-            results.append(run_job(job))
-            if on_done:
-                on_done(results[-1])
-    else:
-        # Compile once here: forked workers inherit the kernels; spawned ones (where fork is
-        # unavailable) load them from the disk cache this fills instead of each compiling.
-        warm_up()
-        methods = multiprocessing.get_all_start_methods()
-        context = multiprocessing.get_context("fork" if "fork" in methods else None)
-        with ProcessPoolExecutor(max_workers=engine.jobs, mp_context=context) as pool:
-            for summary in pool.map(run_job, todo):
-                results.append(summary)
-                if on_done:
-                    on_done(summary)
-    fresh = iter(results)
-    results = [done[k] if k in done else next(fresh) for k in range(len(work))]
-    summary = summarise(results, case_path, case_digest)
+    def finished(i: int, summary: LogSummary) -> None:
+        done[todo[i]] = summary
+        if on_done:
+            on_done(summary)
+
+    lost = (runner or local_runner())([work[k] for k in todo], finished)
+    unfinished = [k for k in todo if k not in done]
+    for k in unfinished:
+        done[k] = LogSummary(
+            stream=work[k].stream, out_dir=work[k].out_dir, ok=False, error=f"not judged: {lost}"
+        )
+    summary = summarise([done[k] for k in range(len(work))], case_path, case_digest)
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=1), encoding="utf-8")
+    if lost is not None:
+        raise FleetLost(
+            f"{lost}; {len(unfinished)} log(s) not judged, listed as failed in "
+            f"{out_dir / 'summary.json'}: run the same command with --resume once it is back"
+        )
     return summary

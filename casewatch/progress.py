@@ -69,6 +69,13 @@ class FleetProgress(_Bar):
         self.bar.set_postfix_str(f"{self.hours:.3f} h judged", refresh=False)
         self.bar.update(1)
 
+    def resumed(self) -> None:
+        """A log reused by `--resume`: no longer to do, and no judged hours (the rate and the
+        time left count only the logs judged in this run)."""
+        if self.bar.total is not None:
+            self.bar.total -= 1
+        self.bar.refresh()
+
     def log(self, line: str) -> None:
         """A line on standard error that the bar, when there is one, is redrawn below."""
         if self.bar.disable:

@@ -97,7 +97,7 @@ def _run_folders(arguments: list[str], case_path: str, out: Path, jobs: int) -> 
             runs,
             RunOptions(labels="auto"),
             batch.Outputs(save_signals=True),
-            batch.FleetEngine(jobs=jobs),
+            batch.local_runner(jobs),
         )
         for log in summary["per_log"]:  # type: ignore[union-attr]
             if not log["ok"]:

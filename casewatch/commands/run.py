@@ -26,7 +26,7 @@ from casewatch.commands.export_scenarios import (
     scenario_problem,
 )
 from casewatch.crash import ENGINES_DISAGREE, INTERNAL_ERROR
-from casewatch.dask_engine import EngineError
+from casewatch.dask_engine import EngineError, dask_runner
 from casewatch.evaluator.eventlog import Event
 from casewatch.evaluator.ground_truth import LabelsError
 from casewatch.evaluator.options import (
@@ -126,8 +126,18 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--resume",
         action="store_true",
-        help="skip logs whose complete result.json was judged with this case from "
-        "the same stream (sha256)",
+        help="skip logs whose complete result.json was judged with this case, the same "
+        "run options (labels, --fail-on, --max-no-data, --stl-engine, --topics, --strict) "
+        "and from the same stream (sha256), and whose own content digest verifies",
+    )
+    p.add_argument(
+        "--ship-logs",
+        type=_mib,
+        default=0.0,
+        metavar="MIB",
+        help="with --engine dask: send logs of at most MIB MiB (and their labels) to the "
+        "workers with their tasks and take their results back, for workers that do not share "
+        "the file system (the case must still be at the same path on every worker)",
     )
     p.add_argument(
         "--format",
@@ -173,6 +183,14 @@ def _share(text: str) -> float:
     value = float(text)
     if not 0.0 <= value <= 1.0:  # NaN fails this too
         raise argparse.ArgumentTypeError(f"expected a share between 0 and 1, got {text!r}")
+    return value
+
+
+def _mib(text: str) -> float:
+    """A size in MiB for `--ship-logs` (0: ship nothing)."""
+    value = float(text)
+    if not 0.0 <= value <= 4096.0:  # NaN fails this too; a task is no place for a large log
+        raise argparse.ArgumentTypeError(f"expected MiB from 0 to 4096, got {text!r}")
     return value
 
 
@@ -416,9 +434,19 @@ def _run_many(args, case, formats: tuple[str, ...], options: RunOptions) -> int:
             bar.log(f"  {log.stream}: FAILED: {log.error}")
         bar.advance((log.duration_s or 0.0) / 3600.0)
 
-    if args.scheduler and args.engine != "dask":
-        print("casewatch run: --scheduler goes with --engine dask", file=sys.stderr)
+    def on_resumed(log: LogSummary) -> None:
+        bar.resumed()  # neither judged work nor part of the time left
+        if not args.quiet:
+            bar.log(f"  {log.stream}: already judged ({log.verdict}; --resume)")
+
+    if (args.scheduler or args.ship_logs) and args.engine != "dask":
+        print("casewatch run: --scheduler and --ship-logs go with --engine dask", file=sys.stderr)
         return 2
+    runner = (
+        dask_runner(args.jobs, args.scheduler, args.ship_logs)
+        if args.engine == "dask"
+        else batch.local_runner(args.jobs)
+    )
     try:
         with bar:
             summary = batch.run_many(
@@ -428,11 +456,12 @@ def _run_many(args, case, formats: tuple[str, ...], options: RunOptions) -> int:
                 args.out,
                 options,
                 batch.Outputs(formats, args.save_signals),
-                batch.FleetEngine(args.engine, args.jobs, args.scheduler),
+                runner,
                 on_done=on_done,
+                on_resumed=on_resumed,
                 resume=args.resume,
             )
-    except EngineError as exc:
+    except (EngineError, batch.FleetLost) as exc:
         print(f"casewatch run: {exc}", file=sys.stderr)
         return 2
     if not args.quiet:

@@ -394,6 +394,9 @@ class RunResult(_Record):
         return value
 
     odd: list[OddSummary] = []  # per context node with an `odd:` specification
+    #: the run options that shaped this result (`RunOptions.recorded()`): `--resume` reuses it
+    #: only for a run with the same options; None in results written before it existed
+    options: dict[str, str | bool | int | float | None] | None = None
     #: sha256 of this record's own JSON with this field null (`result_digest`): `--resume`
     #: re-judges a log whose result.json no longer matches it (edited, damaged); None in
     #: results written before it existed

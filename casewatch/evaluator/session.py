@@ -491,6 +491,7 @@ def assemble_result(
         timings=timings(run, stream.frames_read),
         complete=complete,
         fail_on=options.fail_on,
+        options=options.recorded(),
         root_no_data=RootNoData(
             ticks=root_ticks,
             no_data_ticks=no_data_ticks,
