@@ -90,6 +90,7 @@ _TABLE: tuple[tuple[str, Severity, str], ...] = (
     ("CW065", "error", "gsn2x `extends` that cannot be applied (module or element missing)"),
     ("CW066", "error", "`defeated` or `defeatedRelation` that nothing in the argument backs"),
     ("CW067", "error", "assurance claim point (`acp`) on an element the node is not linked to"),
+    ("CW068", "warning", "a relation list names the same node twice"),
 )
 
 #: code -> CheckCode, in code order.

@@ -172,7 +172,24 @@ class _Checker:
                 f"add `challenges: G<n>` naming the claim this {kind} puts in doubt",
             )
 
+    def duplicates(self, node: Node) -> None:
+        """gsn2x warns when a list names an element twice (its V05): a copy-paste slip that
+        draws one edge and reads as two."""
+        for relation, targets in (
+            (SUPPORTED_BY, node.supported_by),
+            (IN_CONTEXT_OF, node.in_context_of),
+            (CHALLENGES, node.challenges),
+        ):
+            for target in sorted({t for t in targets if targets.count(t) > 1}):
+                self.add(
+                    "CW068",
+                    f"{node.id} names {target} twice in `{relation}`",
+                    node.key_marks.get(relation, node.mark),
+                    "list it once",
+                )
+
     def references(self, node: Node) -> None:
+        self.duplicates(node)
         for relation, target in relations(node):
             mark = self.ref_mark(node, relation, target)
             if target == node.id:

@@ -200,4 +200,5 @@ CHECK_FIXTURES: list[tuple[str, str, int, int | None]] = [
     ("CW064", BASE + "CSn1:\n  text: d\n  challenges: G1 -> Sn1\n", 10, 15),
     ("CW066", case("G1:\n  text: top\n  undeveloped: true\n  defeated: true\n"), 6, 3),
     ("CW067", case("G1:\n  text: top\n  undeveloped: true\n  acp: {ACP1: Sn1}\n"), 6, 3),
+    ("CW068", case("G1:\n  text: top\n  supportedBy: [Sn1, Sn1]\nSn1: {text: e}\n"), 5, 3),
 ]
