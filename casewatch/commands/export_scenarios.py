@@ -118,6 +118,11 @@ def scenario_problem(args: argparse.Namespace, channels: list[str]) -> str | Non
     """Why `run --scenarios` cannot export with these options (checked before judging, so a
     typo never costs a whole run), or None."""
     options = options_from(args, "scenario_")
+    if "-" in getattr(args, "streams", []):
+        return (
+            "--scenarios reads the stream again after judging it, and standard input cannot be "
+            "read twice: save the stream to a file, or export later with export-scenarios"
+        )
     if options.channel is not None and options.channel not in channels:
         return (
             f"--scenario-channel {options.channel!r} is not one of the case's channels "

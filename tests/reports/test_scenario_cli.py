@@ -103,4 +103,7 @@ def test_run_refuses_unusable_scenario_options_before_judging(
     assert f"{tmp_path / 'road.xodr'}: no such OpenDRIVE file" in capsys.readouterr().err
     assert main([*base, "--scenario-radius", "-3"]) == 2
     assert "--scenario-radius must be a number >= 0, got -3" in capsys.readouterr().err
+    stdin = ["run", CASE, "-", "-o", str(out), "--scenarios"]
+    assert main(stdin) == 2
+    assert "standard input cannot be read twice" in capsys.readouterr().err
     assert not out.exists()  # nothing was judged
