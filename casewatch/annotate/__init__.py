@@ -104,6 +104,7 @@ def annotate(run_dir: Path, recording: Path, out_path: Path) -> Annotated:
     tmp = out_path.with_name(out_path.name + ".part")
     out = McapOut(tmp, profile=profile)
     copied = 0
+    done = False
     try:
         out.metadata(
             "casewatch",
@@ -122,7 +123,10 @@ def annotate(run_dir: Path, recording: Path, out_path: Path) -> Annotated:
         else:
             _write_scene(result, recording, out)
         write_verdicts(out, result, records)
+        done = True
     finally:
         out.close()
+        if not done:
+            tmp.unlink(missing_ok=True)  # no half file left behind
     tmp.replace(out_path)  # a run killed midway leaves no half file under the final name
     return Annotated(path=out_path, counts=dict(out.counts), copied=copied)

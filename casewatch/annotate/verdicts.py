@@ -15,7 +15,7 @@ so an annotated recording shows exactly what the reports show:
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -29,6 +29,7 @@ from foxglove_schemas_protobuf.TextPrimitive_pb2 import TextPrimitive
 
 from casewatch.annotate import foxglove as fx
 from casewatch.annotate.mcap_out import McapOut
+from casewatch.evaluator.eventlog import event_record
 from casewatch.evaluator.result import STATUS_SEVERITY, NodeStatus, RunResult
 
 LOG_TOPIC = "/casewatch/log"
@@ -79,43 +80,55 @@ def _log(ns: int, level: int, node: str, text: str) -> Log:
     return Log(timestamp=fx.timestamp(ns), level=level, message=text, name=node, file="casewatch")
 
 
+def log_line(record: dict[str, Any]) -> tuple[float, int, str]:
+    """(stream time, foxglove.Log level, text) of one events.jsonl record
+    (`evaluator.eventlog.event_record`): onsets and ODD changes at their tick, closed episodes,
+    near misses and data gaps at their last tick."""
+    kind, node = record["event"], record["node_id"]
+    if kind == "episode_open":
+        hazard = record["kind"] == "hazard"
+        word = "HAZARD" if hazard else "VIOLATED"
+        text = f"{word} {node} from {record['start']:.1f} s (open at {record['t']:.1f} s)"
+        return record["t"], Log.ERROR if hazard else Log.WARNING, text
+    if kind == "odd_change":
+        because = f" ({record['because']})" if record.get("because") else ""
+        text = f"ODD {node}: {record['state']} from {record['t']:.1f} s{because}"
+        return record["t"], Log.INFO if record["state"] == "inside" else Log.WARNING, text
+    span = f"{record['start']:.1f}-{record['end']:.1f} s"
+    if kind in ("hazard_event", "spi_episode"):
+        hazard = kind == "hazard_event"
+        worst = float(record["worst_robustness"])
+        text = (
+            f"{'HAZARD EVENT' if hazard else 'SPI EPISODE'} {node} {span}, worst robustness "
+            f"{worst:+.3f} at {record['t_worst']:.1f} s"
+        )
+        return record["end"], Log.ERROR if hazard else Log.WARNING, text
+    if kind == "near_miss":
+        text = (
+            f"NEAR MISS {node} {span}, robustness down to {record['least_robustness']:.3f} "
+            f"(margin {record['warn']:g})"
+        )
+        return record["end"], Log.INFO, text
+    return record["end"], Log.INFO, f"NO DATA {node} {span}, missing {', '.join(record['missing'])}"
+
+
+def log_message(record: dict[str, Any], time: Timebase) -> tuple[int, Log]:
+    """(log time, foxglove.Log) of one events.jsonl record."""
+    t, level, text = log_line(record)
+    ns = time.ns(t)
+    return ns, _log(ns, level, record["node_id"], text)
+
+
 def log_messages(
     result: RunResult, records: Iterable[dict[str, Any]], time: Timebase
 ) -> Iterator[tuple[int, Log]]:
     """(log time, foxglove.Log) for every onset and ODD change in `records` (events.jsonl)
     and every closed episode, near miss and data gap of `result`."""
     for r in records:
-        if r.get("event") == "episode_open":
-            hazard = r["kind"] == "hazard"
-            word = "HAZARD" if hazard else "VIOLATED"
-            text = f"{word} {r['node_id']} from {r['start']:.1f} s (open at {r['t']:.1f} s)"
-            level = Log.ERROR if hazard else Log.WARNING
-            yield time.ns(r["t"]), _log(time.ns(r["t"]), level, r["node_id"], text)
-        elif r.get("event") == "odd_change":
-            level = Log.INFO if r["state"] == "inside" else Log.WARNING
-            because = f" ({r['because']})" if r.get("because") else ""
-            text = f"ODD {r['node_id']}: {r['state']} from {r['t']:.1f} s{because}"
-            yield time.ns(r["t"]), _log(time.ns(r["t"]), level, r["node_id"], text)
-    for e in result.episodes:
-        hazard = e.kind == "hazard"
-        what = "HAZARD EVENT" if hazard else "SPI EPISODE"
-        text = (
-            f"{what} {e.node_id} {e.start:.1f}-{e.end:.1f} s,"
-            f" worst robustness {e.worst_robustness:+.3f} at {e.t_worst:.1f} s"
-        )
-        ns = time.ns(e.end)
-        yield ns, _log(ns, Log.ERROR if hazard else Log.WARNING, e.node_id, text)
-    for n in result.near_misses:
-        text = (
-            f"NEAR MISS {n.node_id} {n.start:.1f}-{n.end:.1f} s, robustness down to "
-            f"{n.least_robustness:.3f} (margin {n.warn:g})"
-        )
-        ns = time.ns(n.end)
-        yield ns, _log(ns, Log.INFO, n.node_id, text)
-    for g in result.data_gaps:
-        text = f"NO DATA {g.node_id} {g.start:.1f}-{g.end:.1f} s, missing {', '.join(g.missing)}"
-        ns = time.ns(g.end)
-        yield ns, _log(ns, Log.INFO, g.node_id, text)
+        if r.get("event") in ("episode_open", "odd_change"):
+            yield log_message(r, time)
+    for event in [*result.episodes, *result.near_misses, *result.data_gaps]:
+        yield log_message(event_record(event), time)
 
 
 def tick_statuses(statuses: list[NodeStatus]) -> tuple[np.ndarray, dict[str, list[str]]]:
@@ -143,16 +156,17 @@ def status_messages(result: RunResult, time: Timebase) -> Iterator[tuple[int, di
     root = result.case.root_id
     names = list(columns)
     for k, t in enumerate(times.tolist()):
-        status = {n: columns[n][k] for n in names}
-        yield (
-            time.ns(t),
-            {
-                "t": t,
-                "root": status.get(root, "no-data"),
-                "status": status,
-                "severity": {n: STATUS_SEVERITY.get(s, 0) for n, s in status.items()},
-            },
-        )
+        yield time.ns(t), status_value(t, {n: columns[n][k] for n in names}, root)
+
+
+def status_value(t: float, status: Mapping[str, str], root: str) -> dict[str, Any]:
+    """One `/casewatch/status` message: every node's status at `t` and its severity."""
+    return {
+        "t": t,
+        "root": status.get(root, "no-data"),
+        "status": dict(status),
+        "severity": {n: STATUS_SEVERITY.get(s, 0) for n, s in status.items()},
+    }
 
 
 def marker_messages(result: RunResult, time: Timebase) -> Iterator[tuple[int, SceneUpdate]]:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import pytest
 
 from casewatch.cli import main
@@ -18,8 +20,8 @@ def paths(tmp_path):
     [
         (["--serve", "0.0.0.0:0"], "not a loopback address"),
         (["--serve", "nonsense"], "expected [HOST:]PORT"),
-        (["--serve", "0", "--stl-engine", "numpy"], "needs --stl-engine rtamt"),
-        (["--serve-public"], "go with --serve"),
+        (["--serve", "0", "--stl-engine", "numpy"], "need --stl-engine rtamt or auto"),
+        (["--serve-public"], "go with --serve or --foxglove"),
         (["--serve", "0", "--serve-linger", "-1"], "0 or more seconds"),
         (["--annotate", "out.txt"], "the output is an MCAP file"),
     ],
@@ -48,3 +50,9 @@ def test_a_served_run_writes_the_same_result_as_one_without(paths, capsys):
     assert "live page at http://127.0.0.1:" in capsys.readouterr().err
     plain = (tmp / "plain" / "events.jsonl").read_text()
     assert (tmp / "served" / "events.jsonl").read_text() == plain
+    results = [json.loads((tmp / d / "result.json").read_text()) for d in ("plain", "served")]
+    for r in results:
+        for key in ("created", "timings", "content_digest"):
+            r.pop(key, None)
+        r["stream"].pop("path", None)
+    assert results[0] == results[1]
