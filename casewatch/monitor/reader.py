@@ -24,7 +24,7 @@ from casewatch.monitor.parse import FrameDefect, parse_frame, parse_header
 try:  # optional: about five times faster on large frames; same results (see _decode)
     import orjson
 except ImportError:  # pragma: no cover - depends on the environment
-    orjson = None
+    orjson = None  # type: ignore[assignment]
 
 #: The longest line read as one frame, in characters (bundled frames stay under 20 000). A
 #: longer line is an `oversized-line` defect; its rest is skipped in chunks, never held whole.
