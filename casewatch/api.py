@@ -21,11 +21,11 @@ from casewatch.evaluator.session import evaluate_stream
 from casewatch.safety_case.checks import check_file, sort_findings
 from casewatch.safety_case.findings import CaseError, Finding, has_errors
 from casewatch.safety_case.model import Case
-from casewatch.spec.compiler import check_formulas, compile_case
+from casewatch.spec.compiler import Mode, check_formulas, compile_case
 from casewatch.spec.model import CompiledSpec
 
 
-def check(path: str | Path, mode: str = "online") -> tuple[Case | None, list[Finding]]:
+def check(path: str | Path, mode: Mode = "online") -> tuple[Case | None, list[Finding]]:
     """Every finding for a case file, sorted by position: loading, structure, formulas.
 
     Formulas are checked whenever the case loaded, even with structural errors, so one
@@ -37,7 +37,7 @@ def check(path: str | Path, mode: str = "online") -> tuple[Case | None, list[Fin
     return case, findings
 
 
-def prepare(path: str | Path, mode: str = "online") -> tuple[Case, CompiledSpec]:
+def prepare(path: str | Path, mode: Mode = "online") -> tuple[Case, CompiledSpec]:
     """Load, check and compile a case; raises `CaseError` (with every finding) on errors."""
     case, findings = check(path, mode)
     if case is None or has_errors(findings):
