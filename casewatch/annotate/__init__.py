@@ -20,7 +20,13 @@ from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 from casewatch.annotate.mcap_out import McapOut
 from casewatch.annotate.recording import RecordingError, copy_recording, recording_profile
 from casewatch.annotate.scene import SCENE_TOPIC, scene_messages
-from casewatch.annotate.verdicts import Timebase, write_verdicts
+from casewatch.annotate.verdicts import (
+    LOG_TOPIC,
+    MARKER_TOPIC,
+    STATUS_TOPIC,
+    Timebase,
+    write_verdicts,
+)
 from casewatch.errors import CasewatchError
 from casewatch.evaluator.inputs import open_hashed, path_digest
 from casewatch.evaluator.result import RunResult
@@ -29,6 +35,9 @@ from casewatch.monitor.reader import read_stream
 from casewatch.reports.render import load_result
 
 __all__ = ["AnnotateError", "Annotated", "RecordingError", "annotate"]
+
+CASEWATCH_TOPICS = frozenset({LOG_TOPIC, STATUS_TOPIC, MARKER_TOPIC})
+SCENE_PREFIX = SCENE_TOPIC.split("{")[0]  # /casewatch/scene/
 
 
 class AnnotateError(CasewatchError):
@@ -42,6 +51,8 @@ class Annotated:
     path: Path
     counts: dict[str, int] = field(default_factory=dict)
     copied: int = 0
+    damage: str | None = None  # a recording copied only up to where it is damaged
+    topics: tuple[str, ...] = ()  # casewatch's own topics in the file
 
 
 def read_events(path: Path) -> list[dict[str, Any]]:
@@ -104,6 +115,7 @@ def annotate(run_dir: Path, recording: Path, out_path: Path) -> Annotated:
     tmp = out_path.with_name(out_path.name + ".part")
     out = McapOut(tmp, profile=profile)
     copied = 0
+    damage = None
     done = False
     try:
         out.metadata(
@@ -119,7 +131,7 @@ def annotate(run_dir: Path, recording: Path, out_path: Path) -> Annotated:
             },
         )
         if bag:
-            copied = copy_recording(recording, out)
+            copied, damage = copy_recording(recording, out)
         else:
             _write_scene(result, recording, out)
         write_verdicts(out, result, records)
@@ -129,4 +141,7 @@ def annotate(run_dir: Path, recording: Path, out_path: Path) -> Annotated:
         if not done:
             tmp.unlink(missing_ok=True)  # no half file left behind
     tmp.replace(out_path)  # a run killed midway leaves no half file under the final name
-    return Annotated(path=out_path, counts=dict(out.counts), copied=copied)
+    ours = tuple(t for t in out.counts if t in CASEWATCH_TOPICS or t.startswith(SCENE_PREFIX))
+    return Annotated(
+        path=out_path, counts=dict(out.counts), copied=copied, damage=damage, topics=ours
+    )

@@ -7,10 +7,13 @@ replaces the original in a review. A sqlite3 (`.db3`) bag has no MCAP records to
 
 from __future__ import annotations
 
+import struct
 from pathlib import Path
 
 from mcap.exceptions import McapError
 from mcap.reader import make_reader
+from mcap.records import Channel, Message, Schema
+from mcap.stream_reader import StreamReader
 
 from casewatch.annotate.mcap_out import McapOut
 from casewatch.errors import CasewatchError
@@ -50,23 +53,43 @@ def recording_profile(recording: Path) -> str:
             raise RecordingError(f"{recording}: not a readable MCAP file ({exc})") from None
 
 
-def copy_recording(recording: Path, out: McapOut) -> int:
-    """Every message of the recording into `out` on its own topic and schema; the count."""
+#: What reading a damaged MCAP file record by record can raise (a length field read from
+#: garbage, a record cut short, a chunk that does not decompress).
+DAMAGE = (McapError, EOFError, struct.error, ValueError, TypeError, OverflowError, MemoryError)
+
+
+def copy_recording(recording: Path, out: McapOut) -> tuple[int, str | None]:
+    """Every message of the recording into `out` on its own topic and schema, in file order,
+    read record by record from the start (no summary needed): (the count, None), or for a
+    recording damaged part-way (cut short by a crash, say) the messages before the damage and
+    what the damage is, as a run judges such a bag up to it."""
     copied = 0
     for path in mcap_files(recording):
+        schemas: dict[int, tuple[str, str, bytes]] = {}
+        channels: dict[int, str] = {}
+        limit = max(1, min(1 << 30, path.stat().st_size))  # no record is longer than the file
         with open(path, "rb") as fh:
             try:
-                for schema, channel, message in make_reader(fh).iter_messages(log_time_order=True):
-                    described = (
-                        None if schema is None else (schema.name, schema.encoding, schema.data)
-                    )
-                    out.raw_topic(
-                        channel.topic, channel.message_encoding, dict(channel.metadata), described
-                    )
-                    out.write(channel.topic, message.log_time, message.data, message.publish_time)
-                    copied += 1
-            except McapError as exc:
-                raise RecordingError(
-                    f"{path}: the recording is damaged after {copied} messages ({exc})"
-                ) from None
-    return copied
+                for record in StreamReader(fh, record_size_limit=limit).records:
+                    if isinstance(record, Schema):
+                        schemas[record.id] = (record.name, record.encoding, record.data)
+                    elif isinstance(record, Channel):
+                        channels[record.id] = record.topic
+                        out.raw_topic(
+                            record.topic,
+                            record.message_encoding,
+                            dict(record.metadata),
+                            schemas.get(record.schema_id),
+                        )
+                    elif isinstance(record, Message) and record.channel_id in channels:
+                        topic = channels[record.channel_id]
+                        out.write(topic, record.log_time, record.data, record.publish_time)
+                        copied += 1
+            except DAMAGE as exc:
+                what = str(exc) or "it ends inside a record"  # mcap's EndOfFile says nothing
+                if copied == 0:
+                    raise RecordingError(
+                        f"{path}: not a readable MCAP recording ({what})"
+                    ) from None
+                return copied, f"{path}: damaged after {copied} messages ({what})"
+    return copied, None

@@ -55,7 +55,12 @@ def write_annotated(run: Path, recording: Path, out: Path, command: str = "annot
     if annotate is None:
         return 2
     done = annotate(run, recording, out)
-    ours = {k: v for k, v in done.counts.items() if k.startswith("/casewatch/")}
+    if done.damage:
+        print(
+            f"casewatch {command}: warning: {done.damage}; copied the messages before it",
+            file=sys.stderr,
+        )
+    ours = {k: v for k, v in done.counts.items() if k in done.topics}
     print(
         f"{done.path}: {done.copied} messages of the recording, "
         + ", ".join(f"{topic} {n}" for topic, n in sorted(ours.items()))

@@ -213,3 +213,28 @@ def test_cli_annotate_and_run_annotate(judged, tmp_path, capsys):
     assert len(messages[STATUS_TOPIC]) == FRAMES and len(messages[LOG_TOPIC]) == 3
     assert main([*args[:2], "-", *args[3:], "--annotate", str(tmp_path / "s.mcap")]) == 2
     assert "--annotate needs the recording" in capsys.readouterr().err
+
+
+def test_a_bag_cut_short_is_copied_up_to_the_damage(tmp_path, capsys):
+    stream = write_rich_stream(tmp_path / "long.jsonl", frames=300)  # 3 chunks of 1 MiB
+    bag, topics = convert_to_bag(stream, tmp_path)
+    storage = next(bag.glob("*.mcap"))
+    whole_schemas, whole = read_mcap(storage)
+    data = storage.read_bytes()
+    storage.write_bytes(data[: len(data) * 6 // 10])  # a recorder killed mid-file
+    case = write_case(tmp_path / "case.yaml")
+    run = tmp_path / "run"
+    args = ["run", str(case), str(bag), "--topics", str(topics), "-o", str(run), "--quiet"]
+    assert main([*args, "--format", "none"]) == 1  # a damaged log is a finding
+    out = tmp_path / "cut.mcap"
+    assert main(["annotate", str(run), str(bag), "-o", str(out)]) == 0
+    assert "damaged after" in capsys.readouterr().err
+    schemas, messages = read_mcap(out)
+    copied = {t: m for t, m in messages.items() if not t.startswith("/casewatch/")}
+    assert 0 < sum(len(m) for m in copied.values()) < sum(len(m) for m in whole.values())
+    for topic, items in copied.items():  # a prefix of each topic's messages, as recorded
+        assert schemas[topic] == whole_schemas[topic]
+        assert items == whole[topic][: len(items)]
+    result = RunResult.model_validate_json((run / "result.json").read_text())
+    root = next(n for n in result.status if n.node_id == result.case.root_id)
+    assert len(messages[STATUS_TOPIC]) == sum(r.ticks for r in root.timeline)
