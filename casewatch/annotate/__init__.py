@@ -81,7 +81,7 @@ def _check_recording(result: RunResult, recording: Path, run_dir: Path) -> None:
     if digest != result.stream.digest:
         raise AnnotateError(
             f"{recording} is not the stream {run_dir} judged (sha256 {digest[:12]}..., the run "
-            f"judged {result.stream.path} with {result.stream.digest[:12]}...)"
+            f"judged {result.stream.path} with {(result.stream.digest or 'none')[:12]}...)"
         )
 
 
@@ -126,7 +126,7 @@ def annotate(run_dir: Path, recording: Path, out_path: Path) -> Annotated:
                 "root": result.case.root_id,
                 "verdict": result.verdict,
                 "stream": result.stream.path,
-                "stream_sha256": result.stream.digest,
+                "stream_sha256": result.stream.digest or "",
                 "casewatch_version": result.casewatch_version,
             },
         )

@@ -10,6 +10,7 @@ frame `map`. Entities keep their ids from frame to frame (the ego, `object-ID`, 
 from __future__ import annotations
 
 from collections.abc import Iterator
+from typing import Any
 
 import numpy as np
 from foxglove_schemas_protobuf.CubePrimitive_pb2 import CubePrimitive
@@ -71,7 +72,7 @@ def _line(xy: np.ndarray, hue: str, thickness: float, alpha: float = 1.0) -> Lin
 def channel_entities(state: ChannelState, ns: int, lifetime: float, hue: str) -> list[SceneEntity]:
     """The ego, its plan, and every object with its prediction, as scene entities."""
 
-    def entity(entity_id: str, **parts: list) -> SceneEntity:
+    def entity(entity_id: str, **parts: Any) -> SceneEntity:
         return SceneEntity(
             timestamp=fx.timestamp(ns),
             frame_id=fx.WORLD_FRAME,

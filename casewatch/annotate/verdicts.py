@@ -29,7 +29,7 @@ from foxglove_schemas_protobuf.TextPrimitive_pb2 import TextPrimitive
 
 from casewatch.annotate import foxglove as fx
 from casewatch.annotate.mcap_out import McapOut
-from casewatch.evaluator.eventlog import event_record
+from casewatch.evaluator.eventlog import Event, event_record
 from casewatch.evaluator.result import STATUS_SEVERITY, NodeStatus, RunResult
 
 LOG_TOPIC = "/casewatch/log"
@@ -76,11 +76,11 @@ class Timebase:
         return Timebase(int(value) if isinstance(value, int | float) else 0)
 
 
-def _log(ns: int, level: int, node: str, text: str) -> Log:
+def _log(ns: int, level: Log.Level.ValueType, node: str, text: str) -> Log:
     return Log(timestamp=fx.timestamp(ns), level=level, message=text, name=node, file="casewatch")
 
 
-def log_line(record: dict[str, Any]) -> tuple[float, int, str]:
+def log_line(record: dict[str, Any]) -> tuple[float, Log.Level.ValueType, str]:
     """(stream time, foxglove.Log level, text) of one events.jsonl record
     (`evaluator.eventlog.event_record`): onsets and ODD changes at their tick, closed episodes,
     near misses and data gaps at their last tick."""
@@ -127,7 +127,8 @@ def log_messages(
     for r in records:
         if r.get("event") in ("episode_open", "odd_change"):
             yield log_message(r, time)
-    for event in [*result.episodes, *result.near_misses, *result.data_gaps]:
+    closed: list[Event] = [*result.episodes, *result.near_misses, *result.data_gaps]
+    for event in closed:
         yield log_message(event_record(event), time)
 
 
@@ -140,7 +141,7 @@ def tick_statuses(statuses: list[NodeStatus]) -> tuple[np.ndarray, dict[str, lis
         t_parts, s_parts = [], []
         for run in node.timeline:
             t_parts.append(np.linspace(run.start, run.end, run.ticks))
-            s_parts.extend([run.status] * run.ticks)
+            s_parts.extend([str(run.status)] * run.ticks)
         t = np.round(np.concatenate(t_parts), 6) if t_parts else np.zeros(0)
         if times is None:
             times = t

@@ -82,7 +82,7 @@ class FoxgloveLive:
         self._track: deque[tuple[float, float, float]] = deque(maxlen=TRACK_TICKS)
         self._pending: list[tuple[EpisodeOpen, int]] = []  # onsets awaiting this tick's position
 
-    def _protobuf(self, topic: str, message_class: type) -> Any:
+    def _protobuf(self, topic: str, message_class: Any) -> Any:
         schema = self._foxglove.Schema(
             name=message_class.DESCRIPTOR.full_name,
             encoding="protobuf",
