@@ -148,3 +148,21 @@ def test_a_killed_scheduler_lists_the_unfinished_logs_and_resume_finishes_them(t
     # what was judged stays; only logs listed as lost are judged again (a worker may still
     # have finished one after its scheduler died: that complete result is reused too)
     assert judged <= reused and set(names) - reused <= {Path(log["stream"]).stem for log in lost}
+
+
+def test_shipped_logs_come_back_as_the_same_results(tmp_path, cluster):
+    case, logs = fleet(tmp_path, ["a", "b"])
+    args = ["run", str(case), str(logs), "--engine", "dask", "--scheduler", cluster.address]
+    args += ["--labels", "auto", "--format", "md", "--quiet"]
+    assert main([*args, "-o", str(tmp_path / "here")]) == 1
+    assert main([*args, "--ship-logs", "1", "-o", str(tmp_path / "shipped")]) == 1
+    for name in ("a", "b"):
+        here, shipped = tmp_path / "here" / name, tmp_path / "shipped" / name
+        assert (here / TASK_FILE).is_file()  # judged in place by the worker
+        assert not (shipped / TASK_FILE).exists()  # judged from a copy, written here
+        assert (shipped / "report.md").is_file() and (shipped / "events.jsonl").is_file()
+        a, b = (json.loads((d / "result.json").read_text()) for d in (here, shipped))
+        for result in (a, b):
+            for key in ("created", "timings", "content_digest"):
+                result.pop(key)
+        assert a == b  # the client's paths in both: stream, labels, options
