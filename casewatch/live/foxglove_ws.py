@@ -61,7 +61,8 @@ class FoxgloveLive:
         self.url = f"ws://{address.url(self.server.port)[7:]}"
         self.root = root
         self.period = period
-        self.time = Timebase()
+        self.time = Timebase()  # stream time to log time, as the annotated file has it
+        self._first_tick = True
         self.log = self._protobuf(LOG_TOPIC, Log)
         self.markers = self._protobuf(MARKER_TOPIC, SceneUpdate)
         self.status = foxglove.Channel(
@@ -94,6 +95,11 @@ class FoxgloveLive:
 
     def on_tick(self, frame: Any, statuses: Any, evaluator: Any, reader: Any) -> None:
         """After each judged frame: the statuses, and each channel's scene when watched."""
+        if self._first_tick:  # a bag's frames count from its first tick at meta.t0_unix_ns
+            self._first_tick = False
+            t0 = reader.header.meta.get("t0_unix_ns") if reader.header is not None else None
+            if isinstance(t0, int):
+                self.time = Timebase(t0)
         ns = self.time.ns(frame.t)
         first = next(iter(frame.channels.values()), None)
         if first is not None:

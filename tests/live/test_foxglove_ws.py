@@ -128,3 +128,26 @@ def test_foxglove_addresses_follow_the_serve_rules(tmp_path, capsys, extra):
     stream = write_rich_stream(tmp_path / "drive.jsonl", frames=10)
     assert main(["run", str(case), str(stream), "-o", str(tmp_path / "o"), *extra]) == 2
     assert "--serve" in capsys.readouterr().err
+
+
+def test_a_bag_is_published_on_its_own_clock(tmp_path):
+    from casewatch.cli import main
+
+    case, spec = api.prepare(str(write_case(tmp_path / "case.yaml")))
+    stream = write_rich_stream(tmp_path / "drive.jsonl", frames=30)
+    bag = tmp_path / "bag" / "drive"
+    assert main(["convert", str(stream), "-o", str(bag)]) == 0
+    options = RunOptions(topics=str(tmp_path / "bag" / "drive.topics.yaml"))
+    fox = FoxgloveLive(["lav", "tfuse"], spec.root_id, 0.1, ServeAddress("127.0.0.1", 0))
+    results = []
+    sinks = RunSinks(on_event=fox.on_event, on_tick=fox.on_tick)
+    judge = threading.Thread(
+        target=lambda: results.append(evaluate_stream(case, spec, str(bag), options, sinks))
+    )
+    try:
+        _, got = asyncio.run(watch(fox.url, ["/casewatch/status"], judge))
+    finally:
+        fox.stop()
+    t0 = int(results[0].stream.meta["t0_unix_ns"])  # the bag's first tick, as annotate uses
+    assert t0 > 0
+    assert [ns for ns, _ in got["/casewatch/status"]] == [t0 + k * 100_000_000 for k in range(30)]
