@@ -25,7 +25,7 @@ from casewatch.crash import write_crash_log
 from casewatch.errors import CasewatchError
 from casewatch.evaluator.ground_truth import LabelsError
 from casewatch.evaluator.options import AUTO_LABELS, RunOptions, RunSinks
-from casewatch.evaluator.result import result_digest
+from casewatch.evaluator.result import RunResult, result_digest
 from casewatch.evaluator.session import InputError, evaluate_stream
 from casewatch.evaluator.signal_store import FILE_NAME as SIGNALS_FILE
 from casewatch.evaluator.stl_engines import EngineMismatch
@@ -175,7 +175,7 @@ def run_job(job: Job, recorded: Job | None = None) -> LogSummary:
     return summarise_result(result, recorded.out_dir, time.perf_counter() - started)
 
 
-def as_recorded(result, recorded: Job):
+def as_recorded(result: RunResult, recorded: Job) -> RunResult:
     """A result judged from shipped copies, naming the client's stream and labels paths."""
     stream = result.stream.model_copy(update={"path": recorded.stream})
     update: dict[str, object] = {"stream": stream, "options": recorded.options.recorded()}

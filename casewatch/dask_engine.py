@@ -105,9 +105,9 @@ def run_on_dask(
             _close_now(client)
             for k, job in enumerate(work):  # finished and written, but not yet reported
                 if k not in reported:
-                    summary = written_summary(job, fleet)
-                    if summary is not None:
-                        finished(k, summary)
+                    written = written_summary(job, fleet)
+                    if written is not None:
+                        finished(k, written)
             return f"the Dask scheduler ({where}) was lost ({type(exc).__name__})"
     return None
 

@@ -338,7 +338,7 @@ class Judging:
             self.evaluator.finish()
         finally:
             self.events.close()
-            if self.recorder is not None:
+            if self.recorder is not None and self.sinks.signals_path is not None:
                 self.recorder.save(self.sinks.signals_path)
         return complete
 

@@ -53,10 +53,17 @@ def source_kind(source: str | Path) -> SourceKind:
 class FrameReader(Protocol):
     """What the evaluator reads frames through (`monitor.reader.StreamReader`, `BagReader`)."""
 
-    header: Header | None
-    defects: list
-    dropouts: dict[str, int]
-    frames_read: int
+    @property
+    def header(self) -> Header | None: ...
+
+    @property
+    def defects(self) -> list: ...
+
+    @property
+    def dropouts(self) -> dict[str, int]: ...
+
+    @property
+    def frames_read(self) -> int: ...
 
     def __iter__(self) -> Iterator[Frame]: ...
 
@@ -155,7 +162,9 @@ class BagSource(_Closing):
         self.path = self.name = str(source)
         try:
             mapping = resolve_mapping(topics, case_path, case_topics)
-            self.reader = read_bag(source, mapping, channels=channels, period=period, strict=strict)
+            self.reader: FrameReader = read_bag(
+                source, mapping, channels=channels, period=period, strict=strict
+            )
             self._digest = path_digest(source)
         except (MappingError, BagError) as exc:
             raise SourceError(str(exc)) from None
