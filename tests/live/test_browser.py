@@ -4,8 +4,8 @@ highway-tailgating from 14.0 to 22.0 s (80 frames, 8 s at real time): the hazard
 (tailgating) holds from 18.6 s and is announced as a hazard event once it lasted its 1 s
 min_duration. The page must show CSn2 violated within one second of the 18.6 s frame being
 written to casewatch's standard input, with 20 more pages open on the same run (event streams
-read by another process), keep the final verdict after the stream ends, and give it to a page
-opened late.
+read by another process), while judging keeps up with real time (less than 0.5 s behind at the
+last frame), keep the final verdict after the stream ends, and give it to a page opened late.
 """
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+import urllib.request
 
 import pytest
 
@@ -77,6 +78,11 @@ def test_the_page_follows_a_real_time_drive_and_keeps_the_verdict(tmp_path):
 
                 feeder.join(timeout=30)
                 page.wait_for_selector("body[data-connection=ended]", timeout=10_000)
+                # the judge kept up with real time with 21 pages open: at the last frame it
+                # was behind its most punctual frame by less than half a second
+                state = json.loads(urllib.request.urlopen(run.url + "state", timeout=10).read())
+                assert state["stream"]["frames"] == 80
+                assert 0.0 <= state["stream"]["behind"] < 0.5, state["stream"]
                 assert "final verdict over 80 frames" in page.inner_text("#verdict-note")
                 late = browser.new_page()
                 late.goto(run.url)
