@@ -7,6 +7,7 @@ import pytest
 
 from casewatch import api
 from casewatch.evaluator.options import RunOptions, RunSinks
+from casewatch.evaluator.result import OddChange
 from casewatch.evaluator.session import evaluate_stream
 from casewatch.live.state import LiveState
 from tests.evaluator.streams import write_case, write_stream
@@ -136,3 +137,20 @@ def test_a_stalled_stream_falls_behind(small):
     run_with(small, state, clock=clock)
     clock.now += 0.5  # and half a second without a frame since the last
     assert state.snapshot()[0]["stream"]["behind"] == pytest.approx(3.5)
+
+
+def test_defects_dropouts_and_odd_changes_reach_the_page(small, tmp_path):
+    case, spec, stream = small
+    lines = stream.read_text().splitlines()
+    lines.insert(12, '{"t": "not a time"}')  # one defect, on line 13
+    broken = tmp_path / "broken.jsonl"
+    broken.write_text("\n".join(lines) + "\n")
+    state = LiveState(spec, 0.1)
+    run_with((case, spec, broken), state)
+    body, _ = state.snapshot()
+    assert body["stream"]["defect_count"] == 1
+    assert body["stream"]["defects"][0]["line"] == 13
+    assert body["stream"]["dropouts"] == {"lav": 0, "tfuse": 6}
+    state.on_event(OddChange(node_id="C1", t=4.2, state="outside", because="weather = fog"))
+    body, _ = state.snapshot()
+    assert body["odd"] == {"C1": {"state": "outside", "because": "weather = fog", "t": 4.2}}
