@@ -117,7 +117,12 @@ class MetricFamily:
         self.params = engine.params
         self.channels = engine.channels
         self.pairs = engine.pairs
-        self.coverage = engine.coverage
+
+    @property
+    def coverage(self) -> dict[str, Coverage]:
+        """What each channel can see, read from the engine at every use: a run learns it from
+        the stream's header after the engine is built (`evaluator.session`)."""
+        return self.engine.coverage
 
     def step(self, t: float, states: dict[str, ChannelState], out: dict[str, float | None]) -> None:
         """Write this family's signals for the tick at `t` into `out` (None: no value)."""

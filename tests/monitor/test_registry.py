@@ -6,6 +6,7 @@ from __future__ import annotations
 from bench.metrics import CHANNELS, reference_load_frames
 from casewatch.monitor.engine import FAMILIES, MetricEngine
 from casewatch.monitor.families.comfort import ComfortFamily
+from casewatch.monitor.frames import Coverage
 from casewatch.monitor.registry import FAMILIES as REGISTERED
 from casewatch.safety_case.model import MetricParams
 from casewatch.safety_case.signals import WORLD_METRICS, builtin_signals
@@ -56,3 +57,18 @@ def test_registry_order_and_lookup():
     names = [f.name for f in engine.families]
     assert names.index("comfort") < names.index("situation")
     assert names.index("similarity") < names.index("motion_prediction")
+
+
+def test_coverage_learnt_after_construction_reaches_every_family():
+    """A run learns the channels' coverage from the stream header after building the engine
+    (evaluator.session): the families must judge with it, not with the all-round default."""
+    engine = MetricEngine(MetricParams(), CHANNELS)
+    narrow = {"lav": Coverage(fov_deg=90.0, range_m=60.0), "tfuse": Coverage()}
+    engine.coverage = narrow
+    assert all(f.coverage is narrow for f in engine.families)
+    frame = reference_load_frames(1)[0]
+    learnt = engine.step(frame)
+    fresh = MetricEngine(MetricParams(), CHANNELS, coverage=narrow)
+    assert fresh.step(frame) == learnt  # the same values as an engine built with it
+    wide = MetricEngine(MetricParams(), CHANNELS).step(frame)
+    assert wide != learnt  # and coverage does matter on this frame
