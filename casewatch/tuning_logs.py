@@ -16,6 +16,7 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 from pathlib import Path
+from typing import cast
 
 from casewatch import batch
 from casewatch.errors import CasewatchError
@@ -99,7 +100,7 @@ def _run_folders(arguments: list[str], case_path: str, out: Path, jobs: int) -> 
             batch.Outputs(save_signals=True),
             batch.local_runner(jobs),
         )
-        for log in summary["per_log"]:  # type: ignore[union-attr]
+        for log in cast(list, summary["per_log"]):
             if not log["ok"]:
                 raise LogsError(f"{log['stream']}: could not be judged: {log['error']}")
             folders.append(Path(log["out_dir"]))

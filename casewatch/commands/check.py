@@ -18,6 +18,7 @@ from casewatch import api
 from casewatch.safety_case.findings import Finding
 from casewatch.safety_case.model import Case
 from casewatch.safety_case.structure import unmonitored_reason
+from casewatch.spec.compiler import Mode
 
 #: Findings with this code mean the file itself could not be read (exit 2, not 1).
 UNREADABLE_CODES = frozenset({"CW001"})
@@ -47,7 +48,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
 
 
-def collect_findings(path: str | Path, mode: str = "online") -> tuple[Case | None, list[Finding]]:
+def collect_findings(path: str | Path, mode: Mode = "online") -> tuple[Case | None, list[Finding]]:
     """Load the case and run every check (structure, then formulas); sorted by position.
 
     The case is None when loading failed (syntax or schema errors); otherwise it is returned

@@ -139,10 +139,8 @@ def main(args: argparse.Namespace) -> int:
             if d["verdict_a"] == d["verdict_b"]
             else f"; verdict {d['verdict_a']} -> {d['verdict_b']}"
         )
-        labels = "" if d["labelled"] else " (no labels: vanished episodes are 'gone')"
-        print(
-            f"{d['log']}: {_counts(totals(d), always=('new', 'gone', 'changed'))}{verdict}{labels}"
-        )
+        note = "" if d["labelled"] else " (no labels: vanished episodes are 'gone')"
+        print(f"{d['log']}: {_counts(totals(d), always=('new', 'gone', 'changed'))}{verdict}{note}")
         for r in d["nodes"]:
             counts = {kind: len(r[kind]) for kind in CHANGE_LABELS}
             if any(counts.values()):

@@ -77,7 +77,11 @@ def _per_rule(data: dict, rule_of: dict[str, str]) -> dict[str, dict]:
 
 def _summarise_run(name: str, folder: Path, data: dict, by: Sequence[str]) -> dict:
     meta = data["stream"].get("meta") or {}
-    rule_of = {f.get("id"): f.get("rule") for f in data["formulas"] if isinstance(f, dict)}
+    rule_of: dict[str, str] = {
+        f["id"]: f["rule"]
+        for f in data["formulas"]
+        if isinstance(f, dict) and f.get("id") and f.get("rule")
+    }
     scores = data.get("scores")
     carla = (scores or {}).get("carla") or {}
     infractions = carla.get("per_infraction") if isinstance(carla, dict) else None

@@ -34,7 +34,7 @@ from casewatch.evaluator.result import (
     TraceStep,
 )
 from casewatch.evaluator.series import DecimatedSeries
-from casewatch.evaluator.status import StatusPropagator, Verdict, worst_status
+from casewatch.evaluator.status import OddVerdict, StatusPropagator, Verdict, worst_status
 from casewatch.safety_case.model import Case, OddValue
 from casewatch.spec.model import CompiledFormula, CompiledSpec
 
@@ -164,7 +164,7 @@ class Evaluator:
         for state in self.states:
             verdicts[state.formula.id] = self._judge(state, t, values)
         self._tally(t, conditions, verdicts)
-        odd = {}
+        odd: dict[str, OddVerdict] = {}
         for check in self.odd_checks:
             before = check.last[0]  # "inside" before the first tick
             odd[check.node_id] = check.judge(conditions, values)
@@ -480,7 +480,7 @@ class Evaluator:
             f = s.formula
             as_signal = f.signal is not None and f.threshold is not None
             reference = 0.0
-            if as_signal:
+            if f.signal is not None and f.threshold is not None:
                 reference = float(f.threshold.split()[-1])
             out.append(
                 Series(

@@ -131,7 +131,11 @@ def diff_runs(
             if moved or worse:
                 changed.append({"a": _span(x), "b": _span(y)})
         labelled = labels is not None and kinds[formula] == "hazard"
-        truth = [lab for lab in labels if lab.node_id == node_of[formula]] if labelled else None
+        truth = (
+            [lab for lab in labels if lab.node_id == node_of[formula]]
+            if labels is not None and labelled
+            else None
+        )
         row = {
             "formula": formula,
             "node": node_of[formula],

@@ -190,7 +190,7 @@ def score_events(
         labels_path=labels_path,
         labels_digest=labels_digest,
         per_hazard=per_hazard,
-        overall=_score(*totals, hazard="all"),
+        overall=_score(totals[0], totals[1], totals[2], hazard="all"),
         unmatched_label_names=sorted(unmatched_names),
         labels=[
             LabelInterval(node_id=h, start=lab.start, end=lab.end)

@@ -26,6 +26,7 @@ import math
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from itertools import pairwise
+from typing import Any
 
 import numpy as np
 
@@ -240,11 +241,13 @@ def analyse(
         else sorted(fid for fid, f in stats.items() if f.kind == "spi")
     )
     # cell -> formula -> per run (violated, judged, outside, no_data); cell -> runs, ticks
-    per_cell: dict[tuple, dict[str, dict[str, list[int]]]] = {}
+    #: per cell, per formula: per run's ticks (violated, judged, outside, no_data) and folders
+    per_cell: dict[tuple, dict[str, dict[str, list[Any]]]] = {}
     cell_runs: dict[tuple, set[str]] = {}
     cell_ticks: dict[tuple, int] = {}
     truth: dict[tuple, set] = {}
-    mae_sums: dict[tuple, dict[str, list[float]]] = {}
+    #: per cell, per signal: [sum of absolute errors, ticks]
+    mae_sums: dict[tuple, dict[str, list[Any]]] = {}
     for run in runs:
         truth_meta = run.result.stream.meta.get("odd_truth")
         degraded = truth_meta.get("degraded") if isinstance(truth_meta, dict) else None

@@ -14,10 +14,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from typing import Literal
 
 from casewatch.safety_case.model import OddRange, OddSpec, OddValue
 
-Verdict = str  # "inside", "outside" or "unknown"
+Verdict = Literal["inside", "outside", "unknown"]
 
 
 def _accepts(accepted: list[OddValue] | OddRange, value: OddValue) -> bool:

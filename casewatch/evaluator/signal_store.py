@@ -182,14 +182,15 @@ def load_signals(path: str | Path) -> SavedSignals:
     ]
     if missing:
         raise SignalsError(f"{where}: not a saved-signals file (missing {', '.join(missing)})")
-    scalars = {k: _scalar(arrays[k]) for k in ("version", "period", "max_gap")}
-    bad = [k for k, v in scalars.items() if v is None or not math.isfinite(v) or v <= 0]
+    read = {k: _scalar(arrays[k]) for k in ("version", "period", "max_gap")}
+    bad = [k for k, v in read.items() if v is None or not math.isfinite(v) or v <= 0]
     if bad:  # a NaN or array period would fail far from here (tune, calibrate)
         raise SignalsError(
             f"{where}: {', '.join(bad)} must be a finite number above 0, got "
             + ", ".join(repr(arrays[k].tolist())[:40] for k in bad)
         )
-    if int(scalars["version"]) != FORMAT_VERSION:  # type: ignore[arg-type]
+    scalars = {k: float(v) for k, v in read.items() if v is not None}
+    if int(scalars["version"]) != FORMAT_VERSION:
         raise SignalsError(
             f"{where}: format version {scalars['version']:g}, this casewatch "
             f"reads {FORMAT_VERSION}; run the log again with --save-signals"
@@ -212,7 +213,7 @@ def load_signals(path: str | Path) -> SavedSignals:
         raise SignalsError(f"{where}: tick times do not increase")
     return SavedSignals(
         where, t, names, values.astype(np.float64), scalars["period"], scalars["max_gap"]
-    )  # type: ignore[arg-type]
+    )
 
 
 def _scalar(array: np.ndarray) -> float | None:

@@ -72,7 +72,8 @@ class StatusPropagator:
         for node in case.nodes.values():
             for target in node.challenges:
                 self.challengers.setdefault(target, []).append(node.id)
-        self._memo: dict[tuple[Verdict, ...], dict[str, str]] = {}
+        #: node statuses per combination of formula verdicts and ODD verdicts
+        self._memo: dict[tuple[str, ...], dict[str, str]] = {}
 
     @staticmethod
     def _evaluation_order(case: Case) -> list[str]:

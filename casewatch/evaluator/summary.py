@@ -7,6 +7,8 @@ monitored driving so logs of different lengths compare.
 
 from __future__ import annotations
 
+from typing import Any
+
 from pydantic import BaseModel, ConfigDict
 
 from casewatch.evaluator.result import RunResult
@@ -188,7 +190,7 @@ def summarise(logs: list[LogSummary], case_path: str, case_digest: str) -> dict[
     """The aggregate record written as summary.json."""
     judged = [log for log in logs if log.ok]
     hours = sum(log.duration_s for log in judged) / 3600.0
-    per_formula: dict[str, dict[str, object]] = {}
+    per_formula: dict[str, dict[str, Any]] = {}
     for log in judged:
         for f in log.formulas:
             entry = per_formula.setdefault(

@@ -18,6 +18,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
+from typing import Any, cast
 
 import numpy as np
 
@@ -181,17 +182,19 @@ def _replace(node: Node, path: tuple[int, ...], value: float) -> Node:
         return dataclasses.replace(node, left=Num(value))
     kids = list(children(node))
     kids[path[0]] = _replace(kids[path[0]], path[1:], value)
-    if len(kids) == 1:
-        return dataclasses.replace(node, operand=kids[0])  # type: ignore[call-arg]
-    return dataclasses.replace(node, left=kids[0], right=kids[1])  # type: ignore[call-arg]
+    # one child: an operand; two: left and right (spec.ast.children's order)
+    fields: dict[str, Any] = (
+        {"operand": kids[0]} if len(kids) == 1 else {"left": kids[0], "right": kids[1]}
+    )
+    return dataclasses.replace(node, **fields)
 
 
 def formula_for(knob: Knob, threshold: float, duration: float) -> Formula:
     """The condition with the candidate threshold (and, for an SPI, its `for:` window)."""
-    condition = _replace(knob.condition, knob.path, threshold)
+    condition = cast(Formula, _replace(knob.condition, knob.path, threshold))
     if knob.duration_kind == "for" and duration > 0:
         return Window("once", Interval(Fraction(0), Fraction(repr(duration))), condition)
-    return condition  # type: ignore[return-value]
+    return condition
 
 
 def episodes_from(

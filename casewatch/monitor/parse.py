@@ -464,10 +464,10 @@ def parse_frame(obj: Any, known_channels: Iterable[str] | None = None, line: int
             )
         try:
             channels[name] = parse_channel(cv, f"channels.{name}")
-        except FrameDefect as d:
-            if d.kind != "duplicate-id":
+        except FrameDefect as defect:
+            if defect.kind != "duplicate-id":
                 raise
-            raise FrameDefect(d.kind, f"frame t = {t:g}: {d.message}") from None
+            raise FrameDefect(defect.kind, f"frame t = {t:g}: {defect.message}") from None
     signals: dict[str, float | None] = {}
     sv = d.get("signals")
     if sv is not None:

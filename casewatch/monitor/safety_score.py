@@ -215,7 +215,11 @@ class _Movers:
         self.convex = convex
         self.footprints = footprints
         self.n_egos = n_egos
-        self.axis_x = self.axis_y = self.axis_lo = self.axis_hi = None
+        #: the ego runs' lateral separating axes and intervals (ego_axes, on first use)
+        self.axis_x: np.ndarray | None = None
+        self.axis_y: np.ndarray | None = None
+        self.axis_lo: np.ndarray | None = None
+        self.axis_hi: np.ndarray | None = None
 
     def ego_axes(self) -> None:
         """Per ego run: the unit normal of its first point's heading (the lateral axis) and the
@@ -590,6 +594,8 @@ def _pet(
                 hl = np.where(cut, np.nan, hl)
         # Lateral separating axis of the ego run: drop chunk pairs it separates.
         mv.ego_axes()
+        assert mv.axis_x is not None and mv.axis_y is not None  # set by ego_axes
+        assert mv.axis_lo is not None and mv.axis_hi is not None
         lo, hi = mv.run_interval(
             orow, hl, mv.hw.take(k), mv.radius.take(k), mv.axis_x.take(er), mv.axis_y.take(er)
         )
@@ -767,7 +773,7 @@ def arbitrate(
     for i in channels:
         vals = [matrix[(i, j)] for j in channels if matrix.get((i, j)) is not None]
         if vals:
-            score[i] = min(vals)  # type: ignore[type-var]
+            score[i] = min(v for v in vals if v is not None)
     if not score:
         return None
     best = max(score.values())

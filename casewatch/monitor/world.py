@@ -112,7 +112,7 @@ def _map(v: Any, where: str, known: tuple[str, ...] | None = None) -> dict:
     if not isinstance(v, dict):
         raise WorldError(f"{where}: expected an object, got {v!r:.40}")
     unknown = sorted(set(v) - set(known)) if known is not None else []
-    if unknown:
+    if unknown and known is not None:
         raise WorldError(f"{where}.{unknown[0]}: unknown key (known: {', '.join(known)})")
     return v
 

@@ -132,7 +132,7 @@ def bar_chart(
             (s["name"], s["colour"])
             for row in segments
             for s in row or []
-            if len(row) > 1 or s["name"] != "mean"
+            if row is not None and (len(row) > 1 or s["name"] != "mean")
         )
     )
     height = CHART_TOP + len(labels) * ROW_H + CHART_BOTTOM
@@ -288,7 +288,7 @@ def map_views(
         tf = fit_transform(bounds, width=MAP_W)
         drawn = []
         for i, m in own:
-            ((cx, cy),) = tf.apply([(m["x"], m["y"])])
+            ((cx, cy),) = tf.apply(np.array([(m["x"], m["y"])]))
             note = ""
             if m["off_road"]:
                 note += f"; OFF ROAD: {m['network_distance']:.1f} m from the nearest lane centre"

@@ -16,6 +16,7 @@ node (gsn2x's `challenges` holds one). Loading the exported file gives the same 
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -142,7 +143,7 @@ def _node(node: Node, status: str | None) -> dict[str, Any]:
     return out
 
 
-def gsn_document(case: Case, statuses: dict[str, str] | None = None) -> dict[str, Any]:
+def gsn_document(case: Case, statuses: Mapping[str, str] | None = None) -> dict[str, Any]:
     """The case as a gsn2x document (a plain dict, in the case's node order)."""
     info = dict(case.module.gsn.get("additionalInformation") or {})
     kept: dict[str, Any] = {}
@@ -191,7 +192,7 @@ def status_css() -> str:
     )
 
 
-def write_gsn(case: Case, out_dir: Path, statuses: dict[str, str] | None = None) -> list[Path]:
+def write_gsn(case: Case, out_dir: Path, statuses: Mapping[str, str] | None = None) -> list[Path]:
     """Write `OUT/<module name>.gsn.yaml` (and the CSS with statuses); returns the paths."""
     out_dir.mkdir(parents=True, exist_ok=True)
     stem = "".join(c if c.isalnum() or c in "-_." else "-" for c in case.module.name) or "case"

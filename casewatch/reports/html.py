@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import jinja2
 import markupsafe
 
-from casewatch.evaluator.result import STATUS_SEVERITY, RunResult
+from casewatch.evaluator.result import STATUS_SEVERITY, RunResult, Series
 from casewatch.reports.layout import LINE_HEIGHT, SKEW, Diagram, layout_case
 from casewatch.reports.plot import PlotView, StripRect, plot_series, status_strip
 from casewatch.reports.view import (
@@ -90,7 +90,7 @@ def subtitles(result: RunResult) -> dict[str, str]:
 
 def _plots(result: RunResult) -> list[PlotCard]:
     """One plot per formula: its signal series when recorded, else its robustness."""
-    chosen = {}
+    chosen: dict[str, Series] = {}
     for series in result.series:
         current = chosen.get(series.formula_id)
         if current is None or (current.quantity == "robustness" and series.quantity == "signal"):
@@ -102,8 +102,8 @@ def _plots(result: RunResult) -> list[PlotCard]:
     cards = []
     order = {f.id: i for i, f in enumerate(result.formulas)}
     for formula in sorted(result.formulas, key=lambda f: (f.kind != "spi", order[f.id])):
-        series = chosen.get(formula.id)
-        if series is None:
+        shown = chosen.get(formula.id)
+        if shown is None:
             continue
         episodes = [e for e in result.episodes if e.formula_id == formula.id]
         gaps = [g for g in result.data_gaps if g.formula_id == formula.id]
@@ -112,9 +112,9 @@ def _plots(result: RunResult) -> list[PlotCard]:
             for lab in (result.ground_truth.labels if result.ground_truth else [])
             if lab.node_id == formula.node_id
         ]
-        plot = plot_series(series, episodes, gaps, result.case.period, t_range, labels)
-        if series.quantity == "signal":
-            title = f"{series.name} {formula.threshold or ''}".strip()
+        plot = plot_series(shown, episodes, gaps, result.case.period, t_range, labels)
+        if shown.quantity == "signal":
+            title = f"{shown.name} {formula.threshold or ''}".strip()
         else:
             title = f"robustness of {formula.id}"
         note = f"{len(episodes)} episodes · {len(gaps)} gaps"

@@ -189,10 +189,10 @@ def plot_series(
     pad = (v1 - v0) * 0.08 or 0.5
     v0, v1 = v0 - pad, v1 + pad
 
-    def sx(tt: np.ndarray | float) -> np.ndarray | float:
+    def sx(tt: np.ndarray | float) -> np.ndarray:
         return LEFT + (np.asarray(tt) - t0) / (t1 - t0) * inner_w
 
-    def sy(vv: np.ndarray | float) -> np.ndarray | float:
+    def sy(vv: np.ndarray | float) -> np.ndarray:
         return TOP + (v1 - np.asarray(vv)) / (v1 - v0) * inner_h
 
     # Band: one closed polygon per run of buckets with values, through the bucket centres (max

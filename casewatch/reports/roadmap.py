@@ -151,7 +151,8 @@ def read_sumo_net(path: Path | str) -> RoadNetwork:
     """Every lane of a SUMO `.net.xml` (internal junction lanes included: junctions are road)."""
     path = Path(path)
     root = _parse_xml(path, "net", "a SUMO .net.xml")
-    lanes, other = [], []
+    lanes: list[Lane] = []
+    other: list[Lane] = []
     for edge in root.iter("edge"):
         if edge.get("function") in ("walkingarea", "crossing"):
             continue
@@ -229,7 +230,7 @@ def geometry_points(
         p = np.linspace(0.0, 1.0, max(2, math.ceil(length / 0.1) + 1))
         if kind == "poly3":  # v(u), u along hdg; the arc length reaches `length` by u=length
             a, b, c, d = (params[n] for n in ("a", "b", "c", "d"))
-            u = p * length
+            u: np.ndarray = p * length
             v = a + b * u + c * u**2 + d * u**3
             arc = np.r_[0.0, np.cumsum(np.hypot(np.diff(u), np.diff(v)))]
             u = np.interp(np.linspace(0, length, len(p)), arc, u)
@@ -241,8 +242,8 @@ def geometry_points(
             v = params["aV"] + params["bV"] * q + params["cV"] * q**2 + params["dV"] * q**3
         cos, sin = math.cos(hdg), math.sin(hdg)
         xy = np.column_stack((x0 + u * cos - v * sin, y0 + u * sin + v * cos))
-        d = np.diff(xy, axis=0)
-        h = np.arctan2(d[:, 1], d[:, 0])
+        step = np.diff(xy, axis=0)
+        h = np.arctan2(step[:, 1], step[:, 0])
         h = np.r_[h, h[-1]]
         every = max(1, round(XODR_STEP_M / 0.1))
         keep = np.unique(np.r_[np.arange(0, len(p), every), len(p) - 1])
@@ -319,7 +320,7 @@ def read_opendrive(path: Path | str) -> RoadNetwork:
                 for a in _PARAMS[shape.tag]
             }
             if shape.tag == "paramPoly3":
-                params["pRange"] = shape.get("pRange", "normalized")  # type: ignore[assignment]
+                params["pRange"] = shape.get("pRange", "normalized")  # type: ignore[assignment,arg-type]
             if shape.tag == "spiral" and length == 0:
                 continue
             xy, h = geometry_points(shape.tag, x0, y0, hdg, length, params)

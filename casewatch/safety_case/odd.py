@@ -115,7 +115,11 @@ def parse_odd(data: object, source: str = "", signals: set[str] | None = None) -
         if isinstance(accepted, OddRange):
             if accepted.min is None and accepted.max is None:
                 raise OddError(f"attributes.{name}: a range needs `min`, `max` or both")
-            if None not in (accepted.min, accepted.max) and accepted.min > accepted.max:
+            if (
+                accepted.min is not None
+                and accepted.max is not None
+                and accepted.min > accepted.max
+            ):
                 raise OddError(f"attributes.{name}: min {accepted.min:g} > max {accepted.max:g}")
     for k, combo in enumerate(spec.combinations):
         for name in combo:

@@ -576,7 +576,7 @@ def _check_scoring(scoring: ScoringParams) -> ScoringParams:
                 )
             values = value if isinstance(value, tuple) else (value,)
             if any(not math.isfinite(v) or v < 0 for v in values) or (
-                what == "carla" and not 0 < value <= 1
+                what == "carla" and not (isinstance(value, float | int) and 0 < value <= 1)
             ):
                 raise PydanticCustomError(
                     "unknown_rule",

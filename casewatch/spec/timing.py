@@ -29,6 +29,7 @@ from casewatch.spec.ast import (
     Span,
     Sum,
     Window,
+    WindowOpName,
     future_operators,
 )
 from casewatch.spec.visitor import Visitor
@@ -255,7 +256,7 @@ def delay(formula: Formula, ticks: int, period: Fraction) -> Formula | None:
         if e + lo < 0:
             return None
         if formula.op in ("eventually", "always"):
-            op = "once" if formula.op == "eventually" else "historically"
+            op: WindowOpName = "once" if formula.op == "eventually" else "historically"
             return Window(op, _interval(e - hi, e - lo, period), shifted)
         if formula.interval is None:  # unbounded past of a future formula: shift the whole
             return delay_past(Window(formula.op, None, shifted), e, period)

@@ -51,7 +51,7 @@ def yaw_of(q: np.ndarray) -> np.ndarray:
     return np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 
 
-def to_world(v_body: np.ndarray, yaw: np.ndarray) -> np.ndarray:
+def to_world(v_body: np.ndarray, yaw: np.ndarray | float) -> np.ndarray:
     """(..., 2) body-frame vectors turned by `yaw` into the world frame."""
     c, s = np.cos(yaw), np.sin(yaw)
     out = np.empty_like(v_body)

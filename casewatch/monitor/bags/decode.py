@@ -16,7 +16,9 @@ from __future__ import annotations
 
 import math
 import struct
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -384,7 +386,11 @@ def fast_trajectory(raw) -> TrajectoryRecord:
     return TrajectoryRecord(stamp, tfs, pose, speed)
 
 
-FAST = {ODOMETRY: fast_odometry, OBJECTS: fast_objects, TRAJECTORY: fast_trajectory}
+FAST: dict[str, Callable[[Any], Record]] = {
+    ODOMETRY: fast_odometry,
+    OBJECTS: fast_objects,
+    TRAJECTORY: fast_trajectory,
+}
 
 
 def decode_fast(raw, msgtype: str) -> Record:

@@ -184,7 +184,7 @@ def load_mapping(path: str | Path, key: tuple[str, ...] = ()) -> LoadedMapping:
         loc = [str(p) for p in err["loc"]]
         line = _line(node, loc)
         where = ".".join([*key, *loc]) or "topic mapping"
-        raise MappingError(f"{path}:{line}: {where}: {_explain(err)}") from None
+        raise MappingError(f"{path}:{line}: {where}: {_explain(dict(err))}") from None
     prefix = ".".join(key)
     return LoadedMapping(mapping, f"{path}:{node.mark.line}" if prefix else str(path))
 

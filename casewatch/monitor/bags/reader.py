@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from dataclasses import field as _field
 from functools import lru_cache
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 from rosbags.serde import SerdeError
@@ -31,7 +32,10 @@ from casewatch.errors import CasewatchError
 from casewatch.monitor.bags.assemble import RecordDefect, ego_state, objects_state, plan_state
 from casewatch.monitor.bags.decode import (
     DecodeError,
+    ObjectsRecord,
+    OdometryRecord,
     Record,
+    TrajectoryRecord,
     decode_fast,
     generic_record,
     header_stamp,
@@ -402,23 +406,23 @@ class BagReader:
                 try:
                     at_tick = self.mapping.poses_at_tick
                     ego = ego_state(
-                        odom.record,
+                        cast(OdometryRecord, odom.record),
                         footprint,
                         odom.stamp,
-                        tick,  # type: ignore[arg-type]
+                        tick,
                         at_tick,
                     )
                     objects = objects_state(
-                        objs.record,
+                        cast(ObjectsRecord, objs.record),
                         objs.stamp,
-                        tick,  # type: ignore[arg-type]
+                        tick,
                         at_tick,
                     )
                     planned = (
                         plan_state(
-                            plan.record,
+                            cast(TrajectoryRecord, plan.record),
                             plan.stamp,
-                            tick,  # type: ignore[arg-type]
+                            tick,
                             self.mapping.plan_time,
                         )
                         if plan is not None

@@ -13,6 +13,7 @@ import struct
 from collections.abc import Iterator
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
 from rosbags.interfaces import MessageDefinitionFormat
 from rosbags.rosbag2 import Reader, ReaderError
@@ -68,7 +69,7 @@ class RosbagsStorage:
         self._reader = Reader(path)
         self._reader.open()
         self.topics: dict[str, BagTopic] = {}
-        self._conns = {}
+        self._conns: dict[str, Any] = {}
         fmt = {MessageDefinitionFormat.MSG: "msg", MessageDefinitionFormat.IDL: "idl"}
         for c in self._reader.connections:
             if c.topic not in self.topics:
@@ -119,7 +120,7 @@ class McapScan:
             known = self.topics[topic]
             self.topics[topic] = replace(known, count=(known.count or 0) + counts.get(cid, 0))
 
-    def _records(self, stop_at_break: bool) -> Iterator[object]:
+    def _records(self, stop_at_break: bool) -> Iterator[Any]:
         from mcap.exceptions import McapError
         from mcap.stream_reader import StreamReader
 
