@@ -48,9 +48,14 @@ class LoneAges:
         first seen unpaired now, else the time since it was first seen unpaired. Remembered
         objects are followed onto every current object: onto an unpaired one they pass on
         their age, onto a paired one they end."""
+        lone = np.asarray(lone, dtype=bool)
+        if not len(self.pos) and not lone.any():
+            # the common tick: nothing unpaired now and nothing remembered, so nothing to
+            # follow and the (empty) memory stays as it is; the general path below would
+            # return the same empty ages through a dozen array calls (issue 36)
+            return np.zeros(0)
         pos = np.array(pos, dtype=float).reshape(-1, 2)
         vel = np.array(vel, dtype=float).reshape(-1, 2)
-        lone = np.asarray(lone, dtype=bool)
         age = np.zeros(len(pos))
         keep = np.zeros(len(self.pos), dtype=bool)
         if len(self.pos):
@@ -76,4 +81,6 @@ def benefit_of_doubt(age: np.ndarray, horizon: float) -> np.ndarray:
     """Each unpaired object's share of the benefit of the doubt in the object similarities
     (`ObjectComparison.scores`): 1 when first seen unpaired, falling linearly to 0 at
     `horizon` seconds (spi-reference "Unpaired objects")."""
+    if not len(age):
+        return np.zeros(0)  # most ticks: nothing unpaired (np.clip of nothing, without its cost)
     return np.clip(1.0 - age / horizon, 0.0, 1.0)
