@@ -28,8 +28,9 @@ from casewatch.monitor.bags.reader import BagError
 from casewatch.monitor.bags.storage import StorageError, open_storage
 from casewatch.monitor.bags.writer import BagWriteError, default_mapping, write_bag
 from casewatch.monitor.encode import frame_to_dict, header_to_dict
+from casewatch.monitor.frames import Header
 from casewatch.monitor.reader import StreamError
-from casewatch.monitor.source import SourceError, open_source, source_kind
+from casewatch.monitor.source import FrameReader, SourceError, open_source, source_kind
 from casewatch.safety_case.findings import CaseError
 
 
@@ -201,11 +202,11 @@ def _bag_to_stream(args) -> int:
         first = True
         for frame in reader:
             if first:  # the header carries the bag's start time, known at the first tick
-                fh.write(orjson.dumps(header_to_dict(reader.header)) + b"\n")
+                fh.write(orjson.dumps(header_to_dict(_bag_header(reader))) + b"\n")
                 first = False
             fh.write(orjson.dumps(frame_to_dict(frame)) + b"\n")
         if first:
-            fh.write(orjson.dumps(header_to_dict(reader.header)) + b"\n")
+            fh.write(orjson.dumps(header_to_dict(_bag_header(reader))) + b"\n")
     tmp.replace(out)
     drop = ", ".join(f"{c} {n}" for c, n in reader.dropouts.items())
     print(
@@ -239,12 +240,13 @@ def _stream_to_bag(args) -> int:
         first, header = _peek(source, channels)
         if first is None:
             raise _Usage(f"{source}: no frames to convert")
-        size = args.ego_size or _ego_box(first)
+        length, width = args.ego_size or _ego_box(first)
         names = header.channels if header is not None and header.channels else list(first.channels)
         plain = default_mapping(
             names,
             sorted(first.signals),
-            *size,
+            length,
+            width,
             coverage=header.coverage if header is not None else None,
             period=period,
         )
@@ -287,6 +289,12 @@ def _peek(source: str, channels: list[str] | None):
         for frame in reader:
             return frame, reader.header
         return None, reader.header
+
+
+def _bag_header(reader: FrameReader) -> Header:
+    """A bag reader's header (it makes one when it opens the bag, before any frame)."""
+    assert reader.header is not None
+    return reader.header
 
 
 def _ego_box(frame) -> tuple[float, float]:

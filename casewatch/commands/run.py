@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import cast
 
 from casewatch import api, batch
 from casewatch.commands.common import prepare_case
@@ -470,10 +471,11 @@ def _run_many(args, case, formats: tuple[str, ...], options: RunOptions) -> int:
             f"{summary['logs_failed']} failed, {summary['logs_without_data']} with too little "
             f"data; summary: {args.out / 'summary.json'}"
         )
+    per_log = cast(list[dict], summary["per_log"])
     if args.scenarios:  # one folder per log and an index; the exit code stays the run's
         scenarios = options_from(args, "scenario_")
-        print_fleet_index(summary["per_log"], args.out / "scenarios", scenarios)
-    for log in summary["per_log"]:  # even with --quiet: exit 3 and 4 never pass unexplained
+        print_fleet_index(per_log, args.out / "scenarios", scenarios)
+    for log in per_log:  # even with --quiet: exit 3 and 4 never pass unexplained
         if args.quiet and (log.get("crashed") or log.get("engines_disagree")):
             print(f"casewatch run: {log['stream']}: {log['error']}", file=sys.stderr)
     if summary["logs_crashed"]:
@@ -483,6 +485,8 @@ def _run_many(args, case, formats: tuple[str, ...], options: RunOptions) -> int:
     if summary["logs_failed"] or summary["logs_without_data"]:
         return 2
     episodes = sum(
-        int(f["episodes"]) for f in summary["formulas"] if gated(f["kind"], args.fail_on)
+        int(f["episodes"])
+        for f in cast(list[dict], summary["formulas"])
+        if gated(f["kind"], args.fail_on)
     )
     return 1 if episodes or summary.get("logs_damaged") else 0
