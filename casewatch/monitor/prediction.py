@@ -207,13 +207,32 @@ def ompv(
     if standing <= 0.0:
         n1, n2 = _ompv_counts(predicted, reaches, cur.pos, pi, ci, float(tolerance))
         return n1 / n2
-    partner = np.full(n_prev, -1, dtype=np.int64)
-    partner[pi] = ci
-    has = partner >= 0
-    seen_at = cur.pos[np.where(has, partner, 0)] if n_cur else prev.pos.copy()
-    err = np.hypot(*(predicted - seen_at).T)
-    moved = np.where(has, np.hypot(*(seen_at - prev.pos).T), 0.0)
-    counted = has & ((np.hypot(*(predicted - prev.pos).T) > standing) | (moved > standing))
-    followed = counted & reaches & (err <= tolerance + TOLERANCE_EPS)
-    n2 = int(counted.sum())
-    return 1.0 if n2 == 0 else int(followed.sum()) / n2
+    n1, n2 = _standing_counts(
+        predicted, reaches, prev.pos, cur.pos, pi, ci, float(tolerance), float(standing)
+    )
+    return 1.0 if n2 == 0 else n1 / n2
+
+
+@kernel
+def _standing_counts(predicted, reaches, prev_pos, cur_pos, pi, ci, tolerance, standing):
+    """(N1, N2) of ompv with `standing` > 0: over the previous objects found again (partner
+    ci[r] of pi[r]; the last pairing of an object wins, as a numpy assignment does), those
+    predicted to move or that moved more than `standing` count, and those within the tolerance
+    of their prediction, whose prediction reaches, followed."""
+    partner = np.full(prev_pos.shape[0], -1, dtype=np.int64)
+    for r in range(pi.shape[0]):
+        partner[pi[r]] = ci[r]
+    n1 = 0
+    n2 = 0
+    for i in range(prev_pos.shape[0]):
+        c = partner[i]
+        if c < 0:
+            continue
+        err = np.hypot(predicted[i, 0] - cur_pos[c, 0], predicted[i, 1] - cur_pos[c, 1])
+        moved = np.hypot(cur_pos[c, 0] - prev_pos[i, 0], cur_pos[c, 1] - prev_pos[i, 1])
+        drift = np.hypot(predicted[i, 0] - prev_pos[i, 0], predicted[i, 1] - prev_pos[i, 1])
+        if drift > standing or moved > standing:
+            n2 += 1
+            if reaches[i] and err <= tolerance + TOLERANCE_EPS:
+                n1 += 1
+    return n1, n2
