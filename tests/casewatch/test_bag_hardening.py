@@ -144,7 +144,7 @@ def test_a_convert_crash_leaves_no_folder_at_the_output_path(tmp_path, capsys, m
     def boom(*args, **kwargs):
         raise RuntimeError("forced")
 
-    monkeypatch.setattr("casewatch.commands.convert.read_bag", boom)
+    monkeypatch.setattr("casewatch.commands.convert.open_source", boom)
     topics = str(tmp_path / "bag.topics.yaml")
     assert main(["convert", str(bag), "--topics", topics, "-o", str(out)]) == 3
     assert not out.exists() and (tmp_path / "casewatch-crash.log").is_file()
