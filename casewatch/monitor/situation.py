@@ -339,7 +339,8 @@ def _half_extents(objects: Objects) -> tuple[np.ndarray, np.ndarray]:
     around it (its bounding radius both ways)."""
     half = objects.half
     if not np.isnan(half[:, 0]).any():
-        return half[:, 0], half[:, 1]
+        # contiguous, as np.where's below: one compiled variant of the kernels that read them
+        return np.ascontiguousarray(half[:, 0]), np.ascontiguousarray(half[:, 1])
     box = ~np.isnan(half[:, 0])
     radii = objects.radii
     return np.where(box, half[:, 0], radii), np.where(box, half[:, 1], radii)
@@ -366,10 +367,12 @@ def neighbours(
         ego.x,
         ego.y,
         float(ego.yaw),
-        plan[:, 1],
-        plan[:, 2],
-        d[:, 0],
-        d[:, 1],
+        # contiguous columns: one compiled variant whatever the plan's length (a column of
+        # one row is contiguous, of more is not; each layout would compile on its own)
+        np.ascontiguousarray(plan[:, 1]),
+        np.ascontiguousarray(plan[:, 2]),
+        np.ascontiguousarray(d[:, 0]),
+        np.ascontiguousarray(d[:, 1]),
         driven is not None,
         objects.pos,
         objects.yaw,

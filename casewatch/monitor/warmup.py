@@ -60,11 +60,26 @@ def warm_up(frames: int = 35) -> None:
     """Step a throw-away engine over `frames` synthetic frames of two channels: enough for
     every history (the comfort fits need 3 s of positions) and so every kernel. Channel b's object
     ids change every frame, so ompv's nearest matching (a channel that does not track) runs."""
-    # channel b a forward camera: the coverage filter runs too
-    engine = MetricEngine(MetricParams(), _CHANNELS, {"b": Coverage(fov_deg=120.0, range_m=70.0)})
-    for k in range(frames):
-        t = round(0.1 * k, 1)
-        a = _channel(t, 0.0, (1, 2), coarse=False)
-        b = _channel(t, 0.3, (f"{k}-1", f"{k}-2"), coarse=k % 2 == 1)
-        d = {"t": t, "channels": {"a": a, "b": b}}
-        engine.step(parse_frame(d, _CHANNELS, line=k + 1))
+    # channel b a forward camera: the coverage filter runs too; then the options that take
+    # other kernels (plan smoothing, standing objects and plans, range-scaled tolerances:
+    # the reference case's), so a case that sets them compiles nothing on its first frames
+    for params in (MetricParams(), _OPTIONED):
+        engine = MetricEngine(params, _CHANNELS, {"b": Coverage(fov_deg=120.0, range_m=70.0)})
+        for k in range(frames):
+            t = round(0.1 * k, 1)
+            a = _channel(t, 0.0, (1, 2), coarse=False)
+            b = _channel(t, 0.3, (f"{k}-1", f"{k}-2"), coarse=k % 2 == 1)
+            d = {"t": t, "channels": {"a": a, "b": b}}
+            engine.step(parse_frame(d, _CHANNELS, line=k + 1))
+
+
+#: Metric options that switch kernels on (examples/reference-case.yaml sets them all).
+_OPTIONED = MetricParams(
+    plan_smoothing=2.0,
+    standing_motion=0.5,
+    plan_standstill=1.0,
+    ols_range_scale=50.0,
+    ots_time_scale=1.0,
+    ets_relative=1,
+    ompv_lookback=0.5,
+)
