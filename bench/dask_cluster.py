@@ -34,12 +34,20 @@ DASK = Path(sys.executable).with_name("dask")
 class LoopbackCluster:
     """A scheduler and `workers` worker processes on 127.0.0.1 (dashboards too, on free ports),
     started in `folder` (their working directory); `close` kills the process groups it
-    started. `env` is added to their environment."""
+    started. `env` is added to their environment; each worker runs the `preload` files
+    (`dask worker --preload`) before it takes a task."""
 
-    def __init__(self, folder: Path, workers: int, env: dict[str, str] | None = None) -> None:
+    def __init__(
+        self,
+        folder: Path,
+        workers: int,
+        env: dict[str, str] | None = None,
+        preload: list[Path] | None = None,
+    ) -> None:
         folder.mkdir(parents=True, exist_ok=True)
         self.folder = folder
         self.env = dict(os.environ, **(env or {}))
+        self.preload = [str(p) for p in preload or []]
         self.processes: list[subprocess.Popen] = []
         info = folder / "scheduler.json"
         info.unlink(missing_ok=True)
@@ -75,7 +83,17 @@ class LoopbackCluster:
 
     def add_worker(self) -> None:
         loopback = ["--host", "127.0.0.1", "--dashboard-address", "127.0.0.1:0"]
-        self._start("worker", self.address, *loopback, "--nthreads", "1", "--memory-limit", "0")
+        preload = [arg for path in self.preload for arg in ("--preload", path)]
+        self._start(
+            "worker",
+            self.address,
+            *loopback,
+            *preload,
+            "--nthreads",
+            "1",
+            "--memory-limit",
+            "0",
+        )
 
     def kill_scheduler(self) -> None:
         os.killpg(self.scheduler.pid, signal.SIGKILL)

@@ -12,7 +12,6 @@ from __future__ import annotations
 import glob
 import json
 import multiprocessing
-import os
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
@@ -121,11 +120,6 @@ class Job:
     shipped: tuple[tuple[str, bytes], ...] = ()
 
 
-#: Test-only: a worker judging a log whose file name contains this variable's value exits at
-#: once (`os._exit`), as a log that crashes its worker would: how the tests make a poisonous log.
-EXIT_HOOK = "CASEWATCH_TEST_EXIT_ON"
-
-
 def run_job(job: Job, recorded: Job | None = None) -> LogSummary:
     """Judge one log; never raises (the summary says what went wrong; an internal error leaves
     its traceback in the log's folder and marks the summary `crashed`). `recorded` is the job
@@ -133,9 +127,6 @@ def run_job(job: Job, recorded: Job | None = None) -> LogSummary:
     paths, not the copies'."""
     from casewatch import api
 
-    marker = os.environ.get(EXIT_HOOK)
-    if marker and marker in Path(job.stream).name:
-        os._exit(70)
     recorded = recorded or job
     started = time.perf_counter()
     out = Path(job.out_dir)

@@ -16,7 +16,6 @@ import pytest
 pytest.importorskip("distributed", reason="needs Dask's distributed: pip install -e .[fleet]")
 
 from bench.dask_cluster import LoopbackCluster
-from casewatch.batch import EXIT_HOOK
 from casewatch.cli import main
 from casewatch.shipping import TASK_FILE
 from tests.evaluator.streams import write_case, write_stream
@@ -26,12 +25,18 @@ REPO = Path(__file__).resolve().parents[2]
 
 @pytest.fixture(scope="module")
 def cluster(tmp_path_factory):
-    """Two workers; a log named `poison*` kills its worker (test hook), and the scheduler gives
-    a task up after its worker died twice."""
+    """Two workers; a log named `poison*` kills its worker (`poison_worker.py`, preloaded into
+    each worker), and the scheduler gives a task up after its worker died twice."""
     started = LoopbackCluster(
         tmp_path_factory.mktemp("cluster"),
         workers=2,
-        env={EXIT_HOOK: "poison", "DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES": "1"},
+        env={
+            "DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES": "1",
+            # a worker holds only the task it runs: a healthy log never dies with the poison
+            # (docs/fleet.md, "A log that kills its worker")
+            "DASK_DISTRIBUTED__SCHEDULER__WORKER_SATURATION": "1.0",
+        },
+        preload=[Path(__file__).with_name("poison_worker.py")],
     )
     yield started
     started.close()
