@@ -56,5 +56,5 @@ def test_values_no_run_can_use_are_refused_when_built(field, value, message):
 
 
 def test_the_choices_are_the_engines_and_policies_themselves():
-    assert STL_ENGINES == ("auto", *ENGINES)  # auto picks one of them per source
+    assert ("auto", *ENGINES) == STL_ENGINES  # auto picks one of them per source
     assert FAIL_ON == POLICIES
