@@ -21,11 +21,16 @@
    (`bench/dask_cluster.py`): speed-up, overhead against `--jobs 2` measured alongside, and a
    `--resume` run's rate over the hours it judged (reused logs not counted).
 7. ROS 2 bags: every bundled drive as an MCAP bag (plain and zstd), frames per second of
-   reading it against the evaluator's own speed on the same drive (`monitor/bags/bench.py`;
+   reading it against the evaluator's own speed on the same drive (`bench/bags.py`;
    target: reading >= judging).
 8. STL engines: rtamt tick by tick against numpy over the whole log, per formula of the
    reference case on 1 hour of signals (target >= 50x, identical values), and `casewatch run`
-   on the bundled drives with each engine (`evaluator/stl_bench.py`).
+   on the bundled drives with each engine (`bench/stl.py`).
+9. The live page (`bench/live.py`): p50/p99 per frame with no live view, with the page served
+   to 0 and to 20 open pages (many pages must not slow the judge).
+10. Scenario export (`bench/scenario_replay.py`): every bundled hazard event exported and its
+   file replayed as the standard times FollowTrajectoryAction: no contact the stream did not
+   have, entities present exactly while observed; a non-zero exit when any file is unfaithful.
 6. Threshold tuning (`casewatch tune`) on 1 hour of saved signals, 17 formulas x 50 candidate
    thresholds (and durations): `python -m bench.tuning`; target <= 60 s.
 
@@ -477,10 +482,18 @@ def main(argv: list[str] | None = None) -> int:
         from bench.dask_cluster import report as cluster_report
 
         print(cluster_report(results["dask_cluster"]))
+    print("\n9. the live page: p50/p99 per frame with no view, 0 and 20 pages open ...", flush=True)
+    from bench.live import main as live_bench
+
+    live_bench(["--repeat", "1" if args.quick else "3", "--json", str(BENCH / "live.json")])
+    print("\n10. scenario export: every bundled hazard event exported and replayed ...", flush=True)
+    from bench.scenario_replay import main as scenario_bench
+
+    unfaithful = scenario_bench()
     print("\n6. threshold tuning on 1 hour of saved signals ...", flush=True)
     from bench.tuning import main as tuning_bench
 
-    return tuning_bench(["--minutes", "1"] if args.quick else [])
+    return tuning_bench(["--minutes", "1"] if args.quick else []) or unfaithful
 
 
 def print_table(r: dict) -> None:
