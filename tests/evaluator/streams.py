@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from pathlib import Path
 
 SMALL_CASE = """\
@@ -46,17 +47,21 @@ def frame(i: int, period: float = 0.1) -> dict[str, object]:
     return {"t": t, "channels": channels, "signals": {"speed": 10.0}}
 
 
-def write_stream(path: Path, frames: int = 100) -> Path:
+def write_stream(
+    path: Path, frames: int = 100, make: Callable[[int], dict] | None = None, test: str = "e2e"
+) -> Path:
+    """A two-channel stream of `frames` frames, frame `i` from `make(i)` (default `frame`)."""
     header = {
         "header": {
             "format": "casewatch-frames",
             "version": 1,
             "channels": ["lav", "tfuse"],
             "period": 0.1,
-            "meta": {"test": "e2e"},
+            "meta": {"test": test},
         }
     }
-    lines = [json.dumps(header)] + [json.dumps(frame(i)) for i in range(frames)]
+    make = make or frame
+    lines = [json.dumps(header)] + [json.dumps(make(i)) for i in range(frames)]
     path.write_text("\n".join(lines) + "\n")
     return path
 

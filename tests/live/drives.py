@@ -8,10 +8,9 @@ lead car (box footprint, 3-point prediction) and one pedestrian (polygon footpri
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
-from tests.evaluator.streams import frame
+from tests.evaluator.streams import frame, write_stream
 
 FRAMES = 100
 #: Frames without tfuse (t = 5.0 .. 5.5 s).
@@ -48,15 +47,4 @@ def rich_frame(i: int) -> dict:
 
 
 def write_rich_stream(path: Path, frames: int = FRAMES) -> Path:
-    header = {
-        "header": {
-            "format": "casewatch-frames",
-            "version": 1,
-            "channels": ["lav", "tfuse"],
-            "period": 0.1,
-            "meta": {"test": "annotate"},
-        }
-    }
-    lines = [json.dumps(header)] + [json.dumps(rich_frame(i)) for i in range(frames)]
-    path.write_text("\n".join(lines) + "\n")
-    return path
+    return write_stream(path, frames, rich_frame, test="annotate")
