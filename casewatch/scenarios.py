@@ -17,17 +17,14 @@ from __future__ import annotations
 import json
 import math
 import os
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from casewatch.errors import CasewatchError
-from casewatch.evaluator.inputs import path_digest
 from casewatch.evaluator.result import RunResult
-from casewatch.monitor.bags.mapping import MappingError, resolve_mapping
-from casewatch.monitor.bags.reader import BagError, is_bag, read_bag
 from casewatch.monitor.frames import Frame
-from casewatch.monitor.reader import read_stream
+from casewatch.monitor.source import SourceError, open_source, path_digest, source_kind
 from casewatch.reports.render import load_result
 from casewatch.reports.scenario_export import (
     EventWindow,
@@ -116,23 +113,27 @@ def road_reference(opendrive: Path, out: Path) -> str:
         return target.as_posix()
 
 
-def _frames(result: RunResult, stream: Path, topics: Path | None) -> Iterable[Frame]:
+def _frames(result: RunResult, stream: Path, topics: Path | None) -> Iterator[Frame]:
     """The frames of the judged stream as the run read them: JSON Lines with the case's
     channels and period, or a ROS 2 bag through its topic mapping (`topics`, else the case's
     `monitor.topics`)."""
-    channels = list(result.case.channels)
-    if not is_bag(stream):
-        return read_stream(stream, channels=channels, period=result.case.period)
     case_topics = None
-    if topics is None:
+    if topics is None and source_kind(stream) == "bag":  # only a bag reads the case's mapping
         try:
             case_topics = require_case(result.case.path).monitor.topics
         except (CaseError, OSError):
             case_topics = None
     try:
-        mapping = resolve_mapping(topics, result.case.path, case_topics)
-        return read_bag(stream, mapping, channels=channels, period=result.case.period)
-    except (MappingError, BagError) as exc:
+        with open_source(
+            stream,
+            channels=list(result.case.channels),
+            period=result.case.period,
+            topics=topics,
+            case_path=result.case.path,
+            case_topics=case_topics,
+        ) as source:
+            yield from source.reader
+    except SourceError as exc:
         raise ExportError(str(exc)) from None
 
 

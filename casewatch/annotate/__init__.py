@@ -9,7 +9,6 @@ Foxglove, which reads MCAP with its published schemas (docs/live.md).
 
 from __future__ import annotations
 
-import io
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -28,10 +27,8 @@ from casewatch.annotate.verdicts import (
     write_verdicts,
 )
 from casewatch.errors import CasewatchError
-from casewatch.evaluator.inputs import open_hashed, path_digest
 from casewatch.evaluator.result import RunResult
-from casewatch.monitor.bags.reader import is_bag
-from casewatch.monitor.reader import read_stream
+from casewatch.monitor.source import open_source, path_digest, source_kind
 from casewatch.reports.render import load_result
 
 __all__ = ["AnnotateError", "Annotated", "RecordingError", "annotate"]
@@ -86,18 +83,14 @@ def _check_recording(result: RunResult, recording: Path, run_dir: Path) -> None:
 
 
 def _write_scene(result: RunResult, recording: Path, out: McapOut) -> None:
-    binary, _hashing, _name = open_hashed(str(recording))
     channels = list(result.case.channels)
     for channel in channels:
         out.protobuf_topic(SCENE_TOPIC.format(channel=channel), SceneUpdate)
-    try:
-        text = io.TextIOWrapper(binary, encoding="utf-8", errors="strict")
-        frames = read_stream(text, channels=channels, period=result.case.period)
-        t0 = Timebase.of(result).t0_ns
-        for topic, ns, update in scene_messages(iter(frames), channels, result.case.period, t0):
+    t0 = Timebase.of(result).t0_ns
+    with open_source(recording, channels=channels, period=result.case.period) as source:
+        messages = scene_messages(iter(source.reader), channels, result.case.period, t0)
+        for topic, ns, update in messages:
             out.message(topic, ns, update)
-    finally:
-        binary.close()
 
 
 def annotate(run_dir: Path, recording: Path, out_path: Path) -> Annotated:
@@ -110,7 +103,7 @@ def annotate(run_dir: Path, recording: Path, out_path: Path) -> Annotated:
     ):
         raise AnnotateError(f"{out_path}: the output would overwrite the recording")
     records = read_events(run_dir / "events.jsonl")
-    bag = is_bag(recording)
+    bag = source_kind(recording) == "bag"
     profile = recording_profile(recording) if bag else ""
     tmp = out_path.with_name(out_path.name + ".part")
     out = McapOut(tmp, profile=profile)

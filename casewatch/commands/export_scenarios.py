@@ -20,7 +20,7 @@ from pathlib import Path
 
 from casewatch.errors import EXIT_FINDINGS, EXIT_OK, EXIT_UNUSABLE
 from casewatch.evaluator.result import RunResult
-from casewatch.monitor.bags.reader import is_bag
+from casewatch.monitor.source import source_kind
 from casewatch.reports.render import ResultError, load_result
 from casewatch.scenarios import (
     CATALOGUE,
@@ -194,7 +194,7 @@ def main(args: argparse.Namespace) -> int:
     except ResultError as exc:
         print(f"casewatch export-scenarios: {exc}", file=sys.stderr)
         return 2
-    if not (Path(args.stream).is_file() or is_bag(args.stream)):
+    if not (Path(args.stream).is_file() or source_kind(args.stream) == "bag"):
         print(f"casewatch export-scenarios: {args.stream}: no such stream or bag", file=sys.stderr)
         return 2
     report = run_export(result, Path(args.stream), args.out, options_from(args), "export-scenarios")

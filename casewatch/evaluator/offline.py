@@ -24,6 +24,7 @@ from typing import Any
 from casewatch.errors import CasewatchError
 from casewatch.evaluator.result import RunResult
 from casewatch.evaluator.stl_engines import EngineMismatch
+from casewatch.monitor.source import source_kind
 
 #: The STL engine of the live path (tick by tick) and of the whole-log path.
 LIVE_ENGINE = "rtamt"
@@ -40,7 +41,7 @@ MAX_LISTED = 20
 
 def is_live_source(source: str | Path) -> bool:
     """True for standard input (`-`), which is judged as it arrives."""
-    return str(source) == "-"
+    return source_kind(source) == "stdin"
 
 
 def resolve_engine(requested: str, source: str | Path, live: bool = False) -> str:

@@ -144,7 +144,7 @@ def check_judgeable(case: Case, source: str | Path, options: RunOptions) -> None
             "nothing to judge); add monitor: {channels: [...], period: 0.1s} and "
             "bind evidence with spi: to monitor it"
         )
-    if options.stl_engine != "rtamt" and str(source) == "-":
+    if options.stl_engine != "rtamt" and is_live_source(source):
         raise InputError(
             f"--stl-engine {options.stl_engine} judges whole logs; a live stream on "
             "standard input needs --stl-engine rtamt"

@@ -1,8 +1,8 @@
 """`check_file`: load a case and run every structural check on it, in one call.
 
 The checks themselves live in `structure.py`, which loads nothing, so that imports run one way:
-`structure` <- `loader` <- `checks`. `check_case`, `sort_findings` and the relation tables are
-re-exported here, where callers have always found them.
+`structure` <- `loader` <- `checks`. `check_case` and `sort_findings` are re-exported here,
+where callers have always found them.
 """
 
 from __future__ import annotations
@@ -12,26 +12,9 @@ from pathlib import Path
 from casewatch.safety_case.findings import Finding
 from casewatch.safety_case.loader import load_file
 from casewatch.safety_case.model import Case
-from casewatch.safety_case.structure import (
-    ARGUMENT_TYPES,
-    DEVELOPABLE,
-    GSN2X_SUPPORTED_BY_RULES,
-    IN_CONTEXT_OF_RULES,
-    SUPPORTED_BY_RULES,
-    check_case,
-    sort_findings,
-)
+from casewatch.safety_case.structure import check_case, sort_findings
 
-__all__ = [
-    "ARGUMENT_TYPES",
-    "DEVELOPABLE",
-    "GSN2X_SUPPORTED_BY_RULES",
-    "IN_CONTEXT_OF_RULES",
-    "SUPPORTED_BY_RULES",
-    "check_case",
-    "check_file",
-    "sort_findings",
-]
+__all__ = ["check_case", "check_file", "sort_findings"]
 
 
 def check_file(path: str | Path) -> tuple[Case | None, list[Finding]]:

@@ -15,10 +15,11 @@ import numpy as np
 import pytest
 
 from casewatch.monitor.bags.mapping import LoadedMapping, MappingError, TopicMapping, load_mapping
-from casewatch.monitor.bags.reader import BagError, is_bag, read_bag
+from casewatch.monitor.bags.reader import BagError, read_bag
 from casewatch.monitor.bags.writer import default_mapping, write_bag
 from casewatch.monitor.engine import MetricEngine
 from casewatch.monitor.reader import StreamError, read_stream
+from casewatch.monitor.source import source_kind
 from casewatch.safety_case.loader import require_case
 from tests.monitor.bagkit import MS, T0, TOPICS, BagKit, ego_state, mapping, one_object
 
@@ -349,7 +350,8 @@ def test_a_bare_mcap_file_reads_like_its_folder(tmp_path: Path) -> None:
     write_bag(frames, tmp_path / "drive", m, "mcap")
     bare = tmp_path / "drive.mcap"
     shutil.copy(tmp_path / "drive" / "drive.mcap", bare)
-    assert is_bag(bare) and is_bag(tmp_path / "drive") and not is_bag(DRIVE)
+    kinds = [source_kind(bare), source_kind(tmp_path / "drive"), source_kind(DRIVE)]
+    assert kinds == ["bag", "bag", "stream"]
     a = list(read_bag(bare, LoadedMapping(m, "m"), ["lav", "tfuse"], 0.1))
     b = list(read_bag(tmp_path / "drive", LoadedMapping(m, "m"), ["lav", "tfuse"], 0.1))
     assert [f.t for f in a] == [f.t for f in b] == [f.t for f in frames]

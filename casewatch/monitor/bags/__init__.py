@@ -7,7 +7,7 @@ docs/bags.md is the user's guide.
 """
 
 from casewatch.monitor.bags.mapping import LoadedMapping, MappingError, TopicMapping, load_mapping
-from casewatch.monitor.bags.reader import BagError, BagReader, is_bag, read_bag
+from casewatch.monitor.bags.reader import BagError, BagReader, read_bag
 from casewatch.monitor.bags.writer import BagWriteError, write_bag
 
 __all__ = [
@@ -17,7 +17,6 @@ __all__ = [
     "LoadedMapping",
     "MappingError",
     "TopicMapping",
-    "is_bag",
     "load_mapping",
     "read_bag",
     "write_bag",

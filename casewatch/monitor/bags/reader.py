@@ -67,16 +67,6 @@ class BagError(CasewatchError, ValueError):
     """A bag that cannot be read with this mapping (the message says why and what to do)."""
 
 
-def is_bag(path: str | Path) -> bool:
-    """A rosbag2 folder (with metadata.yaml) or an `.mcap` or `.db3` storage file."""
-    p = Path(path)
-    if str(path) == "-":
-        return False
-    if p.is_dir():
-        return (p / "metadata.yaml").is_file()
-    return p.suffix in (".mcap", ".db3")
-
-
 @dataclass
 class _Message:
     stamp: int
