@@ -76,6 +76,18 @@ def test_wheel_installs_only_the_casewatch_namespace(wheel):
     assert not [n for n in names if n.split("/")[1:2] in (["bench"], ["tools"], ["demo.py"])]
 
 
+def test_wheel_version_is_the_packages_own(wheel):
+    """One version, written in casewatch/__init__.py: the wheel's metadata (what result.json
+    records, `evaluator.session.casewatch_version`) and `casewatch --version` agree."""
+    from casewatch import __version__
+
+    assert wheel.name.startswith(f"casewatch-{__version__}-")
+    with zipfile.ZipFile(wheel) as archive:
+        (meta,) = [n for n in archive.namelist() if n.endswith(".dist-info/METADATA")]
+        text = archive.read(meta).decode()
+    assert f"\nVersion: {__version__}\n" in text
+
+
 def test_readme_example_runs_from_a_folder_that_shadows_every_component(wheel, tmp_path):
     site = tmp_path / "site"
     with zipfile.ZipFile(wheel) as archive:
