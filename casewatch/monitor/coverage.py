@@ -49,7 +49,7 @@ def _flags(pos, views):  # pragma: no cover - compiled
     views (V, 7): ego x, y, yaw, then range_m + m + EDGE_EPS, range_m - m + EDGE_EPS, half
     the field of view in radians (inf: all-round in angle), m. The thresholds are computed by
     the caller in `inside`'s own order of operations, so each flag is `inside`'s, bit for bit.
-    Returns (outer, core), each (K,) bool."""
+    Returns (outer, core), each (K,) bool, and the number of outer flags set."""
     k = pos.shape[0]
     outer = np.ones(k, dtype=np.bool_)
     core = np.ones(k, dtype=np.bool_)
@@ -71,7 +71,11 @@ def _flags(pos, views):  # pragma: no cover - compiled
                 keep_core = keep_core and side >= m - EDGE_EPS
             outer[i] = outer[i] and keep_out
             core[i] = core[i] and keep_core
-    return outer, core
+    kept = 0
+    for i in range(k):
+        if outer[i]:
+            kept += 1
+    return outer, core, kept
 
 
 def _view(
@@ -79,6 +83,11 @@ def _view(
 ) -> tuple[Objects, np.ndarray]:
     """The objects inside every coverage grown by `margin`, and which of them lie inside every
     coverage shrunk by it (the core): `inside` of each coverage, in one compiled call."""
+    return _view_rows(objects, _rows(views, margin))
+
+
+def _rows(views: tuple[tuple[Coverage, Ego], ...], margin: float) -> np.ndarray | None:
+    """`_flags`'s views array of the coverages that are not all-round (None: none is)."""
     rows = [
         (
             ego.x,
@@ -92,10 +101,15 @@ def _view(
         for cov, ego in views
         if not cov.all_round
     ]
-    if not rows or not len(objects):
+    return np.array(rows) if rows else None
+
+
+def _view_rows(objects: Objects, rows: np.ndarray | None) -> tuple[Objects, np.ndarray]:
+    """`_view` with its views array built (`_rows`): a pair's two sides share it."""
+    if rows is None or not len(objects):
         return objects, np.ones(len(objects), dtype=bool)
-    outer, core = _flags(objects.pos, np.array(rows))
-    if outer.all():
+    outer, core, kept = _flags(objects.pos, rows)
+    if kept == len(outer):
         return objects, core
     return objects.subset(outer), core[outer]
 
@@ -118,7 +132,7 @@ def common_view(
     of unlimited range: the objects as they are and None for the flags (all core)."""
     if cov_a.all_round and cov_b.all_round:
         return a, None, b, None  # every object is core: nothing to filter
-    views = ((cov_a, ego_a), (cov_b, ego_b))
-    va, core_a = _view(a, views, margin)
-    vb, core_b = _view(b, views, margin)
+    rows = _rows(((cov_a, ego_a), (cov_b, ego_b)), margin)
+    va, core_a = _view_rows(a, rows)
+    vb, core_b = _view_rows(b, rows)
     return va, core_a, vb, core_b

@@ -40,7 +40,7 @@ class Engine(Protocol):
 def worst(values: list[float | None], use_max: bool) -> float | None:
     """The unsuffixed signal. Decision: when any component has no value, the worst is unknown,
     so the unsuffixed signal has no value either (missing data is never hidden by a min)."""
-    if not values or any(v is None for v in values):
+    if not values or None in values:  # `in` tests identity first: no float == None
         return None
     return max(values) if use_max else min(values)  # type: ignore[type-var]
 

@@ -179,6 +179,44 @@ def common_path(p: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 @kernel
+def _crpps_path(plan_a, plan_b):  # pragma: no cover - compiled
+    """`crpps_path` in one compiled call: the rows of both plans inside their common time
+    range (+-1e-9 s), plan B's translated so that its first kept point is plan A's first kept
+    point, then `_common_path` of the two."""
+    horizon = min(plan_a[-1, 0], plan_b[-1, 0]) + 1e-9
+    begin = max(plan_a[0, 0], plan_b[0, 0]) - 1e-9
+    pa = np.zeros((plan_a.shape[0], 3))
+    pb = np.zeros((plan_b.shape[0], 3))
+    na = 0
+    for i in range(plan_a.shape[0]):
+        if begin <= plan_a[i, 0] <= horizon:
+            pa[na, 1] = plan_a[i, 1]
+            pa[na, 2] = plan_a[i, 2]
+            na += 1
+    nb = 0
+    for i in range(plan_b.shape[0]):
+        if begin <= plan_b[i, 0] <= horizon:
+            pb[nb, 1] = plan_b[i, 1]
+            pb[nb, 2] = plan_b[i, 2]
+            nb += 1
+    if na == 0 or nb == 0:
+        return np.empty((0, 2)), 0
+    x0, y0 = pb[0, 1], pb[0, 2]
+    for i in range(nb):
+        pb[i, 1] = pb[i, 1] - x0 + pa[0, 1]
+        pb[i, 2] = pb[i, 2] - y0 + pa[0, 2]
+    return _common_path(pa[:na], pb[:nb]), max(na, nb)
+
+
+def crpps_path(plan_a: np.ndarray, plan_b: np.ndarray) -> tuple[np.ndarray, int]:
+    """The crpps inputs of two non-empty plans ((N, 3) [dt, x, y]) in one compiled call
+    (spi-reference crpps): both cut to their common time range, plan B moved onto plan A's
+    first kept point, then `common_path` of the two. Returns (out, n): the two sequences are
+    out[:n] and out[n:]; n = 0 when the plans share no time."""
+    return _crpps_path(plan_a, plan_b)
+
+
+@kernel
 def _cut(plans, lens, times, count, head, t, decay, pair_xy, pair_lens):  # pragma: no cover
     """Every Fréchet pair of the frame, written into one coordinate array.
 

@@ -19,7 +19,7 @@ import numpy as np
 import shapely
 
 from casewatch.monitor.frames import ChannelState, Objects
-from casewatch.monitor.history import common_path
+from casewatch.monitor.history import crpps_path
 from casewatch.monitor.jit import kernel
 
 #: Pairing distance resolution [m]: closer distances are ties.
@@ -284,8 +284,12 @@ class ObjectComparison:
         was first seen unpaired (it scores what the pairs score on average, 1.0 without pairs:
         neutral), 0 once unpaired for `lone_horizon` (it scores 0: a full disagreement about
         whether anything is there). The metric is the mean over pairs and unpaired objects."""
-        n_lone_a, n_lone_b = int(self.lone_a.sum()), int(self.lone_b.sum())
-        keep = float(np.sum(keep_a)) + float(np.sum(keep_b))
+        n_lone_a = int(np.count_nonzero(self.lone_a)) if len(self.lone_a) else 0
+        n_lone_b = int(np.count_nonzero(self.lone_b)) if len(self.lone_b) else 0
+        # np.sum of an empty array is 0.0: skip the call on the common tick
+        keep = (float(np.sum(keep_a)) if len(keep_a) else 0.0) + (
+            float(np.sum(keep_b)) if len(keep_b) else 0.0
+        )
         lone = n_lone_a + n_lone_b
         out = {"ocs": 1.0 / (1.0 + abs(n_lone_a - n_lone_b))}
         counts = (self.pairs, self.pairs, self.pairs, self.ots_pairs)
@@ -365,29 +369,19 @@ def object_similarities(
     return cmp.scores(np.full(int(cmp.lone_a.sum()), keep), np.full(int(cmp.lone_b.sum()), keep))
 
 
+def ego_pair(a: ChannelState, b: ChannelState) -> tuple[float, float, float, float]:
+    """(els, eos, ego_dist, ego_yaw_diff) as a tuple: `ego_similarities` without its dict,
+    for the engine's per-tick loop."""
+    d = math.hypot(a.ego.x - b.ego.x, a.ego.y - b.ego.y)
+    yaw = angdiff(a.ego.yaw, b.ego.yaw)
+    return 1.0 / (1.0 + d), 1.0 - yaw / math.pi, d, yaw
+
+
 def ego_similarities(a: ChannelState, b: ChannelState) -> dict[str, float]:
     """els and eos, and the distance and heading difference they are made from (ego_dist,
     ego_yaw_diff: spi-reference "Situation signals")."""
-    d = math.hypot(a.ego.x - b.ego.x, a.ego.y - b.ego.y)
-    yaw = angdiff(a.ego.yaw, b.ego.yaw)
-    return {
-        "els": 1.0 / (1.0 + d),
-        "eos": 1.0 - yaw / math.pi,
-        "ego_dist": d,
-        "ego_yaw_diff": yaw,
-    }
-
-
-@kernel
-def _ets_kernel(plan_a: np.ndarray, plan_b: np.ndarray, w: np.ndarray) -> float:
-    """sum_n w_n inv(|A_n - B_n|) / sum_n w_n over the first len(w) points."""
-    num = 0.0
-    den = 0.0
-    for p in range(w.shape[0]):
-        d = math.hypot(plan_a[p, 1] - plan_b[p, 1], plan_a[p, 2] - plan_b[p, 2])
-        num += w[p] * (1.0 / (1.0 + d))
-        den += w[p]
-    return num / den
+    els, eos, d, yaw = ego_pair(a, b)
+    return {"els": els, "eos": eos, "ego_dist": d, "ego_yaw_diff": yaw}
 
 
 def common_range(plan_a: np.ndarray, plan_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -412,16 +406,43 @@ def ets(
     overlap."""
     if len(plan_a) == 0 or len(plan_b) == 0:
         return None
-    a, b = common_range(plan_a, plan_b)
-    n = min(len(a), len(b))
+    a0, b0, n = _common_start(plan_a, plan_b)
     if n == 0:
         return None
-    if shift is not None:
-        # spi-reference "ets" Decision (ets_relative): plan B moved by ego A minus ego B
-        b = b.copy()
-        b[:, 1] += shift[0]
-        b[:, 2] += shift[1]
-    return _ets_kernel(a, b, _weights(decay, n))
+    # spi-reference "ets" Decision (ets_relative): plan B moved by ego A minus ego B
+    sx, sy = (0.0, 0.0) if shift is None else shift
+    return _ets_at(plan_a, plan_b, a0, b0, _weights(decay, n), sx, sy, shift is not None)
+
+
+@kernel
+def _common_start(plan_a, plan_b):  # pragma: no cover - compiled
+    """`common_range` as indices: (first row of A, first row of B, number of rows both
+    slices hold, the shorter one's)."""
+    lo = max(plan_a[0, 0], plan_b[0, 0]) - 1e-9
+    hi = min(plan_a[-1, 0], plan_b[-1, 0]) + 1e-9
+    a0 = np.searchsorted(plan_a[:, 0], lo)
+    a1 = np.searchsorted(plan_a[:, 0], hi, side="right")
+    b0 = np.searchsorted(plan_b[:, 0], lo)
+    b1 = np.searchsorted(plan_b[:, 0], hi, side="right")
+    return a0, b0, max(min(a1 - a0, b1 - b0), 0)
+
+
+@kernel
+def _ets_at(plan_a, plan_b, a0, b0, w, shift_x, shift_y, shifted):  # pragma: no cover
+    """`_ets_kernel` on the rows from a0 of A and b0 of B, B moved by (shift_x, shift_y) when
+    `shifted` (the same additions as moving a copy of B first)."""
+    num = 0.0
+    den = 0.0
+    for p in range(w.shape[0]):
+        bx = plan_b[b0 + p, 1]
+        by = plan_b[b0 + p, 2]
+        if shifted:
+            bx = bx + shift_x
+            by = by + shift_y
+        d = math.hypot(plan_a[a0 + p, 1] - bx, plan_a[a0 + p, 2] - by)
+        num += w[p] * (1.0 / (1.0 + d))
+        den += w[p]
+    return num / den
 
 
 def frechet(p: np.ndarray, q: np.ndarray) -> float:
@@ -436,43 +457,15 @@ def frechet(p: np.ndarray, q: np.ndarray) -> float:
     return float(shapely.frechet_distance(shapely.linestrings(p), shapely.linestrings(q)))
 
 
-@kernel
-def _crpps_kernel(plan_a: np.ndarray, plan_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The points of both plans inside their common time range (+-1e-9 s), plan B translated
-    so its first kept point is plan A's first kept point (empty when a plan keeps nothing)."""
-    horizon = min(plan_a[-1, 0], plan_b[-1, 0]) + 1e-9
-    begin = max(plan_a[0, 0], plan_b[0, 0]) - 1e-9
-    pa = np.empty((plan_a.shape[0], 2))
-    pb = np.empty((plan_b.shape[0], 2))
-    na = 0
-    for i in range(plan_a.shape[0]):
-        if begin <= plan_a[i, 0] <= horizon:
-            pa[na, 0] = plan_a[i, 1]
-            pa[na, 1] = plan_a[i, 2]
-            na += 1
-    nb = 0
-    for i in range(plan_b.shape[0]):
-        if begin <= plan_b[i, 0] <= horizon:
-            pb[nb, 0] = plan_b[i, 1]
-            pb[nb, 1] = plan_b[i, 2]
-            nb += 1
-    if na > 0 and nb > 0:
-        x0, y0 = pb[0, 0], pb[0, 1]
-        for i in range(nb):
-            pb[i, 0] = pb[i, 0] - x0 + pa[0, 0]
-            pb[i, 1] = pb[i, 1] - y0 + pa[0, 1]
-    return pa[:na], pb[:nb]
-
-
 def crpps_inputs(plan_a: np.ndarray, plan_b: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     """The two point sequences whose Fréchet distance is `crpps_distance` (None if a plan is
     empty): the engine batches them with the chpps inputs into one GEOS call."""
     if len(plan_a) == 0 or len(plan_b) == 0:
         return None
-    pa, pb = _crpps_kernel(plan_a, plan_b)
-    if len(pa) == 0 or len(pb) == 0:
+    out, n = crpps_path(plan_a, plan_b)
+    if n == 0:
         return None  # the plans cover no common time: nothing to compare, no value
-    return common_path(pa, pb)
+    return out[:n], out[n:]
 
 
 def crpps_distance(plan_a: np.ndarray, plan_b: np.ndarray) -> float | None:
@@ -510,12 +503,11 @@ def plan_lateral(
     reads as the same shape; this is the signal that sees it."""
     if len(plan_a) == 0 or len(plan_b) == 0:
         return None
-    fallback = np.array(
-        [math.cos(yaws[0]) + math.cos(yaws[1]), math.sin(yaws[0]) + math.sin(yaws[1])]
-    )
-    fallback /= max(float(np.hypot(*fallback)), 1e-12)
+    fall_x = math.cos(yaws[0]) + math.cos(yaws[1])
+    fall_y = math.sin(yaws[0]) + math.sin(yaws[1])
+    norm = max(float(np.hypot(fall_x, fall_y)), 1e-12)
     value = _plan_lateral_kernel(
-        plan_a, plan_b, shift[0], shift[1], fallback[0], fallback[1], horizon
+        plan_a, plan_b, shift[0], shift[1], fall_x / norm, fall_y / norm, horizon
     )
     return None if math.isnan(value) else value
 

@@ -1,0 +1,166 @@
+"""The per-tick glue made cheaper (issue 36) against the formulations it replaced, value for
+value on random inputs: ets's index kernels, crpps's one-call path, the object scores without
+empty sums, the coverage rows shared by a pair's two sides, `worst`'s test for no value."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from numba import njit
+
+from casewatch.monitor.coverage import _rows, _view, _view_rows, common_view
+from casewatch.monitor.family import worst
+from casewatch.monitor.frames import Coverage, Ego, Objects, box_footprint
+from casewatch.monitor.history import common_path
+from casewatch.monitor.similarity import (
+    _weights,
+    common_range,
+    compare_objects,
+    crpps_inputs,
+    ets,
+)
+
+
+def _old_ets(plan_a, plan_b, decay, shift=None):
+    """ets before issue 36: numpy slices, a shifted copy of B, then the sum."""
+    if len(plan_a) == 0 or len(plan_b) == 0:
+        return None
+    a, b = common_range(plan_a, plan_b)
+    n = min(len(a), len(b))
+    if n == 0:
+        return None
+    if shift is not None:
+        b = b.copy()
+        b[:, 1] += shift[0]
+        b[:, 2] += shift[1]
+    return _old_ets_kernel(a, b, _weights(decay, n))
+
+
+@njit(error_model="numpy")
+def _old_ets_kernel(plan_a, plan_b, w):  # pragma: no cover - compiled
+    """The compiled sum ets called before issue 36 (similarity._ets_kernel)."""
+    num = 0.0
+    den = 0.0
+    for p in range(w.shape[0]):
+        d = math.hypot(plan_a[p, 1] - plan_b[p, 1], plan_a[p, 2] - plan_b[p, 2])
+        num += w[p] * (1.0 / (1.0 + d))
+        den += w[p]
+    return num / den
+
+
+def _old_crpps_inputs(plan_a, plan_b):
+    """crpps_inputs before issue 36: the cut in its own pass, then `common_path`."""
+    if len(plan_a) == 0 or len(plan_b) == 0:
+        return None
+    horizon = min(plan_a[-1, 0], plan_b[-1, 0]) + 1e-9
+    begin = max(plan_a[0, 0], plan_b[0, 0]) - 1e-9
+    pa = np.array([r[1:3] for r in plan_a if begin <= r[0] <= horizon]).reshape(-1, 2)
+    pb = np.array([r[1:3] for r in plan_b if begin <= r[0] <= horizon]).reshape(-1, 2)
+    if len(pa) == 0 or len(pb) == 0:
+        return None
+    x0, y0 = pb[0, 0], pb[0, 1]
+    pb = np.column_stack([pb[:, 0] - x0 + pa[0, 0], pb[:, 1] - y0 + pa[0, 1]])
+    return common_path(pa, pb)
+
+
+def _plan(rng, n, start, step=0.1):
+    dt = start + step * np.arange(n)
+    xy = rng.uniform(-1e3, 1e3, 2) + np.cumsum(rng.normal(0, 2.0, (n, 2)), axis=0)
+    return np.column_stack([dt, xy])
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_ets_and_crpps_inputs_equal_their_old_formulation(seed):
+    rng = np.random.default_rng(seed)
+    for _ in range(25):
+        n_a, n_b = (int(x) for x in rng.integers(0, 55, 2))
+        a = _plan(rng, n_a, float(rng.choice([0.0, 0.1, 0.3, 6.0])))
+        b = _plan(rng, n_b, float(rng.choice([0.0, 0.2])), float(rng.choice([0.1, 0.05])))
+        decay = float(rng.choice([0.95, 0.5, 1.0, rng.uniform(0.1, 1.0)]))
+        shift = tuple(rng.normal(0, 3, 2).tolist()) if rng.random() < 0.5 else None
+        assert ets(a, b, decay, shift) == _old_ets(a, b, decay, shift)
+        got, want = crpps_inputs(a, b), _old_crpps_inputs(a, b)
+        if want is None:
+            assert got is None
+        else:
+            assert got is not None
+            for g, w in zip(got, want, strict=True):
+                assert g.shape == w.shape
+                assert np.array_equal(g, w)
+
+
+def _objects(rng, k):
+    pos = rng.uniform(-60, 60, (k, 2))
+    fp = np.broadcast_to(box_footprint(4.5, 2.0), (k, 4, 2)).copy()
+    pred = np.zeros((k, 0, 3))
+    return Objects(
+        ids=[str(i) for i in range(k)],
+        cls=["car"] * k,
+        pos=pos,
+        yaw=rng.uniform(-3, 3, k),
+        vel=rng.normal(0, 5, (k, 2)),
+        footprints=fp,
+        pred=pred,
+        pred_len=np.zeros(k, dtype=np.int64),
+        convex=np.ones(k, dtype=bool),
+        half=np.tile([2.25, 1.0], (k, 1)),
+    )
+
+
+def _old_scores(cmp, keep_a, keep_b):
+    """ObjectComparison.scores before issue 36 (numpy sums of possibly empty arrays)."""
+    n_lone_a, n_lone_b = int(cmp.lone_a.sum()), int(cmp.lone_b.sum())
+    keep = float(np.sum(keep_a)) + float(np.sum(keep_b))
+    lone = n_lone_a + n_lone_b
+    out = {"ocs": 1.0 / (1.0 + abs(n_lone_a - n_lone_b))}
+    counts = (cmp.pairs, cmp.pairs, cmp.pairs, cmp.ots_pairs)
+    for name, total, pairs in zip(("ols", "oos", "oas", "ots"), cmp.sums, counts, strict=True):
+        mean = total / pairs if pairs else 1.0
+        out[name] = (total + keep * mean) / (pairs + lone) if pairs + lone else 1.0
+    return out
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_scores_and_common_view_equal_their_old_formulation(seed):
+    rng = np.random.default_rng(seed)
+    for _ in range(10):
+        a, b = _objects(rng, int(rng.integers(0, 12))), _objects(rng, int(rng.integers(0, 12)))
+        b.pos[: min(len(a), len(b))] = a.pos[: min(len(a), len(b))] + rng.normal(0, 1, 2)
+        ego_a = Ego(*rng.normal(0, 2, 5).tolist(), footprint=box_footprint(4.6, 1.9))
+        ego_b = Ego(*rng.normal(0, 2, 5).tolist(), footprint=box_footprint(4.6, 1.9))
+        covs = [Coverage(), Coverage(120.0, 50.0), Coverage(360.0, 30.0), Coverage(60.0)]
+        cov_a, cov_b = covs[int(rng.integers(0, 4))], covs[int(rng.integers(0, 4))]
+        margin = float(rng.choice([0.0, 2.0, -1.0]))
+        views = ((cov_a, ego_a), (cov_b, ego_b))
+        oa, core_a, ob, core_b = common_view(a, ego_a, cov_a, b, ego_b, cov_b, margin)
+        if not (cov_a.all_round and cov_b.all_round):
+            for objs, got_objs, got_core in ((a, oa, core_a), (b, ob, core_b)):
+                want_objs, want_core = _view(objs, views, margin)
+                assert np.array_equal(got_core, want_core)
+                assert got_objs.ids == want_objs.ids
+                assert np.array_equal(got_objs.pos, want_objs.pos)
+                assert _view_rows(objs, _rows(views, margin))[1].tolist() == want_core.tolist()
+        cmp = compare_objects(oa, ob, 3.0, 0.95, core_a, core_b)
+        for keep_a, keep_b in (
+            (np.zeros(0), np.zeros(0)),
+            (rng.random(int(cmp.lone_a.sum())), rng.random(int(cmp.lone_b.sum()))),
+        ):
+            assert cmp.scores(keep_a, keep_b) == _old_scores(cmp, keep_a, keep_b)
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.lists(st.one_of(st.none(), st.floats(allow_nan=True, allow_infinity=True)), max_size=6),
+    st.booleans(),
+)
+def test_worst_equals_the_generator_test(values, use_max):
+    if not values or any(v is None for v in values):
+        want = None
+    else:
+        want = max(values) if use_max else min(values)
+    got = worst(values, use_max)
+    assert (got is None and want is None) or got is want
