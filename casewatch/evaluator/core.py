@@ -351,7 +351,12 @@ class Evaluator:
 
     def _emit_onset(self, state: FormulaState, t: float) -> None:
         opened = state.episodes.onset()
-        if opened is None or self.on_event is None:
+        if opened is not None:
+            self._announce(state, opened.start, t)
+
+    def _announce(self, state: FormulaState, start: float, t: float) -> None:
+        """Report at `t` the onset of the episode that started at `start`."""
+        if self.on_event is None:
             return
         formula = state.formula
         self.on_event(
@@ -359,7 +364,7 @@ class Evaluator:
                 formula_id=formula.id,
                 node_id=formula.node_id,
                 kind=formula.kind,
-                start=round(opened.start, 6),
+                start=round(start, 6),
                 t=round(t, 6),
                 trace=self._trace(formula.node_id),
             )

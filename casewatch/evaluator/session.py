@@ -51,6 +51,7 @@ from casewatch.evaluator.stl_engines import (
     evaluate_whole_log,
     input_names,
 )
+from casewatch.evaluator.whole_log import NotReplayable, judge_whole_log
 from casewatch.monitor.engine import MetricEngine
 from casewatch.monitor.frames import Coverage, Frame, Header
 from casewatch.monitor.reader import StreamError
@@ -243,17 +244,23 @@ class TickJudge:
 
 class WholeLogJudge:
     """The numpy (or `both`) engine: the ticks kept as columns, every formula judged over the
-    whole log once it is read, then the ticks replayed through an evaluator with those values;
-    with `both`, rtamt runs too and must agree on every value (`EngineMismatch`)."""
+    whole log once it is read; with numpy, episodes, gaps and statuses are then formed from
+    the whole arrays (`whole_log.judge_whole_log`), with `both` the ticks are replayed through
+    an evaluator with rtamt running too, which must agree on every value (`EngineMismatch`)."""
 
     def __init__(self, case: Case, spec: CompiledSpec, options: RunOptions, emit) -> None:
         self.case, self.spec, self.options, self.emit = case, spec, options, emit
         self.columns = Columns(input_names(spec))
-        self.conditions: list[dict] = []  # per tick, for the replay
+        #: the conditions where they change: (first tick, mapping); the same mapping object
+        #: stands for the ticks up to the next change (`OddTracker` replaces it on a change)
+        self.conditions: list[tuple[int, dict]] = []
+        self._latest: dict | None = None
 
     def step(self, t: float, values: dict, conditions: dict) -> None:
+        if conditions is not self._latest:
+            self.conditions.append((self.columns.n, conditions))
+            self._latest = conditions
         self.columns.add(t, values)
-        self.conditions.append(conditions)
 
     def judged(self, clock: _Clock) -> Evaluator:
         case, spec, options, columns = self.case, self.spec, self.options, self.columns
@@ -268,22 +275,40 @@ class WholeLogJudge:
                 return PrecomputedMonitor(whole.values[f.id])
             return CheckedMonitor(rtamt_monitor(f, period), f, whole, found, counter)
 
-        evaluator = Evaluator(
-            case,
-            spec,
-            on_event=self.emit,
-            monitor_factory=factory,
-            series_points=options.series_points,
-        )
-        t = columns.t.tolist()
         replay = time.perf_counter()
-        for i, ti in enumerate(t):
-            evaluator.step(ti, columns.row(i), self.conditions[i])
+        evaluator: Evaluator | None = None
+        if options.stl_engine == "numpy":
+            evaluator = self._evaluator(_no_monitor)
+            try:
+                judge_whole_log(evaluator, columns, self.conditions, whole.values)
+            except NotReplayable:
+                evaluator = None
+        if evaluator is None:
+            evaluator = self._evaluator(factory)
+            replay_ticks(evaluator, columns, self.conditions)
         clock.judge += time.perf_counter() - replay + vector_s
         evaluator.stl_seconds += vector_s
         if counter[0]:
             raise EngineMismatch(found, counter[0])
         return evaluator
+
+    def _evaluator(self, factory) -> Evaluator:
+        return Evaluator(
+            self.case,
+            self.spec,
+            on_event=self.emit,
+            monitor_factory=factory,
+            series_points=self.options.series_points,
+        )
+
+
+def replay_ticks(evaluator: Evaluator, columns: Columns, changes: list[tuple[int, dict]]) -> None:
+    """Every tick of `columns` through `evaluator.step`, under the conditions of its stretch."""
+    t = columns.t.tolist()
+    bounds = [*(i for i, _ in changes[1:]), len(t)]
+    for (start, conditions), stop in zip(changes, bounds, strict=True):
+        for i in range(start, stop):
+            evaluator.step(t[i], columns.row(i), conditions)
 
 
 def _no_monitor(formula: CompiledFormula, period: float) -> PrecomputedMonitor:
