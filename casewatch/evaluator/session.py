@@ -305,7 +305,7 @@ class WholeLogJudge:
 def replay_ticks(evaluator: Evaluator, columns: Columns, changes: list[tuple[int, dict]]) -> None:
     """Every tick of `columns` through `evaluator.step`, under the conditions of its stretch."""
     t = columns.t.tolist()
-    bounds = [*(i for i, _ in changes[1:]), len(t)]
+    bounds = [*(i for i, _ in changes[1:]), len(t)] if changes else []
     for (start, conditions), stop in zip(changes, bounds, strict=True):
         for i in range(start, stop):
             evaluator.step(t[i], columns.row(i), conditions)
