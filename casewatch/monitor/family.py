@@ -91,7 +91,10 @@ class PoseWindow:
                 self.buf = buf = np.empty((2 * len(buf), 3))
             buf[: len(live)] = live
             self.start, self.end = 0, len(live)
-        buf[self.end] = (t, x, y)
+        row = buf[self.end]  # three float writes: cheaper than a tuple to array
+        row[0] = t
+        row[1] = x
+        row[2] = y
         self.end += 1
         # keep the newest sample at or before t - span: it tells that the span is covered
         limit = t - self.span + 1e-9

@@ -495,6 +495,44 @@ def _score_scene(scene: np.ndarray, pet_ref: float) -> np.ndarray:
     return out
 
 
+@kernel
+def _last_dt_max(pred: np.ndarray, pred_len: np.ndarray) -> float:
+    """`float(pred[arange(K), max(len - 1, 0), 0][len > 0].max())` for (K, P, 3) predictions
+    with P >= 1 and some length > 0: numpy's max, a NaN included (NaN)."""
+    best = -np.inf
+    for k in range(pred.shape[0]):
+        n = pred_len[k]
+        if n > 0:
+            v = pred[k, n - 1, 0]
+            if math.isnan(v):
+                return v
+            if v > best:
+                best = v
+    return best
+
+
+@kernel
+def _stands_still(plan: np.ndarray) -> bool:
+    """`(plan[:, 1:3] == plan[0, 1:3]).all()` (a NaN never equals)."""
+    for i in range(plan.shape[0]):  # noqa: SIM110 - a loop, not a generator, inside numba
+        if not (plan[i, 1] == plan[0, 1] and plan[i, 2] == plan[0, 2]):
+            return False
+    return True
+
+
+@kernel
+def _prefix_upto(plan: np.ndarray, limit: float) -> int:
+    """n when the rows with dt <= limit are exactly plan[:n] (always, for increasing dt),
+    else -1."""
+    n = 0
+    while n < plan.shape[0] and plan[n, 0] <= limit:
+        n += 1
+    for i in range(n, plan.shape[0]):
+        if plan[i, 0] <= limit:
+            return -1
+    return n
+
+
 def _pack(
     plans: Sequence[np.ndarray], egos: Sequence[Ego], worlds: Sequence[Objects]
 ) -> np.ndarray:

@@ -35,7 +35,16 @@ import shapely
 
 from casewatch.monitor.frames import ChannelState, Ego, Objects, place
 from casewatch.monitor.prediction import interpolate_tracks
-from casewatch.monitor.safety_kernel import BEHIND_EPS, CHUNK, MOTION_EPS, REAR_END_COS, score_boxes
+from casewatch.monitor.safety_kernel import (
+    BEHIND_EPS,
+    CHUNK,
+    MOTION_EPS,
+    REAR_END_COS,
+    _last_dt_max,
+    _prefix_upto,
+    _stands_still,
+    score_boxes,
+)
 
 
 def _directions(centres: np.ndarray, fallback: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -693,10 +702,18 @@ def prediction_horizon(objects: Objects) -> float:
     """The longest prediction of a world model [s] (infinite when no object has one: objects
     without prediction stay where they are, over any horizon)."""
     lens = objects.pred_len
-    if len(lens) == 0 or objects.pred.shape[1] == 0 or not (lens > 0).any():
+    if len(lens) == 0 or objects.pred.shape[1] == 0:
         return math.inf
-    last = objects.pred[np.arange(len(lens)), np.maximum(lens - 1, 0), 0]
-    return float(last[lens > 0].max())
+    last = _last_dt_max(objects.pred, lens)
+    return math.inf if last == -math.inf else float(last)  # -inf: no object predicts
+
+
+def _upto(plan: np.ndarray, limit: float) -> np.ndarray:
+    """`plan[plan[:, 0] <= limit]`: a slice (no mask, no copy) when those rows are a prefix."""
+    n = _prefix_upto(plan, limit)
+    if n < 0:
+        return plan[plan[:, 0] <= limit]
+    return plan if n == len(plan) else plan[:n]
 
 
 def safety_matrix(
@@ -730,7 +747,7 @@ def safety_matrix(
             continue
         for j in present:
             out[(i, j)] = 1.0
-        standing = standing_is_clear and bool((plan[:, 1:3] == plan[0, 1:3]).all())
+        standing = standing_is_clear and _stands_still(plan)
         if len(plan) >= 2 and worlds and not standing:
             scored[i] = plan
     if not scored:
@@ -739,7 +756,7 @@ def safety_matrix(
     for j in worlds:
         by_horizon.setdefault(prediction_horizon(states[j].objects), []).append(j)
     for horizon, group in by_horizon.items():
-        cut = {i: plan[plan[:, 0] <= horizon + 1e-9] for i, plan in scored.items()}
+        cut = {i: _upto(plan, horizon + 1e-9) for i, plan in scored.items()}
         cut = {i: plan for i, plan in cut.items() if len(plan) >= 2}
         if not cut:
             continue

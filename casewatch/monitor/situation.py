@@ -334,13 +334,30 @@ def _neighbours(
     return out
 
 
+@kernel
+def _box_extents(half):  # pragma: no cover - compiled
+    """The two columns of `half` (K, 2) as contiguous copies, and whether every row is a box
+    (no NaN half length): `_half_extents`'s common case in one call."""
+    k = half.shape[0]
+    hl = np.empty(k)
+    hw = np.empty(k)
+    boxes = True
+    for i in range(k):
+        hl[i] = half[i, 0]
+        hw[i] = half[i, 1]
+        if math.isnan(half[i, 0]):
+            boxes = False
+    return hl, hw, boxes
+
+
 def _half_extents(objects: Objects) -> tuple[np.ndarray, np.ndarray]:
     """(K,) half length and half width per object; a polygon footprint counts as the circle
     around it (its bounding radius both ways)."""
     half = objects.half
-    if not np.isnan(half[:, 0]).any():
+    hl, hw, boxes = _box_extents(half)
+    if boxes:
         # contiguous, as np.where's below: one compiled variant of the kernels that read them
-        return np.ascontiguousarray(half[:, 0]), np.ascontiguousarray(half[:, 1])
+        return hl, hw
     box = ~np.isnan(half[:, 0])
     radii = objects.radii
     return np.where(box, half[:, 0], radii), np.where(box, half[:, 1], radii)
@@ -362,7 +379,7 @@ def neighbours(
         return NONE, (None if driven is None else NONE)
     hl, hw = _half_extents(objects)
     d = driven if driven is not None else _NO_POINTS
-    ego_hw = float(np.max(np.abs(ego.footprint[:, 1])))
+    ego_hw = ego_half_width(ego)
     v = _neighbours(
         ego.x,
         ego.y,
@@ -484,6 +501,14 @@ def headway(gap: float, speed: float) -> float:
 def time_to_collision(gap: float, closing: float) -> float:
     """TTC [s]: gap over the closing speed; TIME_CAP when the two are not closing in."""
     return TIME_CAP if closing <= 1e-3 else min(gap / closing, TIME_CAP)
+
+
+def ego_half_width(ego: Ego) -> float:
+    """Half the ego's width: the footprint's largest extent sideways. A box's is its half
+    width (`Ego.half`: its footprint's corners are (+-hl, +-hw)), without an array call."""
+    if ego.half is not None:
+        return abs(ego.half[1])
+    return float(np.max(np.abs(ego.footprint[:, 1])))
 
 
 def ego_half_length(ego: Ego) -> float:

@@ -5,6 +5,7 @@ empty sums, the coverage rows shared by a pair's two sides, `worst`'s test for n
 from __future__ import annotations
 
 import math
+from dataclasses import fields, replace
 
 import numpy as np
 import pytest
@@ -16,6 +17,9 @@ from casewatch.monitor.coverage import _rows, _view, _view_rows, common_view
 from casewatch.monitor.family import worst
 from casewatch.monitor.frames import Coverage, Ego, Objects, box_footprint
 from casewatch.monitor.history import common_path
+from casewatch.monitor.resample import hold_standing, with_predictions
+from casewatch.monitor.safety_kernel import _stands_still
+from casewatch.monitor.safety_score import _upto, prediction_horizon
 from casewatch.monitor.similarity import (
     _weights,
     common_range,
@@ -23,6 +27,7 @@ from casewatch.monitor.similarity import (
     crpps_inputs,
     ets,
 )
+from casewatch.monitor.situation import _half_extents, ego_half_width
 
 
 def _old_ets(plan_a, plan_b, decay, shift=None):
@@ -164,3 +169,85 @@ def test_worst_equals_the_generator_test(values, use_max):
         want = max(values) if use_max else min(values)
     got = worst(values, use_max)
     assert (got is None and want is None) or got is want
+
+
+# --- resampling, situation and safety-score glue --------------------------------------------
+
+
+def _old_hold_standing(plan, radius):
+    if radius <= 0.0 or len(plan) < 2:
+        return plan
+    d = np.hypot(plan[:, 1] - plan[0, 1], plan[:, 2] - plan[0, 2])
+    if d.max() >= radius:
+        return plan
+    out = plan.copy()
+    out[:, 1] = plan[0, 1]
+    out[:, 2] = plan[0, 2]
+    return out
+
+
+def _old_prediction_horizon(objects):
+    lens = objects.pred_len
+    if len(lens) == 0 or objects.pred.shape[1] == 0 or not (lens > 0).any():
+        return math.inf
+    last = objects.pred[np.arange(len(lens)), np.maximum(lens - 1, 0), 0]
+    return float(last[lens > 0].max())
+
+
+def _same(a, b):
+    return (math.isnan(a) and math.isnan(b)) or a == b
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_plan_and_prediction_helpers_equal_their_old_formulation(seed):
+    rng = np.random.default_rng(seed)
+    for _ in range(25):
+        n = int(rng.integers(0, 12))
+        plan = np.column_stack(
+            [0.1 * np.arange(n), rng.normal(5, 0.3, n).round(1), rng.normal(0, 0.3, n).round(1)]
+        )
+        if n and rng.random() < 0.3:
+            plan[:, 1:] = plan[0, 1:]  # standing exactly
+        if n > 1 and rng.random() < 0.1:
+            plan[int(rng.integers(0, n)), 1] = np.nan
+        radius = float(rng.choice([0.0, 0.5, 1.0, 2.0]))
+        assert np.array_equal(
+            hold_standing(plan, radius), _old_hold_standing(plan, radius), equal_nan=True
+        )
+        if n:
+            want = bool((plan[:, 1:3] == plan[0, 1:3]).all())
+            assert _stands_still(np.ascontiguousarray(plan)) == want
+            limit = float(rng.choice([0.0, 0.25, 0.5, 5.0])) + 1e-9
+            if rng.random() < 0.2:
+                rng.shuffle(plan)  # not increasing: the mask, not a prefix
+            assert np.array_equal(_upto(plan, limit), plan[plan[:, 0] <= limit], equal_nan=True)
+        k, width = int(rng.integers(0, 6)), int(rng.integers(0, 5))
+        objs = _objects(rng, k)
+        objs.pred = rng.uniform(0, 5, (k, width, 3))
+        objs.pred_len = rng.integers(0, width + 1, k) if width else np.zeros(k, dtype=np.int64)
+        if k and width and rng.random() < 0.1:
+            objs.pred[0, :, 0] = np.nan
+        assert _same(prediction_horizon(objs), _old_prediction_horizon(objs))
+        hl, hw = _half_extents(objs)
+        assert hl.flags.c_contiguous and hw.flags.c_contiguous
+        assert np.array_equal(hl, objs.half[:, 0]) and np.array_equal(hw, objs.half[:, 1])
+
+
+def test_ego_half_width_is_the_footprints_for_a_box():
+    for length, width in ((4.6, 1.9), (3.0, 0.0), (12.0, 2.55)):
+        ego = Ego(
+            0.0, 0.0, 0.3, 1.0, 0.0, box_footprint(length, width), half=(length / 2, width / 2)
+        )
+        assert ego_half_width(ego) == float(np.max(np.abs(ego.footprint[:, 1])))
+        ego.half = None
+        assert ego_half_width(ego) == float(np.max(np.abs(ego.footprint[:, 1])))
+
+
+def test_with_predictions_is_replace_over_every_field():
+    rng = np.random.default_rng(3)
+    objs = _objects(rng, 4)
+    _ = objs.areas, objs.radii  # cached fields travel too
+    pred, lens = np.ones((4, 2, 3)), np.full(4, 2)
+    got, want = with_predictions(objs, pred, lens), replace(objs, pred=pred, pred_len=lens)
+    for f in fields(Objects):
+        assert getattr(got, f.name) is getattr(want, f.name), f.name

@@ -31,6 +31,16 @@ class SituationFamily(MetricFamily):
         self._situation_names = {
             c: {m: channel_name(m, c) for m in SITUATION_METRICS} for c in self.channels
         }
+        #: per metric: its channel names, whether its worst is the max, whether it is behind
+        self._worst_of = [
+            (
+                metric,
+                [self._situation_names[c][metric] for c in self.channels],
+                metric in WORST_IS_MAX,
+                metric.startswith("follow_"),
+            )
+            for metric in SITUATION_METRICS
+        ]
         #: per channel, rows (t, reported speed, 0) of the last second: ego_accel's slope
         self._speeds = {c: PoseWindow(1.0, p.max_gap) for c in self.channels}
 
@@ -72,10 +82,11 @@ class SituationFamily(MetricFamily):
                     out[names["follow_ttc"]] = time_to_collision(follower.gap, towards - speed)
                 else:
                     out[names["follow_thw"]] = out[names["follow_ttc"]] = TIME_CAP
-        for metric in SITUATION_METRICS:
-            seeing = behind_seeing if metric.startswith("follow_") else self.channels
-            values = [out[self._situation_names[c][metric]] for c in seeing]
-            out[metric] = worst(values, metric in WORST_IS_MAX) if seeing else None
+        all_seeing = len(behind_seeing) == len(self.channels)
+        for metric, names, use_max, behind in self._worst_of:
+            if behind and not all_seeing:
+                names = [self._situation_names[c][metric] for c in behind_seeing]
+            out[metric] = worst([out[n] for n in names], use_max) if names else None
 
     def _accel(self, channel: str, t: float, speed: float) -> float | None:
         """spi-reference ego_accel: slope of the channel's reported speed over the last second
