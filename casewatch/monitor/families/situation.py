@@ -83,10 +83,10 @@ class SituationFamily(MetricFamily):
                 else:
                     out[names["follow_thw"]] = out[names["follow_ttc"]] = TIME_CAP
         all_seeing = len(behind_seeing) == len(self.channels)
-        for metric, names, use_max, behind in self._worst_of:
+        for metric, seeing, use_max, behind in self._worst_of:
             if behind and not all_seeing:
-                names = [self._situation_names[c][metric] for c in behind_seeing]
-            out[metric] = worst([out[n] for n in names], use_max) if names else None
+                seeing = [self._situation_names[c][metric] for c in behind_seeing]
+            out[metric] = worst([out[n] for n in seeing], use_max) if seeing else None
 
     def _accel(self, channel: str, t: float, speed: float) -> float | None:
         """spi-reference ego_accel: slope of the channel's reported speed over the last second
