@@ -481,19 +481,24 @@ class Evaluator:
 
     def series(self) -> list[Series]:
         out = []
+        # every formula's series has the same buckets (each tick adds to all): round once
+        times: dict[tuple[float | None, float, int], list[float]] = {}
         for s in self.states:
             f = s.formula
             as_signal = f.signal is not None and f.threshold is not None
             reference = 0.0
             if f.signal is not None and f.threshold is not None:
                 reference = float(f.threshold.split()[-1])
+            key = (s.series.t0, s.series.width, len(s.series.lo))
+            if key not in times:
+                times[key] = s.series.times()
             out.append(
                 Series(
                     formula_id=f.id,
                     quantity="signal" if as_signal else "robustness",
                     name=f.signal if as_signal else "robustness",
                     bucket=s.series.width or self.period,
-                    t=s.series.times(),
+                    t=list(times[key]),
                     lo=s.series.lo,
                     hi=s.series.hi,
                     reference=reference,

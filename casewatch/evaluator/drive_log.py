@@ -2,7 +2,7 @@
 
 The evaluator sees signal values, not positions; a violation map needs each episode's position
 (`Episode.x`, `y`) and the driven path (`RunResult.track`), and the scores need a handful of
-signals per tick. This keeps them as plain lists: a few floats a tick.
+signals per tick. This keeps them as float arrays: a few floats a tick.
 """
 
 from __future__ import annotations
@@ -21,45 +21,68 @@ TRACK_POINTS = 2000
 
 class DriveLog:
     """Per tick, where the ego was (the trusted channel's estimate, or the first channel
-    present) and the few signals the scores read: plain lists, a few floats a tick."""
+    present) and the few signals the scores read: preallocated float arrays (doubled when
+    full), a few floats a tick, one row written per tick."""
 
     def __init__(self) -> None:
-        self.t: list[float] = []
-        self.x: list[float] = []
-        self.y: list[float] = []
-        self.values: dict[str, list[float]] = {name: [] for name in TICK_SIGNALS}
+        self.n = 0
+        self._t = np.empty(1024)
+        self._xy = np.empty((1024, 2))
+        self._values = np.empty((1024, len(TICK_SIGNALS)))
 
     def add(self, frame: Frame, trusted: str | None, values: dict) -> None:
+        n = self.n
+        if n == len(self._t):
+            self._t = np.concatenate([self._t, np.empty(n)])
+            self._xy = np.concatenate([self._xy, np.empty_like(self._xy)])
+            self._values = np.concatenate([self._values, np.empty_like(self._values)])
         state = frame.channels.get(trusted) if trusted else None
         if state is None and frame.channels:
             state = next(iter(frame.channels.values()))
-        self.t.append(frame.t)
-        self.x.append(state.ego.x if state is not None else math.nan)
-        self.y.append(state.ego.y if state is not None else math.nan)
-        for name, column in self.values.items():
-            v = values.get(name)
-            column.append(math.nan if v is None else float(v))
+        self._t[n] = frame.t
+        self._xy[n] = (state.ego.x, state.ego.y) if state is not None else _NO_POSITION
+        # None is stored as NaN, every other value as float()
+        self._values[n] = list(map(values.get, TICK_SIGNALS))
+        self.n = n + 1
+
+    @property
+    def t(self) -> list[float]:
+        return self._t[: self.n].tolist()
+
+    @property
+    def x(self) -> list[float]:
+        return self._xy[: self.n, 0].tolist()
+
+    @property
+    def y(self) -> list[float]:
+        return self._xy[: self.n, 1].tolist()
 
     def times(self) -> np.ndarray:
-        return np.asarray(self.t, dtype=float)
+        return self._t[: self.n].copy()
 
     def columns(self) -> dict[str, np.ndarray]:
-        return {k: np.asarray(v, dtype=float) for k, v in self.values.items()}
+        values = self._values[: self.n]
+        return {name: values[:, j].copy() for j, name in enumerate(TICK_SIGNALS)}
 
     def place(self, episodes: list[Episode]) -> None:
         """Each episode's position: the ego's at its first tick."""
-        if not self.t:
+        if not self.n:
             return
-        t = self.times()
+        t = self._t[: self.n]
         for e in episodes:
-            k = min(int(np.searchsorted(t, e.start - 1e-9)), len(t) - 1)
-            if math.isfinite(self.x[k]):
-                e.x, e.y = round(self.x[k], 3), round(self.y[k], 3)
+            k = min(int(np.searchsorted(t, e.start - 1e-9)), self.n - 1)
+            x, y = self._xy[k].tolist()
+            if math.isfinite(x):
+                e.x, e.y = round(x, 3), round(y, 3)
 
     def track(self) -> list[list[float]]:
-        keep = [k for k in range(len(self.t)) if math.isfinite(self.x[k])]
+        t, x, y = self.t, self.x, self.y
+        keep = [k for k in range(len(t)) if math.isfinite(x[k])]
         step = max(1, math.ceil(len(keep) / TRACK_POINTS))
         picked = keep[::step]
         if keep and picked[-1] != keep[-1]:
             picked.append(keep[-1])
-        return [[round(self.t[k], 6), round(self.x[k], 3), round(self.y[k], 3)] for k in picked]
+        return [[round(t[k], 6), round(x[k], 3), round(y[k], 3)] for k in picked]
+
+
+_NO_POSITION = (math.nan, math.nan)

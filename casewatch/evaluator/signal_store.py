@@ -85,10 +85,8 @@ class Columns:
             self._t = np.concatenate([self._t, np.empty(len(self._t))])
             self._values = np.concatenate([self._values, np.empty_like(self._values)])
         self._t[self.n] = t
-        row = self._values[self.n]
-        for j, name in enumerate(self.names):
-            v = values.get(name)
-            row[j] = math.nan if v is None else v
+        # one assignment of the row: numpy stores None as NaN, every other value as float()
+        self._values[self.n] = list(map(values.get, self.names))
         self.n += 1
 
     @property
