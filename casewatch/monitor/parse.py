@@ -468,6 +468,17 @@ def parse_frame(obj: Any, known_channels: Iterable[str] | None = None, line: int
             if defect.kind != "duplicate-id":
                 raise
             raise FrameDefect(defect.kind, f"frame t = {t:g}: {defect.message}") from None
+    signals, odd, world = frame_extras(d)
+    return Frame(t=t, channels=channels, signals=signals, line=line, odd=odd, world=world)
+
+
+def frame_extras(
+    d: dict[str, Any],
+) -> tuple[dict[str, float | None], dict[str, OddValue] | None, dict[str, float | None] | None]:
+    """A frame's `signals`, `odd` and `world` (read from the decoded frame `d`), checked.
+
+    Its own function so that the compiled reader (`monitor.fastparse`), which hands these small
+    parts to orjson, reads them with exactly these checks."""
     signals: dict[str, float | None] = {}
     sv = d.get("signals")
     if sv is not None:
@@ -492,7 +503,7 @@ def parse_frame(obj: Any, known_channels: Iterable[str] | None = None, line: int
             world = parse_world(d["world"])
         except WorldError as exc:
             raise FrameDefect("wrong-type", str(exc)) from None
-    return Frame(t=t, channels=channels, signals=signals, line=line, odd=odd, world=world)
+    return signals, odd, world
 
 
 def parse_header(obj: Any) -> Header:

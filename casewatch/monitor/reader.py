@@ -12,12 +12,13 @@ import io
 import json
 import sys
 import zlib
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import IO
 
 from casewatch.errors import CasewatchError
+from casewatch.monitor.fastparse import fast_frame
 from casewatch.monitor.frames import Frame, Header
 from casewatch.monitor.parse import FrameDefect, parse_frame, parse_header
 
@@ -52,6 +53,17 @@ def decode(text: str) -> object:
         except orjson.JSONDecodeError:
             pass
     return json.loads(text, parse_int=_integer)
+
+
+def read_frame(text: str, channels: Iterable[str] | None = None, line: int = 0) -> Frame:
+    """One frame line as the reader reads it: `parse_frame(decode(text), channels, line)`,
+    through the compiled pass (`monitor.fastparse`) when the line has the common shape.
+    Raises what that does (ValueError for a line that is not JSON, FrameDefect); for a caller
+    that times or reads single lines (the live benchmark). A header line is not a frame."""
+    frame = fast_frame(text, channels, line)
+    if frame is None:
+        frame = parse_frame(decode(text), channels, line)
+    return frame
 
 
 def _integer(digits: str) -> int | float:
@@ -195,41 +207,49 @@ class StreamReader:
         last_t: float | None = None
         first_content = True
         for lineno, text in self._lines(fh):
-            if not text.strip():
-                continue  # blank lines carry nothing (documented in docs/streams.md)
-            try:
-                obj = decode(text)
-            except ValueError as exc:
-                self._defect(lineno, "malformed-json", f"not valid JSON: {exc}")
-                first_content = False
-                continue
-            except RecursionError:
-                self._defect(lineno, "malformed-json", _TOO_DEEP)
-                first_content = False
-                continue
-            if isinstance(obj, dict) and "header" in obj:
-                if not first_content:
-                    self._defect(lineno, "bad-header", "a header is only allowed on the first line")
-                    continue
-                first_content = False
+            # the common frame in one compiled pass; anything else, and anything wrong, the
+            # careful route below (which names the defect)
+            frame = fast_frame(text, self.channels, lineno)
+            if frame is None:
+                if not text.strip():
+                    continue  # blank lines carry nothing (documented in docs/streams.md)
                 try:
-                    self.header = parse_header(obj)
+                    obj = decode(text)
+                except ValueError as exc:
+                    self._defect(lineno, "malformed-json", f"not valid JSON: {exc}")
+                    first_content = False
+                    continue
+                except RecursionError:
+                    self._defect(lineno, "malformed-json", _TOO_DEEP)
+                    first_content = False
+                    continue
+                if isinstance(obj, dict) and "header" in obj:
+                    if not first_content:
+                        self._defect(
+                            lineno, "bad-header", "a header is only allowed on the first line"
+                        )
+                        continue
+                    first_content = False
+                    try:
+                        self.header = parse_header(obj)
+                    except FrameDefect as d:
+                        self._defect(lineno, d.kind, d.message)
+                        continue
+                    if self.header.conditions_problem is not None:
+                        self._defect(lineno, "bad-header", self.header.conditions_problem)
+                    self._adopt_header(lineno)
+                    continue
+                try:
+                    frame = parse_frame(obj, self.channels, lineno)
                 except FrameDefect as d:
                     self._defect(lineno, d.kind, d.message)
+                    first_content = False
                     continue
-                if self.header.conditions_problem is not None:
-                    self._defect(lineno, "bad-header", self.header.conditions_problem)
-                self._adopt_header(lineno)
-                continue
+                except RecursionError:  # a value nested so deeply that even describing it fails
+                    self._defect(lineno, "malformed-json", _TOO_DEEP)
+                    first_content = False
+                    continue
             first_content = False
-            try:
-                frame = parse_frame(obj, self.channels, lineno)
-            except FrameDefect as d:
-                self._defect(lineno, d.kind, d.message)
-                continue
-            except RecursionError:  # a value nested so deeply that even describing it fails
-                self._defect(lineno, "malformed-json", _TOO_DEEP)
-                continue
             if abs(frame.t) > MAX_ABS_T:
                 self._defect(
                     lineno,
