@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -23,6 +24,7 @@ import numpy as np
 from casewatch.errors import EXIT_ENGINES_DISAGREE, CasewatchError
 from casewatch.evaluator.signal_store import Columns
 from casewatch.evaluator.vector_eval import Segments, evaluated_ticks, robustness
+from casewatch.spec.ast import Formula
 from casewatch.spec.model import CompiledFormula, CompiledSpec
 from casewatch.spec.parser import parse_rtamt
 
@@ -55,13 +57,20 @@ def evaluate_whole_log(spec: CompiledSpec, columns: Columns, max_gap: float) -> 
     values: dict[str, np.ndarray] = {}
     ticks: dict[str, np.ndarray] = {}
     for f in (g for formula in spec.formulas for g in formula.monitored()):
-        ast = parse_rtamt(f.rtamt, spec.period)
+        ast = _parsed(f.rtamt, spec.period)
         cols = {name: columns.column(name) for name in f.signals}
         rho = robustness(ast, cols, t, spec.period, max_gap)
         index = Segments(t, evaluated_ticks(ast, cols), max_gap).index
         values[f.id] = rho[index]
         ticks[f.id] = index
     return WholeLog(values, ticks, t)
+
+
+@lru_cache(maxsize=1024)
+def _parsed(text: str, period: float) -> Formula:
+    """A formula's rtamt text read back once per process, not once per log (the nodes are
+    frozen values, so one tree serves every log)."""
+    return parse_rtamt(text, period)
 
 
 class PrecomputedMonitor:

@@ -362,24 +362,29 @@ def buckets(t: np.ndarray, period: float, max_points: int) -> Buckets:
 def series_bounds(b: Buckets, value: np.ndarray) -> tuple[list, list]:
     """Per bucket the least and greatest finite value (None: none), the earliest of equal
     ones (a 0.0 and a -0.0 are equal to `min`), as `DecimatedSeries` keeps them."""
-    lo: list[float | None] = [None] * b.size
-    hi: list[float | None] = [None] * b.size
     keep = np.flatnonzero(np.isfinite(value))
     if not len(keep):
-        return lo, hi
+        return [None] * b.size, [None] * b.size
     vals = value[keep]
     where = b.index[keep]
     starts = np.flatnonzero(np.concatenate([[True], where[1:] != where[:-1]]))
     owner = where[starts]
-    group = np.repeat(np.arange(len(starts)), np.diff(np.append(starts, len(keep))))
-    for reduce, out in ((np.minimum, lo), (np.maximum, hi)):
+    # each bucket's first zero: a bound of zero takes its sign
+    zeros = np.flatnonzero(vals == 0)
+    group = np.searchsorted(starts, zeros, side="right") - 1
+    firsts = (
+        np.flatnonzero(np.concatenate([[True], group[1:] != group[:-1]])) if len(zeros) else zeros
+    )
+    zero_group, first_zero = group[firsts], vals[zeros[firsts]]
+    out = []
+    for reduce in (np.minimum, np.maximum):
         bound = reduce.reduceat(vals, starts)
-        hit = np.flatnonzero(vals == bound[group])
-        _, first = np.unique(group[hit], return_index=True)
-        chosen = vals[hit[first]].tolist()  # the first value equal to the bound: its sign
-        for k, x in zip(owner.tolist(), chosen, strict=True):
-            out[k] = x
-    return lo, hi
+        at_zero = bound[zero_group] == 0
+        bound[zero_group[at_zero]] = first_zero[at_zero]
+        full = np.full(b.size, np.nan)
+        full[owner] = bound
+        out.append([None if x != x else x for x in full.tolist()])  # NaN: no value
+    return out[0], out[1]
 
 
 # -- the whole log --------------------------------------------------------------------------------
