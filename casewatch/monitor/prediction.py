@@ -192,25 +192,64 @@ def ompv(
         return 1.0  # nothing was predicted: nothing to check
     if n_prev == 0:
         return 1.0 if n_cur == 0 else 0.0  # every current object is new: a miss
-    index_cur = {oid: i for i, oid in enumerate(cur.ids)}
+    index_cur = dict(zip(cur.ids, range(n_cur), strict=True))  # a repeated id: its last index
     match = np.array([index_cur.get(oid, -1) for oid in prev.ids], dtype=np.int64)
-    predicted, reaches = _predict(prev.pos, prev.pred, prev.pred_len, float(elapsed))
-    pi = np.flatnonzero(match >= 0)
-    if len(pi) or n_cur == 0:
-        # Decision: a channel tracks when at least one id carries over between the two ticks.
-        ci = match.take(pi)
-    else:
+    # Decision: a channel tracks when at least one id carries over between the two ticks; the
+    # tracked case (the common one) is one compiled call from prediction to counts.
+    n1, n2, tracked, predicted, reaches = _ompv_tracked(
+        prev.pos,
+        prev.pred,
+        prev.pred_len,
+        float(elapsed),
+        cur.pos,
+        match,
+        float(tolerance),
+        float(standing),
+    )
+    if not tracked:
         # No stable ids: the nearest current object to each predicted position, within the gate.
         cand = np.flatnonzero(reaches)
         pa, ci, _ = pair_objects(predicted.take(cand, axis=0), cur.pos, gate)
         pi = cand.take(pa)
+        if standing <= 0.0:
+            n1, n2 = _ompv_counts(predicted, reaches, cur.pos, pi, ci, float(tolerance))
+        else:
+            n1, n2 = _standing_counts(
+                predicted, reaches, prev.pos, cur.pos, pi, ci, float(tolerance), float(standing)
+            )
     if standing <= 0.0:
-        n1, n2 = _ompv_counts(predicted, reaches, cur.pos, pi, ci, float(tolerance))
         return n1 / n2
-    n1, n2 = _standing_counts(
-        predicted, reaches, prev.pos, cur.pos, pi, ci, float(tolerance), float(standing)
-    )
     return 1.0 if n2 == 0 else n1 / n2
+
+
+@kernel
+def _ompv_tracked(prev_pos, pred, pred_len, elapsed, cur_pos, match, tolerance, standing):
+    """(N1, N2, tracked, predicted, reaches) of ompv when the channel tracks (some previous
+    object's id is among the current ones, `match` >= 0, or there is no current object):
+    `_predict`, then the id pairs counted by `_ompv_counts` (`standing` <= 0) or
+    `_standing_counts`. Not tracked: counts 0 and the predictions, for the nearest matching."""
+    predicted, reaches = _predict(prev_pos, pred, pred_len, elapsed)
+    found = 0
+    for i in range(match.shape[0]):
+        if match[i] >= 0:
+            found += 1
+    if found == 0 and cur_pos.shape[0] > 0:
+        return 0, 0, False, predicted, reaches
+    pi = np.empty(found, dtype=np.int64)
+    ci = np.empty(found, dtype=np.int64)
+    r = 0
+    for i in range(match.shape[0]):
+        if match[i] >= 0:
+            pi[r] = i
+            ci[r] = match[i]
+            r += 1
+    if standing <= 0.0:
+        n1, n2 = _ompv_counts(predicted, reaches, cur_pos, pi, ci, tolerance)
+    else:
+        n1, n2 = _standing_counts(
+            predicted, reaches, prev_pos, cur_pos, pi, ci, tolerance, standing
+        )
+    return n1, n2, True, predicted, reaches
 
 
 @kernel

@@ -17,6 +17,7 @@ from casewatch.monitor.coverage import _rows, _view, _view_rows, common_view
 from casewatch.monitor.family import worst
 from casewatch.monitor.frames import Coverage, Ego, Objects, box_footprint
 from casewatch.monitor.history import common_path
+from casewatch.monitor.prediction import _ompv_counts, _predict, _standing_counts, ompv
 from casewatch.monitor.resample import hold_standing, with_predictions
 from casewatch.monitor.safety_kernel import _stands_still
 from casewatch.monitor.safety_score import _upto, prediction_horizon
@@ -26,8 +27,10 @@ from casewatch.monitor.similarity import (
     compare_objects,
     crpps_inputs,
     ets,
+    pair_objects,
 )
 from casewatch.monitor.situation import _half_extents, ego_half_width
+from tests.monitor.test_prediction import GATE, TOL, ompv_case
 
 
 def _old_ets(plan_a, plan_b, decay, shift=None):
@@ -251,3 +254,40 @@ def test_with_predictions_is_replace_over_every_field():
     got, want = with_predictions(objs, pred, lens), replace(objs, pred=pred, pred_len=lens)
     for f in fields(Objects):
         assert getattr(got, f.name) is getattr(want, f.name), f.name
+
+
+# --- ompv: prediction to counts in one call when the channel tracks -------------------------
+
+
+def _old_ompv(prev, elapsed, cur, tolerance, gate, standing):
+    """ompv before the fused call: ids matched, `_predict`, then the count kernels."""
+    n_prev, n_cur = len(prev), len(cur)
+    if n_prev == 0 and standing > 0.0:
+        return 1.0
+    if n_prev == 0:
+        return 1.0 if n_cur == 0 else 0.0
+    index_cur = {oid: i for i, oid in enumerate(cur.ids)}
+    match = np.array([index_cur.get(oid, -1) for oid in prev.ids], dtype=np.int64)
+    predicted, reaches = _predict(prev.pos, prev.pred, prev.pred_len, float(elapsed))
+    pi = np.flatnonzero(match >= 0)
+    if len(pi) or n_cur == 0:
+        ci = match.take(pi)
+    else:
+        cand = np.flatnonzero(reaches)
+        pa, ci, _ = pair_objects(predicted.take(cand, axis=0), cur.pos, gate)
+        pi = cand.take(pa)
+    if standing <= 0.0:
+        n1, n2 = _ompv_counts(predicted, reaches, cur.pos, pi, ci, float(tolerance))
+        return n1 / n2
+    n1, n2 = _standing_counts(
+        predicted, reaches, prev.pos, cur.pos, pi, ci, float(tolerance), float(standing)
+    )
+    return 1.0 if n2 == 0 else n1 / n2
+
+
+@settings(max_examples=400, deadline=None)
+@given(ompv_case(), st.sampled_from([0.05, 0.1, 0.5]), st.sampled_from([0.0, 0.05, 0.5, 1.5]))
+def test_ompv_equals_its_old_formulation(case, elapsed, standing):
+    prev, cur = case
+    want = _old_ompv(prev, elapsed, cur, TOL, GATE, standing)
+    assert ompv(prev, elapsed, cur, TOL, GATE, standing) == want

@@ -29,6 +29,8 @@ class MotionPredictionFamily(MetricFamily):
         self._channel_names = {
             c: {m: channel_name(m, c) for m in ("chpps", "ompv")} for c in self.channels
         }
+        self._names = [self._channel_names[c] for c in self.channels]
+        self._crpps_pair_names = [self._crpps_names[pr] for pr in self.pairs]
 
     def step(self, t: float, states: dict[str, ChannelState], out: dict[str, float | None]) -> None:
         p = self.params
@@ -37,10 +39,13 @@ class MotionPredictionFamily(MetricFamily):
         # the similarity family left (so this family's timing includes crpps's Fréchet
         # distances).
         plans = self._plans
-        ompv_values: dict[str, float | None] = dict.fromkeys(self.channels)
+        lookback = p.ompv_lookback - 1e-9
+        ompv_values: list[float | None] = []
         for i, c in enumerate(self.channels):
             s = states.get(c)
+            value = None
             if s is None:
+                ompv_values.append(value)
                 continue
             if len(s.plan):
                 plans.push(i, t, s.plan)
@@ -48,41 +53,45 @@ class MotionPredictionFamily(MetricFamily):
             if prev.recent(t):
                 # spi-reference "ompv" Decision: the newest observation at least ompv_lookback
                 # old (the study's previous frame when the lookback is one period)
-                old = [(tp, objs) for tp, objs in prev.items if t - tp >= p.ompv_lookback - 1e-9]
-                if old:
-                    tp, objs = old[-1]
-                    ompv_values[c] = ompv(
-                        objs,
-                        t - tp,
-                        s.objects,
-                        p.prediction_tolerance,
-                        p.pairing_gate,
-                        p.standing_motion,
-                    )
+                for tp, objs in reversed(prev.items):
+                    if t - tp >= lookback:
+                        value = ompv(
+                            objs,
+                            t - tp,
+                            s.objects,
+                            p.prediction_tolerance,
+                            p.pairing_gate,
+                            p.standing_motion,
+                        )
+                        break
+            ompv_values.append(value)
             prev.push(t, s.objects)
             # keep one observation at least ompv_lookback old, and everything newer
-            while len(prev.items) > 1 and t - prev.items[1][0] >= p.ompv_lookback - 1e-9:
-                prev.items.popleft()
-        chpps_list, crpps_fd = chpps_frame(
+            items = prev.items
+            while len(items) > 1 and t - items[1][0] >= lookback:
+                items.popleft()
+        chpps_values, crpps_fd = chpps_frame(
             plans, t, p.trajectory_decay, self.engine.family(SimilarityFamily).crpps_inputs
         )
         self._crpps(crpps_fd, out)
-        chpps_values = dict(zip(self.channels, chpps_list, strict=True))
         for metric, values in (("chpps", chpps_values), ("ompv", ompv_values)):
-            for c, v in values.items():
-                out[self._channel_names[c][metric]] = v
-            out[metric] = worst(list(values.values()), False)
+            for names, v in zip(self._names, values, strict=True):
+                out[names[metric]] = v
+            out[metric] = worst(values, False)
 
     def _crpps(self, distances: list[float | None], out: dict[str, float | None]) -> None:
         """crpps per pair, its worst, and crpps_mean = inv(mean fd), from the pairs' Fréchet
         distances (None: a channel absent or a plan empty)."""
         values: list[float | None] = []
-        for (a, b), fd in zip(self.pairs, distances, strict=True):
+        for name, fd in zip(self._crpps_pair_names, distances, strict=True):
             v = None if fd is None else 1.0 / (1.0 + fd)
-            out[self._crpps_names[(a, b)]] = v
+            out[name] = v
             values.append(v)
         out["crpps"] = worst(values, False)
         # Decision: no value when any pair has none.
-        if distances and all(d is not None for d in distances):
-            mean = float(np.add.reduce(np.array(distances)) / len(distances))  # np.mean's sum
+        if distances and None not in distances:
+            if len(distances) == 1:  # the sum of one value is that value
+                mean = float(distances[0])  # type: ignore[arg-type]
+            else:
+                mean = float(np.add.reduce(np.array(distances)) / len(distances))  # np.mean's
             out["crpps_mean"] = 1.0 / (1.0 + mean)
