@@ -5,15 +5,21 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-test
 EXTRAS ?= test
 
-.PHONY: test demo bench data lint clean venv
+.PHONY: test demo bench data lint clean venv warm-up
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e ".[$(EXTRAS)]"
+	$(BIN)/python -m casewatch warm-up
 	touch $(STAMP)
 
 venv: $(STAMP)
+
+# Fill numba's cache with every compiled kernel (the install step above runs it too), so the
+# first run does not compile for ~20 s; again after pulling changes to the kernels.
+warm-up: $(STAMP)
+	$(BIN)/python -m casewatch warm-up
 
 # The static checks first (seconds), then the suite (minutes): the house rules in code
 # (docs/architecture.md): lint, one format, the layer contract, types of the public modules.
