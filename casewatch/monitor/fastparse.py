@@ -107,25 +107,14 @@ def _powers_of_five() -> np.ndarray:
     rows = []
     for q in range(-342, 0):
         power5 = 5**-q
-        z = 0
-        while (1 << z) < power5:
-            z += 1
-        if q >= -27:
-            b = z + 127
-            c = 2**b // power5 + 1
-        else:
-            b = 2 * z + 2 * 64
-            c = 2**b // power5 + 1
-            while c >= (1 << 128):
-                c //= 2
-        rows.append(c)
+        z = power5.bit_length()  # the least z with 2**z >= 5**-q (never a power of two)
+        b = z + 127 if q >= -27 else 2 * z + 2 * 64
+        c = 2**b // power5 + 1
+        rows.append(c >> max(c.bit_length() - 128, 0))  # halved until below 2**128
     for q in range(0, 309):
         power5 = 5**q
-        while power5 < (1 << 127):
-            power5 *= 2
-        while power5 >= (1 << 128):
-            power5 //= 2
-        rows.append(power5)
+        shift = power5.bit_length() - 128  # doubled or halved to 128 bits, truncated
+        rows.append(power5 >> shift if shift > 0 else power5 << -shift)
     table = np.empty((len(rows), 2), dtype=np.uint64)
     for i, c in enumerate(rows):
         table[i, 0] = c >> 64
@@ -802,56 +791,9 @@ def _finite(v):  # pragma: no cover - compiled
 _UNKNOWN = np.frombuffer(b"unknown", np.uint8)
 
 
-@_entry(_BUF, _F64, _I64_2D, types.int64, _I64_2D, types.int64)
-def _build(buf, vals, chans, nc, objs, no):  # pragma: no cover - compiled
-    """Check the scanned numbers as parse_frame does and lay the arrays out in one buffer.
-
-    Returns (ok, out, layout, strings): per channel c, layout[c] = (ego offset, plan offset,
-    plan points, objects offset, objects, prediction points); at the ego offset x, y, yaw, vx,
-    vy, half length, half width and the 4x2 footprint; at the objects offset pos (K, 2), yaw
-    (K,), vel (K, 2), footprints (K, 4, 2), half (K, 2), pred (K, P, 3). `strings` holds every
-    object's id, then every object's class, joined by '"' (which no accepted string holds).
-    """
-    layout = np.zeros((nc, 6), dtype=np.int64)
-    nothing = (False, np.empty(0), layout, np.empty(0, dtype=np.uint8))
-    size = 0
-    nstr = 0
-    for c in range(nc):
-        if chans[c, _C_HAS_EGO] != 1:
-            return nothing
-        k = chans[c, _C_OBJ_N]
-        o0 = chans[c, _C_OBJ]
-        pts = 0
-        if k:
-            pts = objs[o0, _O_PRED_N]
-        for i in range(o0, o0 + k):
-            # the common shape: id, x, y, a box and a prediction list of one length
-            if (
-                objs[i, _O_ID] < 0
-                or objs[i, 0] < 0
-                or objs[i, 1] < 0
-                or objs[i, 5] < 0
-                or objs[i, 6] < 0
-                or objs[i, _O_PRED] < 0
-                or objs[i, _O_PRED_N] != pts
-            ):
-                return nothing
-            nstr += objs[i, _O_ID_END] - objs[i, _O_ID] + 1
-            if objs[i, _O_CLS] >= 0:
-                nstr += objs[i, _O_CLS_END] - objs[i, _O_CLS] + 1
-            else:
-                nstr += 8  # 'unknown'
-        layout[c, 0] = size
-        size += 15
-        layout[c, 1] = size
-        layout[c, 2] = chans[c, _C_PLAN_N]
-        size += 3 * chans[c, _C_PLAN_N]
-        layout[c, 3] = size
-        layout[c, 4] = k
-        layout[c, 5] = pts
-        size += k * 15 + 3 * k * pts
-    out = np.empty(size)
-    strings = np.empty(nstr, dtype=np.uint8)
+@kernel
+def _fill(vals, chans, nc, objs, layout, out):  # pragma: no cover - compiled
+    """_build's checks and numbers: False at the first value parse_frame would not take."""
     for c in range(nc):
         # ego: x, y, yaw required; vx, vy default 0; a box of positive size; all within 1e9
         e0 = layout[c, 0]
@@ -861,17 +803,17 @@ def _build(buf, vals, chans, nc, objs, no):  # pragma: no cover - compiled
                 if f == 3 or f == 4:
                     v = 0.0
                 else:
-                    return nothing
+                    return False
             else:
                 v = vals[idx]
             if not _finite(v) or abs(v) > _MAX:
-                return nothing
+                return False
             if f < 5:
                 out[e0 + f] = v
         length = vals[chans[c, _C_EGO + 5]]
         width = vals[chans[c, _C_EGO + 6]]
         if length <= 0 or width <= 0:
-            return nothing
+            return False
         hl = 0.5 * length
         hw = 0.5 * width
         out[e0 + 5] = hl
@@ -891,15 +833,15 @@ def _build(buf, vals, chans, nc, objs, no):  # pragma: no cover - compiled
         for j in range(3 * npl):
             v = vals[v0 + j]
             if not _finite(v) or abs(v) > _MAX:
-                return nothing
+                return False
             out[p0 + j] = v
         for j in range(npl):
             dt = out[p0 + 3 * j]
             if j == 0:
                 if dt < 0:
-                    return nothing
+                    return False
             elif not dt - out[p0 + 3 * (j - 1)] > 0:
-                return nothing
+                return False
         # objects, as parse._box_objects checks them (finite, box > 0, prediction dt; no
         # magnitude bound: the careful route's own fast path has none for box objects)
         k = layout[c, 4]
@@ -926,22 +868,22 @@ def _build(buf, vals, chans, nc, objs, no):  # pragma: no cover - compiled
                 and _finite(length)
                 and _finite(width)
             ):
-                return nothing
+                return False
             if not (length > 0.0 and width > 0.0):
-                return nothing
+                return False
             q0 = objs[row, _O_PRED]
             d0 = pred + 3 * pts * i
             for j in range(3 * pts):
                 v = vals[q0 + j]
                 if not _finite(v):
-                    return nothing
+                    return False
                 out[d0 + j] = v
             for j in range(pts):
                 if j == 0:
                     if not out[d0] >= 0.0:
-                        return nothing
+                        return False
                 elif not out[d0 + 3 * j] > out[d0 + 3 * (j - 1)]:
-                    return nothing
+                    return False
             hl = 0.5 * length
             hw = 0.5 * width
             out[pos + 2 * i] = x
@@ -960,6 +902,67 @@ def _build(buf, vals, chans, nc, objs, no):  # pragma: no cover - compiled
             out[f0 + 7] = -hw
             out[half + 2 * i] = hl
             out[half + 2 * i + 1] = hw
+    return True
+
+
+@_entry(_BUF, _F64, _I64_2D, types.int64, _I64_2D, types.int64)
+def _build(buf, vals, chans, nc, objs, no):  # pragma: no cover - compiled
+    """Check the scanned numbers as parse_frame does and lay the arrays out in one buffer.
+
+    Returns (ok, out, layout, strings): per channel c, layout[c] = (ego offset, plan offset,
+    plan points, objects offset, objects, prediction points); at the ego offset x, y, yaw, vx,
+    vy, half length, half width and the 4x2 footprint; at the objects offset pos (K, 2), yaw
+    (K,), vel (K, 2), footprints (K, 4, 2), half (K, 2), pred (K, P, 3). `strings` holds every
+    object's id, then every object's class, joined by '"' (which no accepted string holds).
+    """
+    layout = np.zeros((nc, 6), dtype=np.int64)
+    ok = True
+    size = 0
+    nstr = 0
+    for c in range(nc):
+        if chans[c, _C_HAS_EGO] != 1:
+            ok = False
+            break
+        k = chans[c, _C_OBJ_N]
+        o0 = chans[c, _C_OBJ]
+        pts = 0
+        if k:
+            pts = objs[o0, _O_PRED_N]
+        for i in range(o0, o0 + k):
+            # the common shape: id, x, y, a box and a prediction list of one length
+            if (
+                objs[i, _O_ID] < 0
+                or objs[i, 0] < 0
+                or objs[i, 1] < 0
+                or objs[i, 5] < 0
+                or objs[i, 6] < 0
+                or objs[i, _O_PRED] < 0
+                or objs[i, _O_PRED_N] != pts
+            ):
+                ok = False
+                break
+            nstr += objs[i, _O_ID_END] - objs[i, _O_ID] + 1
+            if objs[i, _O_CLS] >= 0:
+                nstr += objs[i, _O_CLS_END] - objs[i, _O_CLS] + 1
+            else:
+                nstr += 8  # 'unknown'
+        if not ok:
+            break
+        layout[c, 0] = size
+        size += 15
+        layout[c, 1] = size
+        layout[c, 2] = chans[c, _C_PLAN_N]
+        size += 3 * chans[c, _C_PLAN_N]
+        layout[c, 3] = size
+        layout[c, 4] = k
+        layout[c, 5] = pts
+        size += k * 15 + 3 * k * pts
+    if not ok:
+        return False, np.empty(0), layout, np.empty(0, dtype=np.uint8)
+    out = np.empty(size)
+    strings = np.empty(nstr, dtype=np.uint8)
+    if not _fill(vals, chans, nc, objs, layout, out):
+        return False, out, layout, strings
     # every id, then every class, each followed by '"' (the last one dropped below)
     si = 0
     for c in range(nc):
