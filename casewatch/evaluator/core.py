@@ -144,6 +144,7 @@ class Evaluator:
         self.last_t: float | None = None
         self.ticks = 0
         self.stl_seconds = 0.0  # time spent inside rtamt updates
+        self._traces: dict[str, list[list[TraceStep]]] = {}
 
     # -- per tick ---------------------------------------------------------------------------
 
@@ -386,10 +387,15 @@ class Evaluator:
             self.on_event(gap)
 
     def _trace(self, node_id: str) -> list[list[TraceStep]]:
-        return [
-            [TraceStep(id=step.id, text=step.text) for step in path]
-            for path in self.spec.traces.get(node_id, [])
-        ]
+        """The node's paths to the root, fresh lists of steps built once per node (a long run
+        has thousands of events; nothing changes a step once made)."""
+        steps = self._traces.get(node_id)
+        if steps is None:
+            steps = self._traces[node_id] = [
+                [TraceStep(id=step.id, text=step.text) for step in path]
+                for path in self.spec.traces.get(node_id, [])
+            ]
+        return [list(path) for path in steps]
 
     # -- end of run -------------------------------------------------------------------------
 

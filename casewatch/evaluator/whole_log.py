@@ -611,48 +611,52 @@ def _statuses(
     ids = [s.formula.id for s in evaluator.states]
     contexts = [c.node_id for c in evaluator.odd_checks]
     nodes = list(evaluator.timelines)
-    names: list[str] = []
-    index: dict[str, int] = {}
+    names: list[str] = ["no-data"]
+    index: dict[str, int] = {"no-data": 0}
+    # the statuses of each distinct combination of verdicts, propagated once
+    if table.shape[1]:
+        combos, which = np.unique(table[starts], axis=0, return_inverse=True)
+    else:  # nothing judged: one combination
+        combos, which = table[:1], np.zeros(len(starts), dtype=np.int64)
     rows = []
-    for s in starts.tolist():
-        row = table[s].tolist()
+    for row in combos.tolist():
         verdicts = {f: _VERDICT[x] for f, x in zip(ids, row, strict=False)}
         odds = {c: _ODD[x] for c, x in zip(contexts, row[len(ids) :], strict=True)}
         statuses = propagator.statuses(verdicts, odds)  # type: ignore[arg-type]
-        for status in statuses.values():
-            if status not in index:
-                index[status] = len(names)
-                names.append(status)
-        rows.append([index[statuses[node]] for node in nodes])
-    no_data = index.setdefault("no-data", len(names))
-    if no_data == len(names):
-        names.append("no-data")
-    per_run = np.array(rows, dtype=np.int64).reshape(len(starts), len(nodes))
+        rows.append([index.setdefault(statuses[node], len(index)) for node in nodes])
+    names = list(index)
+    per_run = np.array(rows, dtype=np.int64).reshape(len(combos), len(nodes))[which.ravel()]
     # the items a timeline receives in order: a jump's span before its tick, then the ticks
     jumps = np.flatnonzero(ticks.broken[starts])
     k = len(starts) + len(jumps)
     position = np.arange(len(starts)) + np.searchsorted(jumps, np.arange(len(starts)), "right")
     span_at = position[jumps] - 1
-    begin = [0.0] * k
-    end = [0.0] * k
-    count = [0] * k
-    for r, (s, e) in enumerate(zip(starts.tolist(), ends.tolist(), strict=True)):
-        p = int(position[r])
-        begin[p], end[p], count[p] = times[s], times[e - 1], e - s
-    for r, p in zip(jumps.tolist(), span_at.tolist(), strict=True):
-        s = int(starts[r])
-        begin[p] = times[s - 1] + period
-        end[p] = times[s] - period
-        count[p] = int(ticks.skipped[s])
-    value = np.full((k, len(nodes)), no_data, dtype=np.int64)
+    t = ticks.t
+    begin, end = np.empty(k), np.empty(k)
+    count = np.empty(k, dtype=np.int64)
+    begin[position], end[position], count[position] = t[starts], t[ends - 1], ends - starts
+    jumped = starts[jumps]
+    begin[span_at] = t[jumped - 1] + period  # as `_stream_gap` adds and subtracts
+    end[span_at] = t[jumped] - period
+    count[span_at] = ticks.skipped[jumped]
+    total = np.concatenate([[0], np.cumsum(count)])
+    begins, ends_ = begin.tolist(), end.tolist()
+    value = np.zeros((k, len(nodes)), dtype=np.int64)  # a span is no-data (0)
     value[position] = per_run
     for col, node in enumerate(nodes):
         v = value[:, col]
-        first = np.flatnonzero(np.concatenate([[True], v[1:] != v[:-1]])).tolist()
-        last = [*(f - 1 for f in first[1:]), k - 1]
-        runs = evaluator.timelines[node].runs
-        for a, b in zip(first, last, strict=True):
-            runs.append(Run(names[int(v[a])], begin[a], end[b], sum(count[a : b + 1])))
+        first = np.flatnonzero(np.concatenate([[True], v[1:] != v[:-1]]))
+        last = np.append(first[1:] - 1, k - 1)
+        evaluator.timelines[node].runs.extend(
+            Run(names[x], begins[a], ends_[b], c)
+            for x, a, b, c in zip(
+                v[first].tolist(),
+                first.tolist(),
+                last.tolist(),
+                (total[last + 1] - total[first]).tolist(),
+                strict=True,
+            )
+        )
 
 
 def judge_whole_log(
