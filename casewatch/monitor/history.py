@@ -60,7 +60,18 @@ class PlanHistory:
     plans); an empty plan pushed anyway holds its rank and never overlaps.
     """
 
-    __slots__ = ("_count", "_head", "_last", "count", "head", "lens", "max_gap", "plans", "times")
+    __slots__ = (
+        "_count",
+        "_head",
+        "_last",
+        "count",
+        "head",
+        "lens",
+        "max_gap",
+        "plans",
+        "segs",
+        "times",
+    )
 
     def __init__(self, channels: int, size: int, max_gap: float, width: int = 64):
         if channels < 1 or size < 1 or width < 1:
@@ -69,6 +80,9 @@ class PlanHistory:
             )
         slots = size + 1
         self.plans = np.zeros((channels, slots, width, 3))
+        #: segs[c, slot, q]: length of the plan's segment from row q to row q + 1, computed
+        #: once when the plan is pushed (`_cut` reads a stored plan's every frame it stays)
+        self.segs = np.zeros((channels, slots, width))
         self.lens = np.zeros((channels, slots), dtype=np.int64)
         self.times = np.zeros((channels, slots))
         self.count = np.zeros(channels, dtype=np.int64)
@@ -90,6 +104,7 @@ class PlanHistory:
             count = 0
         slot = (self._head[channel] + 1) % self.plans.shape[1]
         self.plans[channel, slot, :n] = plan
+        _segments(self.plans[channel, slot], n, self.segs[channel, slot])
         self.lens[channel, slot] = n
         self.times[channel, slot] = t
         count = min(count + 1, self.plans.shape[1])
@@ -103,6 +118,9 @@ class PlanHistory:
         old = self.plans
         self.plans = np.zeros((*old.shape[:2], width, 3))
         self.plans[:, :, : old.shape[2]] = old
+        old_segs = self.segs
+        self.segs = np.zeros((*old.shape[:2], width))
+        self.segs[:, :, : old.shape[2]] = old_segs
 
 
 #: Columns of the pair table `_cut` returns, one row per Fréchet pair of the frame: owner
@@ -149,6 +167,43 @@ def _along(rows, first, n, length, n_out, off_x, off_y, coords, pos):  # pragma:
             walked += seg
             q += 1
             seg = math.hypot(rows[q + 1, 1] - rows[q, 1], rows[q + 1, 2] - rows[q, 2])
+        frac = 0.0 if n == 1 or seg <= 0.0 else min(max((target - walked) / seg, 0.0), 1.0)
+        nxt = q + 1 if n > 1 else q
+        coords[pos + j, 0] = rows[q, 1] + (rows[nxt, 1] - rows[q, 1]) * frac + off_x
+        coords[pos + j, 1] = rows[q, 2] + (rows[nxt, 2] - rows[q, 2]) * frac + off_y
+
+
+@kernel
+def _segments(rows, n, out):  # pragma: no cover - compiled
+    """out[q] = length of the segment rows[q] -> rows[q + 1] ([dt, x, y] rows), q < n - 1:
+    the `math.hypot` `_arc_length` and `_along` take, computed once."""
+    for q in range(n - 1):
+        out[q] = math.hypot(rows[q + 1, 1] - rows[q, 1], rows[q + 1, 2] - rows[q, 2])
+
+
+@kernel
+def _arc_length_segs(segs, first, n):  # pragma: no cover - compiled
+    """`_arc_length` of rows[first:first + n] from their segment lengths (same sum, same
+    order)."""
+    total = 0.0
+    for q in range(first + 1, first + n):
+        total += segs[q - 1]
+    return total
+
+
+@kernel
+def _along_segs(rows, segs, first, n, length, n_out, off_x, off_y, coords, pos):  # pragma: no cover
+    """`_along` with the segment lengths read from `segs` (`_segments` of rows), not
+    recomputed: the same points, bit for bit."""
+    q = first  # the segment rows[q] -> rows[q + 1] holds the next point
+    walked = 0.0  # arc length at rows[q]
+    seg = segs[q] if n > 1 else 0.0
+    for j in range(n_out):
+        target = length * j / (n_out - 1) if n_out > 1 else 0.0
+        while q < first + n - 2 and walked + seg < target:
+            walked += seg
+            q += 1
+            seg = segs[q]
         frac = 0.0 if n == 1 or seg <= 0.0 else min(max((target - walked) / seg, 0.0), 1.0)
         nxt = q + 1 if n > 1 else q
         coords[pos + j, 0] = rows[q, 1] + (rows[nxt, 1] - rows[q, 1]) * frac + off_x
@@ -217,7 +272,7 @@ def crpps_path(plan_a: np.ndarray, plan_b: np.ndarray) -> tuple[np.ndarray, int]
 
 
 @kernel
-def _cut(plans, lens, times, count, head, t, decay, pair_xy, pair_lens):  # pragma: no cover
+def _cut(plans, segs, lens, times, count, head, t, decay, pair_xy, pair_lens):  # pragma: no cover
     """Every Fréchet pair of the frame, written into one coordinate array.
 
     Pairs, in this order: the given pairs (sequence 2k and 2k+1 of `pair_xy`, lengths in
@@ -298,7 +353,7 @@ def _cut(plans, lens, times, count, head, t, decay, pair_xy, pair_lens):  # prag
             raw[k, 0] = b - a
             raw[k, 1] = sb - sa
             common[k] = min(
-                _arc_length(plans[c, h], a, b - a), _arc_length(plans[c, s], sa, sb - sa)
+                _arc_length_segs(segs[c, h], a, b - a), _arc_length_segs(segs[c, s], sa, sb - sa)
             )
             owner[k] = c
             # Decision: j is the rank among stored plans (1 = most recent), skipped included.
@@ -343,8 +398,9 @@ def _cut(plans, lens, times, count, head, t, decay, pair_xy, pair_lens):  # prag
                     coords[pos + j, 0] = pair_xy[first + j, 0]
                     coords[pos + j, 1] = pair_xy[first + j, 1]
             else:
-                _along(
+                _along_segs(
                     plans[owner[i], slot],
+                    segs[owner[i], slot],
                     first,
                     raw[i, side],
                     common[i],
@@ -425,6 +481,7 @@ def frame_inputs(
         xy, lens = _NO_XY, _NO_LENS
     return _cut(
         history.plans,
+        history.segs,
         history.lens,
         history.times,
         history.count,

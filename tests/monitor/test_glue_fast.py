@@ -16,7 +16,14 @@ from numba import njit
 from casewatch.monitor.coverage import _rows, _view, _view_rows, common_view
 from casewatch.monitor.family import worst
 from casewatch.monitor.frames import Coverage, Ego, Objects, box_footprint
-from casewatch.monitor.history import common_path
+from casewatch.monitor.history import (
+    _along,
+    _along_segs,
+    _arc_length,
+    _arc_length_segs,
+    _segments,
+    common_path,
+)
 from casewatch.monitor.prediction import _ompv_counts, _predict, _standing_counts, ompv
 from casewatch.monitor.resample import hold_standing, with_predictions
 from casewatch.monitor.safety_kernel import _stands_still
@@ -291,3 +298,32 @@ def test_ompv_equals_its_old_formulation(case, elapsed, standing):
     prev, cur = case
     want = _old_ompv(prev, elapsed, cur, TOL, GATE, standing)
     assert ompv(prev, elapsed, cur, TOL, GATE, standing) == want
+
+
+# --- chpps: stored plans' segment lengths computed once -------------------------------------
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_cached_segments_give_the_arc_lengths_and_points_of_the_direct_ones(seed):
+    """`_cut` reads segment lengths pushed with each plan (`_segments`) instead of recomputing
+    them: `_arc_length_segs` and `_along_segs` equal `_arc_length` and `_along` bit for bit."""
+    rng = np.random.default_rng(seed)
+    for _ in range(30):
+        n_rows = int(rng.integers(1, 45))
+        rows = np.zeros((n_rows + 3, 3))  # padding rows after the plan, as in PlanHistory
+        rows[:n_rows, 1:] = rng.uniform(-500, 500, 2) + np.cumsum(
+            np.where(rng.random((n_rows, 2)) < 0.2, 0.0, rng.normal(0, 2, (n_rows, 2))), axis=0
+        )
+        segs = np.zeros(n_rows + 3)
+        _segments(rows, n_rows, segs)
+        first = int(rng.integers(0, n_rows))
+        n = int(rng.integers(1, n_rows - first + 1))
+        assert _arc_length_segs(segs, first, n) == _arc_length(rows, first, n)
+        length = _arc_length(rows, first, n) * float(rng.choice([1.0, 0.5, 0.0, 1.01]))
+        n_out = int(rng.integers(1, 50))
+        off = rng.normal(0, 3, 2)
+        want = np.zeros((n_out + 2, 2))
+        got = np.zeros((n_out + 2, 2))
+        _along(rows, first, n, length, n_out, off[0], off[1], want, 1)
+        _along_segs(rows, segs, first, n, length, n_out, off[0], off[1], got, 1)
+        assert np.array_equal(got, want)
