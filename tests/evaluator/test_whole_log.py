@@ -327,3 +327,31 @@ def test_times_that_do_not_increase_are_replayed():
     with pytest.raises(NotReplayable):
         judge_whole_log(evaluator, columns, [(0, CONDITIONS[0])], whole.values)
     assert evaluator.ticks == 0 and not evaluator.data_gaps  # nothing was changed
+
+
+def test_a_log_that_cannot_be_judged_from_arrays_is_replayed(monkeypatch, tmp_path):
+    """The session falls back to the tick-by-tick replay (`NotReplayable`) with the same
+    result and events; the odd-grid drive has contracts, an ODD and condition changes."""
+    from casewatch.evaluator import session
+    from casewatch.evaluator.offline import result_differences
+    from casewatch.evaluator.options import RunOptions, RunSinks
+
+    repo = Path(__file__).resolve().parents[2]
+    case, spec = api.prepare(repo / "examples" / "odd" / "contracts-case.yaml")
+    stream = repo / "examples" / "data" / "odd-grid" / "odd-rain-medium-night-r0.jsonl.gz"
+
+    def run(name: str):
+        events = tmp_path / f"{name}.jsonl"
+        options = RunOptions(stl_engine="numpy")
+        return session.evaluate_stream(case, spec, stream, options, RunSinks(events_path=events))
+
+    arrays = run("arrays")
+
+    def refuse(*args, **kwargs):
+        raise NotReplayable("for the test")
+
+    monkeypatch.setattr(session, "judge_whole_log", refuse)
+    replayed = run("replayed")
+    assert result_differences(arrays, replayed) == []
+    assert arrays.episodes and arrays.data_gaps and arrays.conditions and arrays.odd
+    assert (tmp_path / "arrays.jsonl").read_text() == (tmp_path / "replayed.jsonl").read_text()
