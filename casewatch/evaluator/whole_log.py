@@ -143,6 +143,20 @@ def _feed(
     return robustness, reasons
 
 
+def _check_updates(formula: CompiledFormula, values: np.ndarray, columns: Columns) -> None:
+    """`NotReplayable` unless the monitor of `formula` has one value per tick where every
+    input is finite (the ticks `_feed` updates it at)."""
+    present = np.ones(columns.n, dtype=bool)
+    for name in formula.signals:
+        if name not in columns.names:
+            present[:] = False
+            break
+        present &= np.isfinite(columns.column(name))
+    updates = int(present.sum())
+    if updates != len(values):
+        raise NotReplayable(f"{formula.id}: {len(values)} values for {updates} updates")
+
+
 def verdicts(
     formula: CompiledFormula, values: Mapping[str, np.ndarray], columns: Columns, ticks: Ticks
 ) -> Verdicts:
@@ -676,16 +690,20 @@ def judge_whole_log(
         raise NotReplayable("tick times do not increase")
     if n and (not changes or changes[0][0] != 0):
         raise NotReplayable("the first tick has no conditions")
+    for state in evaluator.states:
+        for g in state.formula.monitored():
+            _check_updates(g, values[g.id], columns)
     ticks = Ticks.of(t, evaluator.period, evaluator.max_gap)
-    judged = [verdicts(s.formula, values, columns, ticks) for s in evaluator.states]
     points = evaluator.states[0].series.max_points if evaluator.states else 1
     bucket = buckets(t, evaluator.period, points)
     events: list[Event] = []
-    for k, (state, v) in enumerate(zip(evaluator.states, judged, strict=True)):
+    codes = []  # one formula's verdicts at a time: only their codes are kept
+    for k, state in enumerate(evaluator.states):
+        v = verdicts(state.formula, values, columns, ticks)
         signal = state.formula.signal
         shown = columns.column(signal) if signal and signal in columns.names else np.full(n, np.nan)
         events += judge_formula(evaluator, k, v, ticks, bucket, shown)
-    codes = [v.code for v in judged]
+        codes.append(v.code)
     _tally(evaluator, codes, changes, ticks.times)
     odd, odd_events = _odd(evaluator, columns, changes, ticks.times)
     events += odd_events

@@ -329,6 +329,20 @@ def test_times_that_do_not_increase_are_replayed():
     assert evaluator.ticks == 0 and not evaluator.data_gaps  # nothing was changed
 
 
+def test_values_that_do_not_line_up_with_the_updates_are_replayed():
+    case, spec = prepared()
+    columns = Columns(input_names(spec))
+    for t in (0.0, 0.1, 0.2):
+        columns.add(t, {"a": 0.0, "b": 0.0, "c": 1.0, "d": 0.0, "speed": 1.0})
+    whole = evaluate_whole_log(spec, columns, case.monitor.metrics.max_gap)
+    short = {**whole.values, "Sn3.assume": whole.values["Sn3.assume"][:2]}
+    evaluator = Evaluator(case, spec, monitor_factory=_no_monitor)
+    with pytest.raises(NotReplayable, match=r"Sn3\.assume: 2 values for 3 updates"):
+        judge_whole_log(evaluator, columns, [(0, CONDITIONS[0])], short)
+    assert evaluator.ticks == 0 and not evaluator.episodes  # nothing was changed
+    assert all(s.ticks_evaluated == 0 for s in evaluator.states)
+
+
 def test_a_log_that_cannot_be_judged_from_arrays_is_replayed(monkeypatch, tmp_path):
     """The session falls back to the tick-by-tick replay (`NotReplayable`) with the same
     result and events; the odd-grid drive has contracts, an ODD and condition changes."""
