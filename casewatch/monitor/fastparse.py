@@ -561,6 +561,26 @@ def _points(buf, p, vals, nv, hard, nh):  # pragma: no cover - compiled
 
 
 @kernel
+def _integer_id(buf, p):  # pragma: no cover - compiled
+    """An integer id at p whose text is str() of its int: (ok, end). At most 18 digits (orjson
+    reads longer ones by its own type rules), no leading zero, not '-0' (whose int is 0), not
+    followed by a fraction or an exponent (a float id is a careful-route defect)."""
+    s = p
+    if buf[p] == 45:
+        p += 1
+    if buf[p] == 48:
+        p += 1
+        ok = p - s == 1  # '0' alone
+    else:
+        d = p
+        while 48 <= buf[p] <= 57:
+            p += 1
+        ok = 0 < p - d <= 18
+    c = buf[p]
+    return ok and c != 46 and c != 101 and c != 69 and not 48 <= c <= 57, p
+
+
+@kernel
 def _add_span(spans, ns, kind, s, e):  # pragma: no cover - compiled
     """Record a value left to orjson; False when the (fixed) table is full."""
     if ns == spans.shape[0]:
@@ -635,9 +655,7 @@ def _scan_object(buf, p, n, vals, nv, hard, nh, objs, row, spans, ns):  # pragma
             if buf[p] == 34:
                 ok, s, e, p = _string(buf, p)
             else:
-                # an integer id of at most 18 digits, not '-0' (str() of its int is '0')
-                e, _, parsed, is_int = _number(buf, p)
-                ok = parsed != 0 and is_int and not (buf[s] == 45 and buf[s + 1] == 48)
+                ok, e = _integer_id(buf, p)
                 p = e
             objs[row, _O_ID] = s
             objs[row, _O_ID_END] = e

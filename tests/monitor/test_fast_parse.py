@@ -462,3 +462,29 @@ def test_the_reader_reads_the_same_frames_and_defects_both_ways(tmp_path, monkey
     assert len(fast_frames) == len(slow_frames) > 30
     for a, b in zip(fast_frames, slow_frames, strict=True):
         assert_same_frame(a, b)
+
+
+@pytest.mark.parametrize(
+    ("token", "fast"),
+    [
+        ("0", True),
+        ("-5", True),
+        ('"07"', True),
+        ("123456789012345678", True),
+        ("-123456789012345678", True),
+        ("1234567890123456789", False),  # 19 digits: orjson's own type rules, careful route
+        ("-0", False),  # its int is 0: str() gives '0'
+        ("5e0", False),  # a float: wrong-type
+        ("5.0", False),
+        ("true", False),
+        ("01", False),  # not JSON
+    ],
+)
+def test_object_ids(token, fast):
+    line = (
+        '{"t": 0, "channels": {"a": {"ego": {"x": 0, "y": 0, "yaw": 0, "length": 1, '
+        '"width": 1}, "objects": [{"id": ' + token + ', "x": 0, "y": 0, "length": 1, '
+        '"width": 1, "prediction": []}]}}}'
+    )
+    same_outcome(line, ["a"])
+    assert (fast_frame(line, ["a"]) is not None) == fast
