@@ -145,10 +145,11 @@ def _comfort_kernel(times, xy, centres, half, steepness):  # pragma: no cover - 
 
 
 @kernel
-def _uniform_kernel(xy, first, last, proj, half, steepness):  # pragma: no cover - compiled
+def _uniform_kernel(xy, first, last, proj, half, steepness, col=0):  # pragma: no cover
     """`_comfort_kernel` for samples on a uniform grid with windows of 2h + 1 samples centred
     on samples first..last: every window has the same design, so each fit is three dot
-    products with the rows of the least-squares projection `proj` (4, 2h + 1)."""
+    products with the rows of the least-squares projection `proj` (4, 2h + 1). x and y are
+    the columns `col` and `col + 1` of `xy` (1: a plan's [dt, x, y] rows, read in place)."""
     h = (proj.shape[1] - 1) // 2
     pa_lon = 0.0
     pa_lat = 0.0
@@ -156,8 +157,8 @@ def _uniform_kernel(xy, first, last, proj, half, steepness):  # pragma: no cover
     for i in range(first, last + 1):
         c1x = c1y = c2x = c2y = c3x = c3y = 0.0
         for j in range(2 * h + 1):
-            x = xy[i - h + j, 0]
-            y = xy[i - h + j, 1]
+            x = xy[i - h + j, col]
+            y = xy[i - h + j, col + 1]
             c1x += proj[1, j] * x
             c1y += proj[1, j] * y
             c2x += proj[2, j] * x
@@ -185,10 +186,11 @@ def _uniform_kernel(xy, first, last, proj, half, steepness):  # pragma: no cover
 
 
 @kernel
-def _uniform(times, step):  # pragma: no cover - compiled
-    """True when consecutive sample times are `step` apart (to TIME_EPS)."""
-    for i in range(times.shape[0] - 1):  # noqa: SIM110 - a loop, not a generator, in numba
-        if abs(times[i + 1] - times[i] - step) > TIME_EPS:
+def _uniform(rows, step):  # pragma: no cover - compiled
+    """True when consecutive sample times (column 0 of `rows`) are `step` apart (to
+    TIME_EPS)."""
+    for i in range(rows.shape[0] - 1):
+        if abs(rows[i + 1, 0] - rows[i, 0] - step) > TIME_EPS:
             return False
     return True
 
@@ -242,20 +244,25 @@ def ppcs(plan: np.ndarray, span: float, steepness: float) -> float | None:
     inside the plan; a plan shorter than `span` is fitted once, whole, centred on its middle.
     None below four points.
     """
-    if len(plan) < MIN_POINTS:
+    n = len(plan)
+    if n < MIN_POINTS:
         return None
+    half = 0.5 * span
+    # Python floats: the same IEEE arithmetic as numpy's scalars, without their cost
+    first, last = float(plan[0, 0]), float(plan[n - 1, 0])
+    if last - first >= span - TIME_EPS:
+        step = (last - first) / (n - 1)
+        h = round(half / step)
+        rows = np.ascontiguousarray(plan)
+        if abs(h * step - half) <= TIME_EPS and _uniform(rows, step):
+            # the canonical grid (always, for a resampled plan): one projection for every
+            # window, read from the plan's rows in place
+            return _uniform_kernel(
+                rows, h, n - 1 - h, _projection(h), float(half), float(steepness), 1
+            )
     times = np.ascontiguousarray(plan[:, 0])
     xy = np.ascontiguousarray(plan[:, 1:3])
-    half = 0.5 * span
-    first, last = times[0], times[-1]
     if last - first < span - TIME_EPS:
         return _score(times, xy, np.array([0.5 * (first + last)]), 0.5 * (last - first), steepness)
-    step = (last - first) / (len(times) - 1)
-    h = round(half / step)
-    if abs(h * step - half) <= TIME_EPS and _uniform(times, step):
-        # the canonical grid (always, for a resampled plan): one projection for every window
-        return _uniform_kernel(
-            xy, h, len(times) - 1 - h, _projection(h), float(half), float(steepness)
-        )
     inside = (times - half >= first - TIME_EPS) & (times + half <= last + TIME_EPS)
     return _score(times, xy, times[inside], half, steepness)

@@ -13,6 +13,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from numba import njit
 
+from casewatch.monitor.comfort import (
+    MIN_POINTS,
+    TIME_EPS,
+    _projection,
+    _score,
+    _uniform_kernel,
+    ppcs,
+)
 from casewatch.monitor.coverage import _rows, _view, _view_rows, common_view
 from casewatch.monitor.family import worst
 from casewatch.monitor.frames import Coverage, Ego, Objects, box_footprint
@@ -327,3 +335,51 @@ def test_cached_segments_give_the_arc_lengths_and_points_of_the_direct_ones(seed
         _along(rows, first, n, length, n_out, off[0], off[1], want, 1)
         _along_segs(rows, segs, first, n, length, n_out, off[0], off[1], got, 1)
         assert np.array_equal(got, want)
+
+
+# --- ppcs: the plan's rows read in place ----------------------------------------------------
+
+
+def _old_ppcs(plan, span, steepness):
+    """ppcs before issue 36: contiguous copies of the columns, numpy scalars."""
+    if len(plan) < MIN_POINTS:
+        return None
+    times = np.ascontiguousarray(plan[:, 0])
+    xy = np.ascontiguousarray(plan[:, 1:3])
+    half = 0.5 * span
+    first, last = times[0], times[-1]
+    if last - first < span - TIME_EPS:
+        return _score(times, xy, np.array([0.5 * (first + last)]), 0.5 * (last - first), steepness)
+    step = (last - first) / (len(times) - 1)
+    h = round(half / step)
+    if abs(h * step - half) <= TIME_EPS and all(
+        abs(times[i + 1] - times[i] - step) <= TIME_EPS for i in range(len(times) - 1)
+    ):
+        return _uniform_kernel(
+            xy, h, len(times) - 1 - h, _projection(h), float(half), float(steepness)
+        )
+    inside = (times - half >= first - TIME_EPS) & (times + half <= last + TIME_EPS)
+    return _score(times, xy, times[inside], half, steepness)
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_ppcs_equals_its_old_formulation(seed):
+    rng = np.random.default_rng(seed)
+    for _ in range(20):
+        n = int(rng.integers(0, 60))
+        step = float(rng.choice([0.1, 0.2, 0.5, 0.13]))
+        dt = float(rng.choice([0.0, 0.1])) + step * np.arange(n)
+        if n > 2 and rng.random() < 0.2:
+            dt[1:] += rng.uniform(0, 0.05, n - 1).cumsum()  # not uniform
+        xy = rng.uniform(-100, 100, 2) + np.cumsum(rng.normal(0, 1.5, (n, 2)), axis=0)
+        plan = np.column_stack([dt, xy])
+        span = float(rng.choice([3.0, 2.0, 1.0, 10.0]))
+        steep = float(rng.choice([0.2, 1.0]))
+        try:
+            want = _old_ppcs(plan, span, steep)
+        except np.linalg.LinAlgError:  # windows of 3 samples (h = 1): no cubic, both raise
+            with pytest.raises(np.linalg.LinAlgError):
+                ppcs(plan, span, steep)
+            continue
+        got = ppcs(plan, span, steep)
+        assert (got is None and want is None) or got == want
