@@ -38,7 +38,7 @@ COMMANDS: dict[str, str] = {
     "odd": "the operational design domain judged runs support (heatmap, YAML ODD)",
     "compare": "compare many runs grouped by agent and scenario, with a violation map",
     "annotate": "write a run's verdicts into its recording (MCAP with Foxglove schemas)",
-    "warm-up": "compile the numba kernels into numba's cache once, so the first run starts at once",
+    "warm-up": "fill numba's cache with the compiled kernels, once after installing or upgrading",
 }
 
 

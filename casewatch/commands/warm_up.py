@@ -1,10 +1,11 @@
 """`casewatch warm-up`: compile every numba kernel into numba's cache, once per install.
 
-Why: the metric kernels, the ROS 2 bag decoder and the whole-log STL engine's window loops are
-numba-compiled. A machine's first run compiles them (about 20 s on two cores, most of it numba's
-own typing and lowering, in Python); every later process loads them from the cache in about a
-second. Installing with `make venv` runs this command, and after `pip install casewatch` a user
-runs it once, so that the first real run starts in about a second instead of compiling.
+Why: the metric kernels, the compiled frame reader, the ROS 2 bag decoder and the whole-log STL
+engine's window loops are numba-compiled. A machine's first run compiles them (close to a
+minute of CPU on the project's machine, most of it numba's own typing and lowering, in Python,
+so compiler options barely change it); every later process loads them from the cache in about
+a second. Installing with `make venv` runs this command, and after `pip install casewatch` a
+user runs it once, so that the first real run starts in about a second instead of compiling.
 
 The cache is the one every run reads: beside the installed modules (`__pycache__`) when that is
 writable, else numba's per-user cache folder, or `NUMBA_CACHE_DIR` when set. numba checks each
@@ -29,7 +30,7 @@ from casewatch.evaluator import stl_kernels
 from casewatch.monitor.bags.decode import warm_up as warm_up_decoder
 from casewatch.monitor.warmup import warm_up as warm_up_metrics
 
-HELP = "compile the numba kernels into numba's cache once, so the first run starts at once"
+HELP = "fill numba's cache with the compiled kernels, once after installing or upgrading"
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -39,8 +40,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description="Compile (or load, when the cache is filled) every numba kernel casewatch "
         "runs: the metrics, the ROS 2 bag decoder and the whole-log STL engine, into numba's "
         "cache, which every later run reads. Run once after installing or upgrading casewatch "
-        "(make venv does); a first run then starts in about a second instead of compiling "
-        "for about 20. Exit 0.",
+        "(make venv does); a first run then loads them in about a second instead of "
+        "compiling them for up to a minute. Exit 0.",
     )
     parser.add_argument(
         "--quiet", action="store_true", help="print nothing (the exit code says it worked)"
