@@ -132,7 +132,9 @@ _F64 = types.Array(types.float64, 1, "C")
 def _inline(fn: Any) -> Any:
     """A kernel numba inlines into its callers (numba's IR inlining: LLVM did not inline these
     small helpers across numba's calling convention, which doubled the scan's time)."""
-    return njit(cache=True, nogil=True, error_model="numpy", inline="always")(fn)
+    return njit(
+        cache=True, nogil=True, error_model="numpy", no_cfunc_wrapper=True, inline="always"
+    )(fn)
 
 
 def _entry(*signature: Any) -> Any:
@@ -140,7 +142,7 @@ def _entry(*signature: Any) -> Any:
     module is imported (from numba's cache after a machine's first run): a run compiles
     nothing on its first line, and warm-up needs no sample line. The kernels it calls are
     compiled into it (monitor.jit: a kernel calls only kernels of its own module)."""
-    return njit([signature], cache=True, nogil=True, error_model="numpy")
+    return njit([signature], cache=True, nogil=True, error_model="numpy", no_cfunc_wrapper=True)
 
 
 @kernel
@@ -1076,11 +1078,12 @@ def fast_frame(
         known = set(known_channels)
         if any(name not in known for name in names):
             return None
-    total = int(layout[:, 4].sum()) if len(layout) else 0
+    rows = layout.tolist()
+    total = sum(row[4] for row in rows)
     items = strings.tobytes().decode("ascii").split('"') if total else []
     channels: dict[str, ChannelState] = {}
     first = 0
-    for name, (e0, p0, npl, b, k, pts) in zip(names, layout.tolist(), strict=True):
+    for name, (e0, p0, npl, b, k, pts) in zip(names, rows, strict=True):
         x, y, yaw, vx, vy, hl, hw = out[e0 : e0 + 7].tolist()
         ego = Ego(
             x=x,
