@@ -397,7 +397,13 @@ def series_bounds(b: Buckets, value: np.ndarray) -> tuple[list, list]:
         bound[zero_group[at_zero]] = first_zero[at_zero]
         full = np.full(b.size, np.nan)
         full[owner] = bound
-        out.append([None if x != x else x for x in full.tolist()])  # NaN: no value
+        empty = np.isnan(full)  # no value in the bucket: None
+        if empty.any():
+            boxed = full.astype(object)
+            boxed[empty] = None
+            out.append(boxed.tolist())
+        else:
+            out.append(full.tolist())
     return out[0], out[1]
 
 
