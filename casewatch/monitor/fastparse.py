@@ -19,13 +19,19 @@ so kinds and messages cannot change. Where it accepts, it builds the careful rou
 value for value (tests/monitor/test_fast_parse*.py hold it to `parse_frame` on random frames).
 
 Numbers: a JSON number becomes the double nearest to its decimal value, as orjson (and
-Python's `float`) make it. Up to 19 significant digits with a decimal exponent of at most 22
-in size, and a mantissa below 2**53, are exact by Clinger's argument (the mantissa and the
-power of ten are exact doubles, and one IEEE multiplication or division rounds correctly);
-other mantissas of up to 19 digits take the Eisel-Lemire algorithm (a 128-bit product with a
-truncated power of five, exact where it answers); what neither settles (more digits,
-subnormal or overflowing results) is handed back and parsed by orjson itself. An integer
-`-0` is 0.0, as Python's int 0 becomes.
+Python's `float`) make it. A mantissa below 2**53 with a decimal exponent of at most 22 in
+size is exact by Clinger's argument (the mantissa and the power of ten are exact doubles, and
+one IEEE multiplication or division rounds correctly); other mantissas of up to 18
+significant digits take the Eisel-Lemire algorithm (a 128-bit product with a truncated power
+of five, exact where it answers); what neither settles (more digits, subnormal or
+overflowing results) is handed back and parsed by orjson itself. An integer `-0` is 0.0, as
+Python's int 0 becomes. tests/monitor/test_fast_parse_numbers.py holds the parser to orjson
+bit for bit.
+
+One quirk is kept on purpose: the careful route's own fast path for box objects with
+predictions of one length (`parse._objects_fast`) does not bound their values by 1e9, where
+every other value is; so a box object at x = 1e300 is accepted here too, and the same object
+without a prediction is an `out-of-range` defect on both routes.
 """
 
 from __future__ import annotations
@@ -57,8 +63,8 @@ _MAX = 1e9
 #: orjson's 1024 and Python's recursion limit, so decoding it alone and within the line agree.
 _MAX_SKIP_DEPTH = 200
 
-#: Most numbers of a line left to orjson (see the module docstring: a line with more takes
-#: the careful route, which is then as fast).
+#: Most numbers of a line left to orjson (see the module docstring); a line with more takes
+#: the careful route.
 _MAX_HARD = 256
 
 #: Most values a line may leave to orjson (unknown keys, `signals`, `world`, `odd`).
@@ -78,7 +84,7 @@ _K_T, _K_CHANNELS, _K_SIGNALS, _K_ODD, _K_WORLD, _K_HEADER = 15, 16, 17, 18, 19,
 SPAN_NAMES = ("", "signals", "odd", "world")
 
 # Object table columns: vals index of x, y, yaw, vx, vy, length, width (-1 absent), id span
-# (start, end, is-integer), cls span (-1 absent), prediction (first vals index, points; -1
+# (start, end; -1 absent), cls span (-1 absent), prediction (first vals index, points; -1
 # absent).
 _O_ID, _O_ID_END, _O_CLS, _O_CLS_END, _O_PRED, _O_PRED_N = 7, 8, 9, 10, 11, 12
 _O_COLS = 13
