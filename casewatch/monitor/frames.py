@@ -164,9 +164,10 @@ class Objects:
     def subset(self, keep: np.ndarray) -> Objects:
         """The objects where the boolean mask `keep` (K,) is True, in their order."""
         idx = np.flatnonzero(keep)
+        rows = idx.tolist()  # Python ints: list indexing without numpy scalars
         return Objects(
-            ids=[self.ids[i] for i in idx],
-            cls=[self.cls[i] for i in idx],
+            ids=[self.ids[i] for i in rows],
+            cls=[self.cls[i] for i in rows],
             pos=self.pos[idx],
             yaw=self.yaw[idx],
             vel=self.vel[idx],

@@ -48,7 +48,8 @@ class LoneAges:
         first seen unpaired now, else the time since it was first seen unpaired. Remembered
         objects are followed onto every current object: onto an unpaired one they pass on
         their age, onto a paired one they end."""
-        lone = np.asarray(lone, dtype=bool)
+        if not isinstance(lone, np.ndarray) or lone.dtype != np.bool_:
+            lone = np.asarray(lone, dtype=bool)
         if not len(self.pos) and not lone.any():
             # the common tick: nothing unpaired now and nothing remembered, so nothing to
             # follow and the (empty) memory stays as it is; the general path below would
