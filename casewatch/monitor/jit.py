@@ -36,8 +36,10 @@ from numba import njit
 
 F = TypeVar("F", bound=Callable)
 
-#: numba's options for every kernel (the module docstring says why each).
-_OPTIONS: dict[str, Any] = {
+#: numba's options for every kernel (the module docstring says why each). A module that calls
+#: `njit` itself (another signature or `inline`) passes these: `njit(**KERNEL_OPTIONS, ...)`
+#: (typed as a dict, so mypy accepts the options numba's stubs do not list).
+KERNEL_OPTIONS: dict[str, Any] = {
     "cache": True,
     "nogil": True,
     "error_model": "numpy",
@@ -47,4 +49,4 @@ _OPTIONS: dict[str, Any] = {
 
 def kernel(fn: F) -> F:
     """Compile `fn` as a metric kernel (see the module docstring for the settings)."""
-    return njit(**_OPTIONS)(fn)  # type: ignore[no-any-return]
+    return njit(**KERNEL_OPTIONS)(fn)  # type: ignore[no-any-return]
