@@ -60,9 +60,10 @@ def read_frame(text: str, channels: Iterable[str] | None = None, line: int = 0) 
     through the compiled pass (`monitor.fastparse`) when the line has the common shape.
     Raises what that does (ValueError for a line that is not JSON, FrameDefect); for a caller
     that times or reads single lines (the live benchmark). A header line is not a frame."""
-    frame = fast_frame(text, channels, line)
+    declared = None if channels is None else list(channels)  # read twice at most
+    frame = fast_frame(text, declared, line)
     if frame is None:
-        frame = parse_frame(decode(text), channels, line)
+        frame = parse_frame(decode(text), declared, line)
     return frame
 
 

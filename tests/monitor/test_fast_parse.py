@@ -488,3 +488,14 @@ def test_object_ids(token, fast):
     )
     same_outcome(line, ["a"])
     assert (fast_frame(line, ["a"]) is not None) == fast
+
+
+def test_read_frame_reads_declared_channels_given_once():
+    """Channels given as a one-shot iterable still reach the careful route intact."""
+    line = (
+        '{"t": 0, "channels": {"c": {"ego": {"x": 0, "y": 0, "yaw": 0, "length": 1, "width": 1}}}}'
+    )
+    with pytest.raises(FrameDefect) as raised:
+        read_frame(line, iter(["a", "b"]))
+    assert raised.value.kind == "unknown-channel"
+    assert raised.value.message == "channels.c: channel not declared (declared: a, b)"
