@@ -51,6 +51,9 @@ WARMING_UP = "(sum window filling)"
 #: the (re)start: the violation has not lasted `for:` of data (docs/formulas.md).
 PERSISTING = "(for window filling)"
 
+#: What a data gap names for the ticks of a jump in frame time longer than `max_gap`.
+NO_FRAMES = "(no frames)"
+
 #: What a data gap names at a tick whose robustness is not a number (a division 0 / 0 of
 #: signals, `inf - inf`): neither a pass nor a violation (docs/formulas.md).
 UNDEFINED = "(not a number)"
@@ -299,9 +302,7 @@ class Evaluator:
         """Frames are missing between `last_t` and `t`: a gap for every formula."""
         skipped = max(1, round((t - last_t) / self.period) - 1)
         for state in self.states:
-            state.gaps.missing(
-                t - self.period, ["(no frames)"], skipped, start=last_t + self.period
-            )
+            state.gaps.missing(t - self.period, [NO_FRAMES], skipped, start=last_t + self.period)
             state.ticks_no_data += skipped
             state.fresh = True
             if state.assume is not None:  # a contract's assumption restarts too

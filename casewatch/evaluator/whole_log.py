@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from casewatch.evaluator.core import (
+    NO_FRAMES,
     PERSISTING,
     UNDEFINED,
     WARMING_UP,
@@ -41,10 +42,8 @@ from casewatch.evaluator.result import FormulaTally, OddChange
 from casewatch.evaluator.series import DecimatedSeries
 from casewatch.evaluator.signal_store import Columns
 from casewatch.evaluator.status import OddVerdict
+from casewatch.safety_case.model import OddRange, OddValue
 from casewatch.spec.model import CompiledFormula
-
-#: What a data gap names for the ticks of a jump in frame time (`Evaluator._stream_gap`).
-NO_FRAMES = "(no frames)"
 
 #: Verdict codes per tick.
 OK, VIOLATED, NO_DATA, OUTSIDE = 0, 1, 2, 3
@@ -527,10 +526,8 @@ def odd_verdicts(
     return code, why, reasons
 
 
-def _accepts(accepted, col: np.ndarray) -> np.ndarray:
+def _accepts(accepted: list[OddValue] | OddRange, col: np.ndarray) -> np.ndarray:
     """`odd_check._accepts` of a signal's float values, elementwise."""
-    from casewatch.safety_case.model import OddRange
-
     with np.errstate(invalid="ignore"):
         if isinstance(accepted, OddRange):
             ok = np.ones(len(col), dtype=bool)
