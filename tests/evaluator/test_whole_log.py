@@ -240,7 +240,7 @@ def logs(draw) -> tuple[list[float], list[dict], list[tuple[int, dict]]]:
     return times, rows, changes
 
 
-def judged(times, rows, changes, fast: bool) -> tuple[Evaluator, list]:
+def judged(times, rows, changes, fast: bool, points: int = 1000) -> tuple[Evaluator, list]:
     case, spec = prepared()
     columns = Columns(input_names(spec))
     for t, row in zip(times, rows, strict=True):
@@ -252,7 +252,11 @@ def judged(times, rows, changes, fast: bool) -> tuple[Evaluator, list]:
         return PrecomputedMonitor(whole.values[f.id])
 
     evaluator = Evaluator(
-        case, spec, on_event=events.append, monitor_factory=_no_monitor if fast else precomputed
+        case,
+        spec,
+        on_event=events.append,
+        monitor_factory=_no_monitor if fast else precomputed,
+        series_points=points,
     )
     if fast:
         judge_whole_log(evaluator, columns, changes, whole.values)
@@ -285,6 +289,18 @@ def test_whole_log_is_the_replay(log):
     slow, slow_events = judged(times, rows, changes, fast=False)
     assert outputs(fast) == outputs(slow)
     assert [repr(e) for e in fast_events] == [repr(e) for e in slow_events]
+
+
+@given(log=logs(), points=st.integers(1, 8))
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+def test_whole_log_is_the_replay_with_decimated_series(log, points):
+    """Few plot points: the bucket width doubles while the log is judged."""
+    times, rows, changes = log
+    fast, _ = judged(times, rows, changes, fast=True, points=points)
+    slow, _ = judged(times, rows, changes, fast=False, points=points)
+    assert [repr(s.model_dump()) for s in fast.series()] == [
+        repr(s.model_dump()) for s in slow.series()
+    ]
 
 
 def test_the_case_has_what_the_replay_must_match():
