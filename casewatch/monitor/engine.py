@@ -18,7 +18,7 @@ from typing import TypeVar
 from casewatch.monitor.family import MetricFamily
 from casewatch.monitor.frames import ChannelState, Coverage, Frame
 from casewatch.monitor.registry import FAMILIES as REGISTERED
-from casewatch.monitor.resample import hold_standing, resample_objects, resample_plan, smooth_plan
+from casewatch.monitor.resample import prepare_plan, resample_objects
 from casewatch.monitor.world import WORLD_SIGNALS
 from casewatch.safety_case.model import MetricParams
 from casewatch.safety_case.signals import builtin_signals
@@ -107,7 +107,7 @@ class MetricEngine:
         return {
             c: ChannelState(
                 s.ego,
-                hold_standing(resample_plan(smooth_plan(s.plan, span), step), still),
+                prepare_plan(s.plan, span, step, still),
                 resample_objects(s.objects, step),
             )
             for c, s in frame.channels.items()

@@ -390,3 +390,32 @@ def smooth_plan(plan: np.ndarray, span: float) -> np.ndarray:
     if span <= 0.0 or len(plan) < 3:
         return plan
     return _smooth_plan(np.ascontiguousarray(plan, dtype=float), 0.5 * float(span))
+
+
+@kernel
+def _prepare_plan(plan, half, smooth, step, radius):  # pragma: no cover - compiled
+    """`hold_standing(resample_plan(smooth_plan(plan, 2 half), step), radius)` in one call
+    (`smooth`: span > 0), for a C-contiguous float plan: the same kernels in the same order."""
+    p = plan
+    if smooth and plan.shape[0] >= 3:
+        p = _smooth_plan(plan, half)
+    if p.shape[0] > 0 and not _on_grid(p[:, 0], 0, step):
+        p = _resample_plan(p, step)
+    if not radius <= 0.0 and p.shape[0] >= 2 and _stands(p, radius):
+        out = p.copy()
+        for i in range(p.shape[0]):
+            out[i, 1] = p[0, 1]
+            out[i, 2] = p[0, 2]
+        p = out
+    return p
+
+
+def prepare_plan(plan: np.ndarray, span: float, step: float, radius: float) -> np.ndarray:
+    """A plan as every metric reads it: smoothed (`smooth_plan`), on the canonical grid
+    (`resample_plan`), a standing one standing (`hold_standing`); one compiled call for the
+    usual C-contiguous float plan (the engine's per-channel step, issue 36), else the three
+    functions in turn."""
+    if plan.dtype == np.float64 and plan.flags.c_contiguous and plan.ndim == 2:
+        smooth = not span <= 0.0  # smooth_plan's test, NaN included
+        return _prepare_plan(plan, 0.5 * float(span), smooth, float(step), float(radius))
+    return hold_standing(resample_plan(smooth_plan(plan, span), step), radius)

@@ -33,7 +33,13 @@ from casewatch.monitor.history import (
     common_path,
 )
 from casewatch.monitor.prediction import _ompv_counts, _predict, _standing_counts, ompv
-from casewatch.monitor.resample import hold_standing, with_predictions
+from casewatch.monitor.resample import (
+    hold_standing,
+    prepare_plan,
+    resample_plan,
+    smooth_plan,
+    with_predictions,
+)
 from casewatch.monitor.safety_kernel import _stands_still
 from casewatch.monitor.safety_score import _upto, prediction_horizon
 from casewatch.monitor.similarity import (
@@ -383,3 +389,28 @@ def test_ppcs_equals_its_old_formulation(seed):
             continue
         got = ppcs(plan, span, steep)
         assert (got is None and want is None) or got == want
+
+
+# --- a plan prepared in one call -------------------------------------------------------------
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_prepare_plan_is_the_three_steps_in_turn(seed):
+    rng = np.random.default_rng(seed)
+    for _ in range(25):
+        n = int(rng.integers(0, 40))
+        step = float(rng.choice([0.1, 0.5, 0.25, 0.07]))
+        dt = float(rng.choice([0.0, 0.1, 0.03])) + step * np.arange(n)
+        xy = rng.uniform(-100, 100, 2) + np.cumsum(rng.normal(0, 1.0, (n, 2)), axis=0)
+        if n and rng.random() < 0.3:
+            xy = xy[:1] + rng.normal(0, 0.1, (n, 2))  # standing with sample noise
+        plan = np.column_stack([dt, xy])
+        span = float(rng.choice([0.0, 2.0, 1.0]))
+        grid = float(rng.choice([0.1, 0.2]))
+        radius = float(rng.choice([0.0, 1.0, 0.3]))
+        want = hold_standing(resample_plan(smooth_plan(plan, span), grid), radius)
+        got = prepare_plan(plan, span, grid, radius)
+        assert got.shape == want.shape
+        assert np.array_equal(got, want)
+        # a plan that is not C-contiguous float takes the three functions
+        assert np.array_equal(prepare_plan(np.asfortranarray(plan), span, grid, radius), want)
