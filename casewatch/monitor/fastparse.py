@@ -135,12 +135,19 @@ _I64_2D = types.Array(types.int64, 2, "C")
 _F64 = types.Array(types.float64, 1, "C")
 
 
+#: monitor.jit's settings (its kernels' docstring says why).
+_OPTIONS: dict[str, Any] = {
+    "cache": True,
+    "nogil": True,
+    "error_model": "numpy",
+    "no_cfunc_wrapper": True,
+}
+
+
 def _inline(fn: Any) -> Any:
     """A kernel numba inlines into its callers (numba's IR inlining: LLVM did not inline these
     small helpers across numba's calling convention, which doubled the scan's time)."""
-    return njit(
-        cache=True, nogil=True, error_model="numpy", no_cfunc_wrapper=True, inline="always"
-    )(fn)
+    return njit(inline="always", **_OPTIONS)(fn)
 
 
 def _entry(*signature: Any) -> Any:
@@ -148,7 +155,7 @@ def _entry(*signature: Any) -> Any:
     module is imported (from numba's cache after a machine's first run): a run compiles
     nothing on its first line, and warm-up needs no sample line. The kernels it calls are
     compiled into it (monitor.jit: a kernel calls only kernels of its own module)."""
-    return njit([signature], cache=True, nogil=True, error_model="numpy", no_cfunc_wrapper=True)
+    return njit([signature], **_OPTIONS)
 
 
 @kernel
