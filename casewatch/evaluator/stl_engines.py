@@ -4,8 +4,9 @@
   The only engine for a live stream.
 - `numpy`: for logs. The metrics of every tick are computed first and kept as columns; each
   formula is then evaluated over the whole log at once (`evaluator.vector_eval`), and the
-  evaluator replays the ticks with those values: episodes, gaps and statuses are formed by the
-  same code as with rtamt.
+  episodes, gaps and statuses are formed from those arrays (`evaluator.whole_log`), as the
+  evaluator would form them replaying the ticks with those values (`PrecomputedMonitor`; the
+  replay stays for what the arrays cannot give, and tests hold the two to each other).
 - `both`: rtamt runs, and each of its values is compared with the numpy engine's for the same
   tick; any difference over 1e-9 (or a differing infinity) is an `EngineMismatch` naming the
   formula and the tick. Two independent evaluators that must agree guard against either
