@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from casewatch.monitor.similarity import pair_objects
+from casewatch.monitor.similarity import follow_lone
 
 
 class LoneAges:
@@ -50,32 +50,18 @@ class LoneAges:
         their age, onto a paired one they end."""
         if not isinstance(lone, np.ndarray) or lone.dtype != np.bool_:
             lone = np.asarray(lone, dtype=bool)
-        if not len(self.pos) and not lone.any():
+        if not len(self.pos) and not np.count_nonzero(lone):
             # the common tick: nothing unpaired now and nothing remembered, so nothing to
             # follow and the (empty) memory stays as it is; the general path below would
             # return the same empty ages through a dozen array calls (issue 36)
             return np.zeros(0)
-        pos = np.array(pos, dtype=float).reshape(-1, 2)
-        vel = np.array(vel, dtype=float).reshape(-1, 2)
-        age = np.zeros(len(pos))
-        keep = np.zeros(len(self.pos), dtype=bool)
-        if len(self.pos):
-            recent = t - self.seen <= self.max_gap + 1e-9
-            found = np.zeros(len(self.pos), dtype=bool)
-            if len(pos) and recent.any():
-                idx = np.flatnonzero(recent)
-                moved = self.pos[idx] + self.vel[idx] * (t - self.seen[idx])[:, None]
-                prev, cur, _ = pair_objects(np.ascontiguousarray(moved), pos, self.gate)
-                found[idx[prev]] = True
-                cont = lone[cur]
-                age[cur[cont]] = self.age[idx[prev[cont]]] + (t - self.seen[idx[prev[cont]]])
-            # not reported now: remembered until max_gap has passed since last seen
-            keep = recent & ~found & (t - self.seen < self.max_gap - 1e-9)
-        self.pos = np.concatenate([pos[lone], self.pos[keep]])
-        self.vel = np.concatenate([vel[lone], self.vel[keep]])
-        self.age = np.concatenate([age[lone], self.age[keep]])
-        self.seen = np.concatenate([np.full(int(lone.sum()), t), self.seen[keep]])
-        return age[lone]
+        pos = np.ascontiguousarray(pos, dtype=float).reshape(-1, 2)
+        vel = np.ascontiguousarray(vel, dtype=float).reshape(-1, 2)
+        # one compiled pass (similarity._follow_lone, beside the pairing kernel it calls)
+        self.pos, self.vel, self.age, self.seen, ages = follow_lone(
+            t, pos, vel, lone, (self.pos, self.vel, self.age, self.seen), self.gate, self.max_gap
+        )
+        return ages
 
 
 def benefit_of_doubt(age: np.ndarray, horizon: float) -> np.ndarray:

@@ -109,6 +109,108 @@ def _pair_kernel(
     return acc_a[:k], acc_b[:k], acc_d[:k]
 
 
+@kernel
+def _follow_lone(  # pragma: no cover - compiled
+    t, pos, vel, lone, mem_pos, mem_vel, mem_age, mem_seen, gate, max_gap
+):
+    """`monitor.lone.LoneAges.update`'s general case in one call (here, beside the pairing
+    kernel it calls: a kernel calls only kernels of its own module). Returns the new memory
+    (pos, vel, age, seen: the unpaired objects now, then the remembered ones kept) and the
+    ages of the unpaired objects now, in index order; the same arithmetic as the numpy
+    formulation it replaced."""
+    n = pos.shape[0]
+    m = mem_pos.shape[0]
+    age = np.zeros(n)
+    keep = np.zeros(m, dtype=np.bool_)
+    if m > 0:
+        recent = np.empty(m, dtype=np.bool_)
+        n_recent = 0
+        for i in range(m):
+            recent[i] = t - mem_seen[i] <= max_gap + 1e-9
+            if recent[i]:
+                n_recent += 1
+        found = np.zeros(m, dtype=np.bool_)
+        if n > 0 and n_recent > 0:
+            idx = np.empty(n_recent, dtype=np.int64)
+            moved = np.empty((n_recent, 2))
+            r = 0
+            for i in range(m):
+                if recent[i]:
+                    idx[r] = i
+                    r += 1
+            for r in range(n_recent):
+                i = idx[r]
+                elapsed = t - mem_seen[i]
+                moved[r, 0] = mem_pos[i, 0] + mem_vel[i, 0] * elapsed
+                moved[r, 1] = mem_pos[i, 1] + mem_vel[i, 1] * elapsed
+            prev, cur, _ = _pair_kernel(moved, pos, gate)
+            for r in range(prev.shape[0]):
+                i = idx[prev[r]]
+                found[i] = True
+                c = cur[r]
+                if lone[c]:
+                    age[c] = mem_age[i] + (t - mem_seen[i])
+        # not reported now: remembered until max_gap has passed since last seen
+        for i in range(m):
+            keep[i] = recent[i] and not found[i] and t - mem_seen[i] < max_gap - 1e-9
+    n_lone = 0
+    for i in range(n):
+        if lone[i]:
+            n_lone += 1
+    n_keep = 0
+    for i in range(m):
+        if keep[i]:
+            n_keep += 1
+    new_pos = np.empty((n_lone + n_keep, 2))
+    new_vel = np.empty((n_lone + n_keep, 2))
+    new_age = np.empty(n_lone + n_keep)
+    new_seen = np.empty(n_lone + n_keep)
+    ages = np.empty(n_lone)
+    j = 0
+    for i in range(n):
+        if lone[i]:
+            new_pos[j, 0] = pos[i, 0]
+            new_pos[j, 1] = pos[i, 1]
+            new_vel[j, 0] = vel[i, 0]
+            new_vel[j, 1] = vel[i, 1]
+            new_age[j] = age[i]
+            new_seen[j] = t
+            ages[j] = age[i]
+            j += 1
+    for i in range(m):
+        if keep[i]:
+            new_pos[j, 0] = mem_pos[i, 0]
+            new_pos[j, 1] = mem_pos[i, 1]
+            new_vel[j, 0] = mem_vel[i, 0]
+            new_vel[j, 1] = mem_vel[i, 1]
+            new_age[j] = mem_age[i]
+            new_seen[j] = mem_seen[i]
+            j += 1
+    return new_pos, new_vel, new_age, new_seen, ages
+
+
+def follow_lone(
+    t: float,
+    pos: np.ndarray,
+    vel: np.ndarray,
+    lone: np.ndarray,
+    memory: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    gate: float,
+    max_gap: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """`_follow_lone` on float (K, 2) positions and velocities, bool flags `lone` and the
+    memory (pos, vel, age, seen) of `monitor.lone.LoneAges`."""
+    return _follow_lone(
+        float(t),
+        pos,
+        vel,
+        lone,
+        *memory,
+        float(gate),
+        float(max_gap),
+    )
+
+
 def pair_objects(
     pos_a: np.ndarray, pos_b: np.ndarray, gate: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -73,3 +73,28 @@ def test_benefit_of_doubt_of_nothing_is_an_empty_float_array():
     want = np.clip(1.0 - np.zeros(0) / 2.0, 0.0, 1.0)
     assert (out.dtype, out.shape) == (want.dtype, want.shape)
     assert benefit_of_doubt(np.array([0.0, 1.0, 3.0]), 2.0).tolist() == [1.0, 0.5, 0.0]
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_compiled_update_follows_moving_objects_like_the_general_one(seed):
+    """The general case compiled (similarity._follow_lone): objects that keep moving by their
+    velocity, drop out for a tick or two and come back, paired or not, with ties at the
+    gate, give the general update's ages and memory, bit for bit (issue 36)."""
+    rng = np.random.default_rng(100 + seed)
+    fast, general = LoneAges(3.0, 0.5), GeneralAges(3.0, 0.5)
+    k = int(rng.integers(1, 9))
+    pos = rng.uniform(-30, 30, (k, 2))
+    vel = rng.normal(0, 5, (k, 2))
+    t = 0.0
+    for _ in range(150):
+        step = float(rng.choice([0.1, 0.1, 0.2, 0.6]))
+        t = round(t + step, 6)
+        pos = pos + vel * step + rng.normal(0, 0.3, (k, 2))
+        shown = rng.random(k) < 0.8
+        lone = rng.random(int(shown.sum())) < 0.5
+        got = fast.update(t, pos[shown], vel[shown], lone)
+        want = general.update(t, pos[shown], vel[shown], lone)
+        assert got.tolist() == want.tolist()
+        assert got.dtype == want.dtype and got.shape == want.shape
+        for name in ("pos", "vel", "age", "seen"):
+            assert getattr(fast, name).tolist() == getattr(general, name).tolist(), name
