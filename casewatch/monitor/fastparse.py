@@ -82,6 +82,7 @@ _K_T, _K_CHANNELS, _K_SIGNALS, _K_ODD, _K_WORLD, _K_HEADER = 15, 16, 17, 18, 19,
 
 #: Span kinds handed to Python (orjson decodes them); 0 is an unknown key's value.
 SPAN_NAMES = ("", "signals", "odd", "world")
+_ANY = np.int64(0)  # that kind as an int64 (a literal 0 would take its own compiled variant)
 
 # Object table columns: vals index of x, y, yaw, vx, vy, length, width (-1 absent), id span
 # (start, end; -1 absent), cls span (-1 absent), prediction (first vals index, points; -1
@@ -483,7 +484,7 @@ def _member(buf, p):  # pragma: no cover - compiled
     return True, _key(buf, s, e), s, e, _ws(buf, p + 1)
 
 
-@kernel
+@_inline
 def _next(buf, p, close):  # pragma: no cover - compiled
     """After a member or element: (state, position); state 1 another follows (position at
     it), 0 the container closes with `close` (position after it), -1 anything else."""
@@ -496,7 +497,7 @@ def _next(buf, p, close):  # pragma: no cover - compiled
     return -1, p
 
 
-@kernel
+@_inline
 def _open(buf, p, opening, close):  # pragma: no cover - compiled
     """At p a container opening with `opening`: (state, position); state 1 a first member
     follows (position at it), 0 the container is empty (position after it), -1 not one."""
@@ -595,7 +596,7 @@ def _integer_id(buf, p):  # pragma: no cover - compiled
     return ok and c != 46 and c != 101 and c != 69 and not 48 <= c <= 57, p
 
 
-@kernel
+@_inline
 def _add_span(spans, ns, kind, s, e):  # pragma: no cover - compiled
     """Record a value left to orjson; False when the (fixed) table is full."""
     if ns == spans.shape[0]:
@@ -637,7 +638,7 @@ def _scan_ego(buf, p, n, vals, nv, hard, nh, chans, c, spans, ns):  # pragma: no
         elif code == _K_POLYGON:
             return p, False, nv, nh, ns
         else:
-            p, ok, ns = _other(buf, p, n, spans, ns, 0)
+            p, ok, ns = _other(buf, p, n, spans, ns, _ANY)
         if not ok:
             return p, False, nv, nh, ns
         state, p = _next(buf, p, 125)
@@ -689,7 +690,7 @@ def _scan_object(buf, p, n, vals, nv, hard, nh, objs, row, spans, ns):  # pragma
         elif code == _K_POLYGON:
             return p, False, nv, nh, ns
         else:
-            p, ok, ns = _other(buf, p, n, spans, ns, 0)
+            p, ok, ns = _other(buf, p, n, spans, ns, _ANY)
         if not ok:
             return p, False, nv, nh, ns
         state, p = _next(buf, p, 125)
@@ -738,7 +739,7 @@ def _scan_channel(buf, p, n, vals, nv, hard, nh, chans, c, objs, no, spans, ns):
                 ok = state >= 0
             chans[c, _C_OBJ_N] = no - chans[c, _C_OBJ]
         else:
-            p, ok, ns = _other(buf, p, n, spans, ns, 0)
+            p, ok, ns = _other(buf, p, n, spans, ns, _ANY)
         if not ok:
             return p, False, nv, nh, ns, no, objs
         state, p = _next(buf, p, 125)
@@ -749,20 +750,23 @@ def _scan_channel(buf, p, n, vals, nv, hard, nh, chans, c, objs, no, spans, ns):
 def _scan(buf, n):  # pragma: no cover - compiled
     """Scan a frame line (buf[n] is a 0 sentinel). Returns (status, vals, t index, chans,
     channel count, objs, object count, hard, hard count, spans, span count)."""
+    # counters start as int64, not as the literal 0: numba would first compile every kernel
+    # they are passed to for the literal too (twice the compile time, never used)
+    zero = np.int64(0)
     vals = np.empty(n // 2 + 2)
-    nv = 0
+    nv = zero
     hard = np.empty((_MAX_HARD, 3), dtype=np.int64)
-    nh = 0
+    nh = zero
     spans = np.empty((_MAX_SPANS, 3), dtype=np.int64)
-    ns = 0
+    ns = zero
     chans = np.full((_MAX_CHANNELS, _C_COLS), -1, dtype=np.int64)
-    nc = 0
+    nc = zero
     objs = np.empty((64, _O_COLS), dtype=np.int64)
-    no = 0
+    no = zero
     t_index = -1
     seen = 0
     ok = True
-    state, p = _open(buf, _ws(buf, 0), 123, 125)
+    state, p = _open(buf, _ws(buf, zero), 123, 125)
     while state == 1:
         ok, code, _, _, p = _member(buf, p)
         if not ok:
@@ -799,7 +803,7 @@ def _scan(buf, n):  # pragma: no cover - compiled
         elif code == _K_HEADER:
             ok = False
         else:
-            kind = 0
+            kind = zero
             if code == _K_SIGNALS:
                 kind = 1
             elif code == _K_ODD:
