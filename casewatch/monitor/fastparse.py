@@ -44,7 +44,7 @@ import numpy as np
 from numba import njit, types
 
 from casewatch.monitor.frames import ChannelState, Ego, Frame, Objects
-from casewatch.monitor.jit import kernel
+from casewatch.monitor.jit import KERNEL_OPTIONS, kernel
 from casewatch.monitor.parse import FrameDefect, frame_extras
 
 try:  # the fast route needs orjson for the small rest of a line; without it, the careful one
@@ -136,19 +136,10 @@ _I64_2D = types.Array(types.int64, 2, "C")
 _F64 = types.Array(types.float64, 1, "C")
 
 
-#: monitor.jit's settings (its kernels' docstring says why).
-_OPTIONS: dict[str, Any] = {
-    "cache": True,
-    "nogil": True,
-    "error_model": "numpy",
-    "no_cfunc_wrapper": True,
-}
-
-
 def _inline(fn: Any) -> Any:
     """A kernel numba inlines into its callers (numba's IR inlining: LLVM did not inline these
     small helpers across numba's calling convention, which doubled the scan's time)."""
-    return njit(inline="always", **_OPTIONS)(fn)
+    return njit(inline="always", **KERNEL_OPTIONS)(fn)
 
 
 def _entry(*signature: Any) -> Any:
@@ -156,7 +147,7 @@ def _entry(*signature: Any) -> Any:
     module is imported (from numba's cache after a machine's first run): a run compiles
     nothing on its first line, and warm-up needs no sample line. The kernels it calls are
     compiled into it (monitor.jit: a kernel calls only kernels of its own module)."""
-    return njit([signature], **_OPTIONS)
+    return njit([signature], **KERNEL_OPTIONS)
 
 
 @kernel
