@@ -471,6 +471,21 @@ def object_similarities(
     return cmp.scores(np.full(int(cmp.lone_a.sum()), keep), np.full(int(cmp.lone_b.sum()), keep))
 
 
+@kernel
+def _ranges(pos, x, y):  # pragma: no cover - compiled
+    """np.hypot(pos[:, 0] - x, pos[:, 1] - y): each object's distance from its ego."""
+    out = np.empty(pos.shape[0])
+    for i in range(pos.shape[0]):
+        out[i] = np.hypot(pos[i, 0] - x, pos[i, 1] - y)
+    return out
+
+
+def ranges_from(pos: np.ndarray, x: float, y: float) -> np.ndarray:
+    """Each object's range (K,) from the ego at (x, y): `np.hypot`'s values in one compiled
+    call (the range-scaled tolerances of ols read them every tick)."""
+    return _ranges(pos, float(x), float(y))
+
+
 def ego_pair(a: ChannelState, b: ChannelState) -> tuple[float, float, float, float]:
     """(els, eos, ego_dist, ego_yaw_diff) as a tuple: `ego_similarities` without its dict,
     for the engine's per-tick loop."""

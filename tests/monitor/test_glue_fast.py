@@ -49,6 +49,7 @@ from casewatch.monitor.similarity import (
     crpps_inputs,
     ets,
     pair_objects,
+    ranges_from,
 )
 from casewatch.monitor.situation import _half_extents, ego_half_width
 from tests.monitor.test_prediction import GATE, TOL, ompv_case
@@ -414,3 +415,15 @@ def test_prepare_plan_is_the_three_steps_in_turn(seed):
         assert np.array_equal(got, want)
         # a plan that is not C-contiguous float takes the three functions
         assert np.array_equal(prepare_plan(np.asfortranarray(plan), span, grid, radius), want)
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_ranges_are_numpys_hypot(seed):
+    rng = np.random.default_rng(seed)
+    for _ in range(50):
+        k = int(rng.integers(0, 50))
+        scale = float(rng.choice([1.0, 1e3, 1e-3, 1e6]))
+        pos = rng.normal(0, scale, (k, 2))
+        x, y = rng.normal(0, scale, 2).tolist()
+        want = np.hypot(pos[:, 0] - x, pos[:, 1] - y)
+        assert np.array_equal(ranges_from(pos, x, y), want)

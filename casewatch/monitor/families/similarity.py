@@ -24,6 +24,7 @@ from casewatch.monitor.similarity import (
     ego_pair,
     ets,
     plan_lateral,
+    ranges_from,
 )
 from casewatch.safety_case.signals import PAIR_METRICS, WORST_IS_MAX, pair_name
 
@@ -110,8 +111,8 @@ class SimilarityFamily(MetricFamily):
         ranges: tuple[np.ndarray | None, np.ndarray | None] = (None, None)
         if p.ols_range_scale > 0.0:
             ranges = (
-                np.hypot(oa.pos[:, 0] - sa.ego.x, oa.pos[:, 1] - sa.ego.y),
-                np.hypot(ob.pos[:, 0] - sb.ego.x, ob.pos[:, 1] - sb.ego.y),
+                ranges_from(oa.pos, sa.ego.x, sa.ego.y),
+                ranges_from(ob.pos, sb.ego.x, sb.ego.y),
             )
         cmp = compare_objects(
             oa,
