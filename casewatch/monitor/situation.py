@@ -401,10 +401,11 @@ def neighbours(
         ego_hw,
         float(lookahead),
     )
-    lead = Neighbour(float(v[0]), float(v[1]), bool(v[2]))
+    lead_gap, lead_speed, lead_there, gap, speed, there = v.tolist()  # Python floats at once
+    lead = Neighbour(lead_gap, lead_speed, bool(lead_there))
     if driven is None:
         return lead, None
-    return lead, Neighbour(float(v[3]), float(v[4]), bool(v[5]))
+    return lead, Neighbour(gap, speed, bool(there))
 
 
 _NO_POINTS = np.zeros((0, 2))
