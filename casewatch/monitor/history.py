@@ -4,11 +4,12 @@ The ELS windows live in `monitor.engine`; the stored plans live in a `PlanHistor
 that one compiled call cuts the current plan of every channel against each of its stored plans.
 
 Why packed: a frame's chpps is ~40 plan pairs of 30-50 points. Cut with Python bisects and
-numpy slices, then concatenated for GEOS, the pairs cost about twice the arithmetic GEOS does
-on them. `_cut` writes every cut sequence straight into the one coordinate array that
-`shapely.linestrings` takes, and `_combine` turns GEOS's distances into the scores: per frame
-two kernel calls and one `linestrings` + one `frechet_distance` call, whatever the number of
-channels and stored plans. The crpps inputs of the frame ride in the same GEOS call.
+numpy slices, then compared pair by pair, the pairs cost more in glue than in arithmetic.
+`_cut` writes every cut sequence straight into one coordinate array (line after line, the
+layout `shapely.linestrings` takes), `monitor.frechet.frechet_pairs` computes every pair's
+discrete Fréchet distance in one compiled call, and `_combine` turns the distances into the
+scores: three kernel calls per frame, whatever the number of channels and stored plans. The
+crpps inputs of the frame ride in the same call.
 """
 
 from __future__ import annotations
@@ -17,8 +18,8 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
-import shapely
 
+from casewatch.monitor.frechet import frechet_pairs
 from casewatch.monitor.jit import kernel
 
 #: Tolerance [s] when clipping plans to their common time range: frame times and dt values are
@@ -125,7 +126,7 @@ class PlanHistory:
 
 #: Columns of the pair table `_cut` returns, one row per Fréchet pair of the frame: owner
 #: (channel index for a chpps pair, channels + k for the k-th crpps pair), weight w_j, the
-#: distance when a sequence has one point (computed directly), the pair's slot in the GEOS
+#: distance when a sequence has one point (computed directly), the pair's slot in the Fréchet
 #: batch (-1: computed directly), and the geometry index of its first sequence in the
 #: coordinate array (the second's is one more).
 OWNER, WEIGHT, DIRECT, SLOT, GEOM = range(5)
@@ -279,7 +280,7 @@ def _cut(plans, segs, lens, times, count, head, t, decay, pair_xy, pair_lens):  
     `pair_lens`), then per channel whose newest plan is from time `t`, that plan against each
     stored plan, most recent first, cut to their common time range (spi-reference, chpps).
     Sequences of pairs whose sequences both have two points or more come first, pair by pair
-    (geometry 2m, 2m+1 for the m-th such pair: what GEOS gets); pairs with a one-point
+    (geometry 2m, 2m+1 for the m-th such pair: what `frechet_pairs` gets); pairs with a one-point
     sequence follow, their distance computed here (largest distance from the point to a point
     of the other sequence, as `similarity.frechet` does).
 
@@ -289,7 +290,7 @@ def _cut(plans, segs, lens, times, count, head, t, decay, pair_xy, pair_lens):  
     A plan whose speed profile changed along an unchanged path then reads fd = 0.
 
     Returns (coords (n, 2), geometry index per point, pair table (see OWNER..GEOM), number of
-    points for GEOS, number of pairs for GEOS).
+    points for `frechet_pairs`, number of pairs for it).
     """
     n_ch, slots = lens.shape
     n_given = pair_lens.shape[0] // 2
@@ -370,7 +371,7 @@ def _cut(plans, segs, lens, times, count, head, t, decay, pair_xy, pair_lens):  
     coords = np.empty((total, 2))
     index = np.empty(total, dtype=np.int64)
     table = np.empty((k, 5))
-    at_geos = 0  # next point / geometry of the GEOS part
+    at_geos = 0  # next point / geometry of the multi-point part
     g_geos = 0
     at_one = geos_points  # next point / geometry of the one-point part
     g_one = 2 * n_geos
@@ -501,14 +502,10 @@ def chpps_frame(
 ) -> tuple[list[float | None], list[float | None]]:
     """chpps of every channel of `history` at frame time `t` (None: no plan from this frame,
     or no stored plan overlaps), and the discrete Fréchet distance of each of `pairs` (None
-    for a None entry), with one `shapely.linestrings` and one `shapely.frechet_distance` call
-    for all of them. Push the frame's plans into `history` first."""
+    for a None entry), with one `frechet_pairs` call for all of them (spi-reference "Discrete
+    Fréchet distance"). Push the frame's plans into `history` first."""
     coords, index, table, n_points, n_geos = frame_inputs(history, t, decay, pairs)
-    if n_geos:
-        lines = shapely.linestrings(coords[:n_points], indices=index[:n_points])
-        distances = shapely.frechet_distance(lines[0::2], lines[1::2])
-    else:
-        distances = _NO_DISTANCES
+    distances = frechet_pairs(coords[:n_points], index[:n_points]) if n_geos else _NO_DISTANCES
     n_ch = len(history.count)
     values, has = _combine(distances, table, n_ch, n_ch + len(pairs) - pairs.count(None)).tolist()
     chpps_values = [v if h else None for v, h in zip(values[:n_ch], has[:n_ch], strict=True)]

@@ -16,9 +16,9 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
-import shapely
 
 from casewatch.monitor.frames import ChannelState, Objects
+from casewatch.monitor.frechet import frechet_distance
 from casewatch.monitor.history import crpps_path
 from casewatch.monitor.jit import kernel
 
@@ -563,20 +563,22 @@ def _ets_at(plan_a, plan_b, a0, b0, w, shift_x, shift_y, shifted):  # pragma: no
 
 
 def frechet(p: np.ndarray, q: np.ndarray) -> float:
-    """Discrete Fréchet distance of two (n, 2) point sequences (shapely/GEOS).
+    """Discrete Fréchet distance of two (n, 2) point sequences (`monitor.frechet`, the source's
+    definition; spi-reference "Discrete Fréchet distance").
 
-    A one-point sequence is not a LineString; its discrete Fréchet distance to Q is the largest
-    distance from that point to a point of Q, which we compute directly.
+    A one-point sequence is no polyline; its discrete Fréchet distance to Q is the largest
+    distance from that point to a point of Q, computed directly (with `hypot`, as the engine's
+    batch does).
     """
     if len(p) == 1 or len(q) == 1:
         one, other = (p, q) if len(p) == 1 else (q, p)
         return float(np.max(np.hypot(*(other - one[0]).T)))
-    return float(shapely.frechet_distance(shapely.linestrings(p), shapely.linestrings(q)))
+    return frechet_distance(p, q)
 
 
 def crpps_inputs(plan_a: np.ndarray, plan_b: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     """The two point sequences whose Fréchet distance is `crpps_distance` (None if a plan is
-    empty): the engine batches them with the chpps inputs into one GEOS call."""
+    empty): the engine batches them with the chpps inputs into one Fréchet call."""
     if len(plan_a) == 0 or len(plan_b) == 0:
         return None
     out, n = crpps_path(plan_a, plan_b)
