@@ -31,6 +31,8 @@
 10. Scenario export (`bench/scenario_replay.py`): every bundled hazard event exported and its
    file replayed as the standard times FollowTrajectoryAction: no contact the stream did not
    have, entities present exactly while observed; a non-zero exit when any file is unfaithful.
+11. Where the time goes (`bench/stages.py`): the bundled drives judged in process by both
+   paths, ms per frame per stage (read, metrics, STL, episodes and status), medians.
 6. Threshold tuning (`casewatch tune`) on 1 hour of saved signals, 17 formulas x 50 candidate
    thresholds (and durations): `python -m bench.tuning`; target <= 60 s.
 
@@ -63,8 +65,7 @@ from casewatch import api
 from casewatch.evaluator.core import Evaluator
 from casewatch.evaluator.session import peak_rss_mib
 from casewatch.monitor.engine import MetricEngine
-from casewatch.monitor.parse import parse_frame
-from casewatch.monitor.reader import decode
+from casewatch.monitor.reader import read_frame
 
 REPO = Path(__file__).resolve().parent.parent
 CASE = REPO / "examples" / "reference-case.yaml"
@@ -85,8 +86,9 @@ def _ms(values: list[float]) -> dict[str, float]:
 
 def online_latency(frames: int, warmup: int = 30) -> dict[str, object]:
     """Per-frame cost of the live path on the reference load: decoding and validating the
-    frame's JSON line (`monitor.reader.decode`, `monitor.parse.parse_frame`, as the live reader
-    does), metrics, STL (rtamt), episodes/status, and their total."""
+    frame's JSON line (`monitor.reader.read_frame`: the compiled reader, or orjson and
+    `parse_frame` for a line of another shape, as the live reader does), metrics, STL (rtamt),
+    episodes/status, and their total."""
     case, spec = api.prepare(CASE)
     engine = MetricEngine(case.monitor.metrics, list(case.monitor.channels))
     evaluator = Evaluator(case, spec)
@@ -101,7 +103,7 @@ def online_latency(frames: int, warmup: int = 30) -> dict[str, object]:
     }
     for i, line in enumerate(lines):
         t0 = time.perf_counter()
-        frame = parse_frame(decode(line), channels, i + 1)
+        frame = read_frame(line, channels, i + 1)
         t1 = time.perf_counter()
         values = engine.step(frame)
         t2 = time.perf_counter()
@@ -483,6 +485,11 @@ def main(argv: list[str] | None = None) -> int:
 
     results["stl_engines"] = stl_bench(0.05 if args.quick else 1.0)
 
+    print("11. where the time goes, both paths, in process ...", flush=True)
+    from bench.stages import measure as stages_bench
+
+    results["stages"] = stages_bench(1 if args.quick else 3)
+
     (BENCH / "results.json").write_text(json.dumps(results, indent=1))
     print_table(results)
     from bench.bags import print_rows as print_bag_rows
@@ -491,6 +498,9 @@ def main(argv: list[str] | None = None) -> int:
     from bench.stl import print_results as print_stl
 
     print_stl(results["stl_engines"])
+    from bench.stages import print_results as print_stages
+
+    print_stages(results["stages"])
     print(f"\nwritten: {BENCH / 'results.json'}")
     dask = results.get("dask_replay") or []
     if len(dask) == 2:
