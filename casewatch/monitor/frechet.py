@@ -18,7 +18,9 @@ the library would make crpps and chpps differ from the source they cite. This ke
 recurrence above, one row at a time. Every value it returns is one of the `d(i, j)`, computed
 as GEOS computes a point distance (`sqrt(dx * dx + dy * dy)`), so wherever GEOS finds the
 minimum the two agree bit for bit: they did on all 168 502 distances the six bundled drives
-need. It is also about 50 times faster than building GEOS linestrings for every plan.
+need. It is also faster: 0.07 ms per frame at the reference load (21 pairs of 50-point
+plans) where GEOS took about 0.30 with its linestrings, and 0.085 ms against 6.1 ms on 21
+pairs of 50-point random walks.
 """
 
 from __future__ import annotations
@@ -31,25 +33,37 @@ from casewatch.monitor.jit import kernel
 @kernel
 def _coupling_cost(coords, start_p, n_p, start_q, n_q, row):  # pragma: no cover - compiled
     """c(n_p - 1, n_q - 1) of P = coords[start_p:start_p + n_p], Q likewise, with `row` (at
-    least n_q long) as the dynamic programme's one row of memory."""
-    for i in range(n_p):
+    least n_q long) as the dynamic programme's one row of memory.
+
+    The programme runs on squared distances and takes one square root at the end: max and min
+    commute with any non-decreasing function, so sqrt(c over d^2) is c over sqrt(d^2), the same
+    double (each d is `sqrt(dx * dx + dy * dy)` either way), without a root per cell."""
+    # row 0: P's first point against Q's prefix
+    px = coords[start_p, 0]
+    py = coords[start_p, 1]
+    left = 0.0
+    for j in range(n_q):
+        dx = px - coords[start_q + j, 0]
+        dy = py - coords[start_q + j, 1]
+        d = dx * dx + dy * dy
+        left = d if j == 0 else max(left, d)
+        row[j] = left
+    for i in range(1, n_p):
         px = coords[start_p + i, 0]
         py = coords[start_p + i, 1]
-        diag = 0.0  # c(i-1, j-1) for the next j; unused at j = 0
-        for j in range(n_q):
+        dx = px - coords[start_q, 0]
+        dy = py - coords[start_q, 1]
+        diag = row[0]  # c(i-1, 0)
+        left = max(diag, dx * dx + dy * dy)  # c(i, 0)
+        row[0] = left
+        for j in range(1, n_q):
             dx = px - coords[start_q + j, 0]
             dy = py - coords[start_q + j, 1]
-            d = np.sqrt(dx * dx + dy * dy)
             up = row[j]  # c(i-1, j), still in the row
-            if i == 0:
-                c = d if j == 0 else max(row[j - 1], d)
-            elif j == 0:
-                c = max(up, d)
-            else:
-                c = max(min(up, row[j - 1], diag), d)
+            left = max(min(up, left, diag), dx * dx + dy * dy)
             diag = up
-            row[j] = c
-    return row[n_q - 1]
+            row[j] = left
+    return np.sqrt(row[n_q - 1])
 
 
 @kernel
