@@ -18,14 +18,6 @@ Settings, and why:
 - `no_cfunc_wrapper=True`: numba otherwise also builds a C-callable wrapper for every compiled
   variant, used only when a kernel is passed to another kernel as a first-class function value
   (none is): 6 % of the compile time of a machine's first run.
-- one compiled variant of a kernel per argument type, not per constant: numba types a constant
-  argument of a call from one kernel to another as a literal (`_path(..., False, ...)` is
-  typed `Literal[bool](False)`) and compiles a variant of the callee for every such value
-  (`history._along` four times, the reader's `_put_number` and `_points` twice each: 18 % of
-  a machine's first-run compile time). `_Kernel` types those calls with the plain types
-  instead. The arithmetic is the same (a literal only lets LLVM fold a branch the general
-  variant takes at run time); the kernels' run time on the bundled drives' recorded calls was
-  unchanged within the noise (sum 77.6 -> 74.9 us).
 
 Rule: a kernel calls only kernels of its own module. numba's cache checks the source file of
 the kernel it loads, not of the kernels compiled into it, so a kernel from another module would
@@ -37,11 +29,10 @@ is slow but lets a debugger step through them.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from typing import Any, TypeVar
 
-from numba import njit, types
-from numba.core.registry import CPUDispatcher
+from numba import njit
 
 F = TypeVar("F", bound=Callable)
 
@@ -56,23 +47,6 @@ KERNEL_OPTIONS: dict[str, Any] = {
 }
 
 
-class _Kernel(CPUDispatcher):
-    """numba's CPU dispatcher, except that a call from another kernel is typed (and so
-    compiled) with the plain types of its arguments, not literals (module docstring)."""
-
-    def get_call_template(
-        self, args: Sequence[Any], kws: Sequence[tuple[str, Any]] | dict[str, Any]
-    ) -> Any:
-        """numba's type inference asks this for calls from compiled code only (a call from
-        Python is typed from its values, which are never literals)."""
-        plain = tuple(types.unliteral(a) for a in args)
-        named = {k: types.unliteral(v) for k, v in dict(kws).items()}
-        return super().get_call_template(plain, named)
-
-
 def kernel(fn: F) -> F:
     """Compile `fn` as a metric kernel (see the module docstring for the settings)."""
-    compiled = njit(**KERNEL_OPTIONS)(fn)
-    if isinstance(compiled, CPUDispatcher):  # else NUMBA_DISABLE_JIT=1 gave `fn` back
-        compiled.__class__ = _Kernel  # njit's option handling kept; only call typing changes
-    return compiled  # type: ignore[no-any-return]
+    return njit(**KERNEL_OPTIONS)(fn)  # type: ignore[no-any-return]
