@@ -15,9 +15,11 @@ Settings, and why:
 - no `fastmath`: IEEE semantics, so a kernel and its numpy formulation agree to rounding.
 - `nogil=True`: a kernel does not hold the interpreter lock (harmless for one thread, and lets
   an embedding application score channels from threads).
-- `no_cfunc_wrapper=True`: numba otherwise also builds a C-callable wrapper for every compiled
-  variant, used only when a kernel is passed to another kernel as a first-class function value
-  (none is): 6 % of the compile time of a machine's first run.
+
+Compiling every kernel (a machine's first run: about 40 s of CPU on the project's machine,
+2026-11-26) is mostly numba's own typing and lowering, in Python: a lower NUMBA_OPT, numba's
+`no_cfunc_wrapper` and typing calls between kernels without literals changed it by no more than
+the noise (measured, issue 36). `casewatch warm-up`, the install step, pays it once instead.
 
 Rule: a kernel calls only kernels of its own module. numba's cache checks the source file of
 the kernel it loads, not of the kernels compiled into it, so a kernel from another module would
@@ -43,7 +45,6 @@ KERNEL_OPTIONS: dict[str, Any] = {
     "cache": True,
     "nogil": True,
     "error_model": "numpy",
-    "no_cfunc_wrapper": True,
 }
 
 
