@@ -17,7 +17,7 @@ $(STAMP): pyproject.toml
 venv: $(STAMP)
 
 # Fill numba's cache with every compiled kernel (the install step above runs it too), so the
-# first run does not compile for ~20 s; again after pulling changes to the kernels.
+# first run does not compile for ~40 s; again after pulling changes to the kernels.
 warm-up: $(STAMP)
 	$(BIN)/python -m casewatch warm-up
 

@@ -1,10 +1,10 @@
 """`casewatch warm-up`: compile every numba kernel into numba's cache, once per install.
 
 Why: the metric kernels, the compiled frame reader, the ROS 2 bag decoder and the whole-log STL
-engine's window loops are numba-compiled. A machine's first run compiles them (close to a
-minute of CPU on the project's machine, most of it numba's own typing and lowering, in Python,
-so compiler options barely change it); every later process loads them from the cache in about
-a second. Installing with `make venv` runs this command, and after `pip install casewatch` a
+engine's window loops are numba-compiled. A machine's first run compiles them (about 40 s of
+CPU on the project's machine, most of it numba's own typing and lowering, in Python, so
+compiler options do not shorten it); every later process loads them from the cache in about a
+second. Installing with `make venv` runs this command, and after `pip install casewatch` a
 user runs it once, so that the first real run starts in about a second instead of compiling.
 
 The cache is the one every run reads: beside the installed modules (`__pycache__`) when that is
