@@ -62,11 +62,9 @@ def main(args: argparse.Namespace) -> int:
 
 
 def warm_up_all() -> None:
-    """Every kernel a run may take, in the argument types the run passes: the metrics
-    (`monitor.warmup`), the compiled reader, the bag decoder, and the STL window loops.
-
-    The modules are imported here, not at the top: importing `casewatch.monitor` compiles the
-    reader's entry points (they have explicit signatures), and that is part of what this
+    """Every kernel a run may take, in the argument types the run passes: the metrics and
+    the compiled reader (`monitor.warmup`, which reads its sample frames as a reader does),
+    the bag decoder, and the STL window loops. The modules are imported here, inside what the
     command times and counts."""
     from casewatch.monitor.bags.decode import warm_up as warm_up_decoder
     from casewatch.monitor.warmup import warm_up as warm_up_metrics

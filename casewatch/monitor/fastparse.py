@@ -41,7 +41,7 @@ from collections.abc import Iterable
 from typing import Any
 
 import numpy as np
-from numba import njit, types
+from numba import njit
 
 from casewatch.monitor.frames import ChannelState, Ego, Frame, Objects
 from casewatch.monitor.jit import KERNEL_OPTIONS, kernel
@@ -131,10 +131,6 @@ def _powers_of_five() -> np.ndarray:
 
 _POW5 = _powers_of_five()
 
-_BUF = types.Array(types.uint8, 1, "C", readonly=True)
-_I64_2D = types.Array(types.int64, 2, "C")
-_F64 = types.Array(types.float64, 1, "C")
-
 
 def _inline(fn: Any) -> Any:
     """A kernel numba inlines into its callers (numba's IR inlining: LLVM did not inline these
@@ -142,12 +138,14 @@ def _inline(fn: Any) -> Any:
     return njit(inline="always", **KERNEL_OPTIONS)(fn)
 
 
-def _entry(*signature: Any) -> Any:
-    """monitor.jit's settings, compiled for the one signature Python calls it with when the
-    module is imported (from numba's cache after a machine's first run): a run compiles
-    nothing on its first line, and warm-up needs no sample line. The kernels it calls are
-    compiled into it (monitor.jit: a kernel calls only kernels of its own module)."""
-    return njit([signature], **KERNEL_OPTIONS)
+def _entry(fn: Any) -> Any:
+    """monitor.jit's settings for a kernel Python calls, compiled on its first call (from
+    numba's cache after a machine's first run, `casewatch warm-up`), not when the module is
+    imported: a command that reads no frame (`casewatch check`) compiles nothing.
+    `monitor.warmup.warm_up` reads sample lines through it, so a run compiles nothing on its
+    first line. The kernels it calls are compiled into it (monitor.jit: a kernel calls only
+    kernels of its own module)."""
+    return njit(**KERNEL_OPTIONS)(fn)
 
 
 @kernel
@@ -933,7 +931,7 @@ def _fill(vals, chans, nc, objs, layout, out):  # pragma: no cover - compiled
     return True
 
 
-@_entry(_BUF, _F64, _I64_2D, types.int64, _I64_2D, types.int64)
+@_entry
 def _build(buf, vals, chans, nc, objs, no):  # pragma: no cover - compiled
     """Check the scanned numbers as parse_frame does and lay the arrays out in one buffer.
 
@@ -1017,7 +1015,7 @@ def _build(buf, vals, chans, nc, objs, no):  # pragma: no cover - compiled
     return True, out, layout, strings[: max(nstr - 1, 0)]
 
 
-@_entry(_BUF, types.int64)
+@_entry
 def _scan_build(buf, n):  # pragma: no cover - compiled
     """Scan, then build when no number was left to orjson."""
     status, vals, t_index, chans, nc, objs, no, hard, nh, spans, ns = _scan(buf, n)

@@ -9,11 +9,13 @@ workers inherit compiled kernels.
 
 from __future__ import annotations
 
+import json
 import math
 from typing import Any
 
 from casewatch.monitor.engine import MetricEngine
-from casewatch.monitor.frames import Coverage
+from casewatch.monitor.fastparse import fast_frame
+from casewatch.monitor.frames import Coverage, Frame
 from casewatch.monitor.parse import parse_frame
 from casewatch.safety_case.model import MetricParams
 
@@ -72,7 +74,20 @@ def warm_up(frames: int = 35) -> None:
             if k % 5 == 4:  # b misses the crossing car: a's is unpaired (the lone-age kernel)
                 b["objects"] = b["objects"][:1]
             d = {"t": t, "channels": {"a": a, "b": b}}
-            engine.step(parse_frame(d, _CHANNELS, line=k + 1))
+            engine.step(_read(d, k + 1))
+    # a number of more than 19 significant digits: the compiled reader hands it to orjson and
+    # takes its second entry point
+    text = json.dumps({"t": 0.0, "channels": {"a": _channel(0.0, 0.0, (1, 2), False)}})
+    fast_frame(text.replace('"x": 0.0', '"x": 0.1000000000000000000000001', 1), _CHANNELS, 1)
+
+
+def _read(d: dict[str, Any], line: int) -> Frame:
+    """The frame as a reader reads its JSON line, both ways, so that the compiled reader
+    (`monitor.fastparse`) and the careful route's kernels (a line of another shape) compile
+    here and not on a run's first line."""
+    careful = parse_frame(d, _CHANNELS, line=line)
+    frame = fast_frame(json.dumps(d), _CHANNELS, line)
+    return frame if frame is not None else careful
 
 
 #: Metric options that switch kernels on (examples/reference-case.yaml sets them all).
