@@ -580,10 +580,16 @@ def print_table(r: dict) -> None:
     print(f"target: 1-hour HTML report < 5 MB: {'met' if rep['html_bytes'] < 5e6 else 'MISSED'}")
     k = r["kernels"]
     print(
-        f"\nmetric kernels (import + warm-up): {k['cold_cache_s']:.1f} s with an empty numba "
-        f"cache (first run on a machine), {k['warm_cache_s']:.2f} s from the cache"
+        f"\nkernels (import + warm-up): {k['cold_cache_s']:.1f} s with an empty numba cache (a "
+        f"machine's first run without the install step); the install step (casewatch warm-up) "
+        f"{k['install_step_s']:.1f} s, then the first run {k['first_run_s']:.2f} s; a later run "
+        f"{k['warm_cache_s']:.2f} s"
     )
-    print(f"target: kernels ready in <= 5 s on a first run: {_verdict(k['cold_cache_s'] <= 5)}")
+    print(
+        "target: kernels ready in <= 5 s on the first run after installing: "
+        f"{_verdict(k['first_run_s'] <= 5)} (without the install step: "
+        f"{_verdict(k['cold_cache_s'] <= 5)})"
+    )
     h = r["help"]
     print(
         f"casewatch --help: {h['wall_s']:.3f} s (heavy imports: {h['heavy_imports'] or 'none'}); "
