@@ -34,13 +34,16 @@ import statistics
 from dataclasses import dataclass, field
 from itertools import pairwise
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-from scenariogeneration import xosc
 
 from casewatch.errors import CasewatchError
 from casewatch.evaluator.result import Episode, RunResult
 from casewatch.reports.scenario_entities import MASS, entity_kind
+
+if TYPE_CHECKING:
+    from scenariogeneration import xosc
 
 #: OpenSCENARIO minor version written (1.2).
 OSC_MINOR = 2
@@ -381,6 +384,14 @@ def _scenario(
     return scenario, presence
 
 
+def _load_xosc() -> None:
+    """Import scenariogeneration's `xosc` as this module's global, at the first file written:
+    it takes about 0.6 s to import, and `casewatch run` (which imports this module for its
+    `--scenarios` option) must not pay that on every run that exports nothing."""
+    global xosc
+    from scenariogeneration import xosc
+
+
 def write_event(
     w: EventWindow,
     out: Path,
@@ -397,6 +408,7 @@ def write_event(
             f"hazard event {w.number} ({w.event.node_id} at {w.event.start:g} s): channel "
             f"{w.channel} has no frame in its window {w.t0:g}-{w.t1:g} s"
         )
+    _load_xosc()
     involved: dict[str, tuple[Track, str]] = {}
     for oid, track in sorted(w.objects.items()):
         if track.nearest <= radius:
