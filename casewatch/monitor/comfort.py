@@ -254,7 +254,9 @@ def ppcs(plan: np.ndarray, span: float, steepness: float) -> float | None:
         step = (last - first) / (n - 1)
         h = round(half / step)
         rows = np.ascontiguousarray(plan)
-        if abs(h * step - half) <= TIME_EPS and _uniform(rows, step):
+        # a window of 2h + 1 < 4 samples cannot fix a cubic: the general path below says so
+        # (no value) instead of the singular projection raising
+        if 2 * h + 1 >= MIN_POINTS and abs(h * step - half) <= TIME_EPS and _uniform(rows, step):
             # the canonical grid (always, for a resampled plan): one projection for every
             # window, read from the plan's rows in place
             return _uniform_kernel(

@@ -235,3 +235,15 @@ def test_ppcs_on_the_grid_equals_the_general_fit(n, v0, acc, seed):
     inside = (t - SPAN / 2 >= -1e-9) & (t + SPAN / 2 <= t[-1] + 1e-9)
     want = numpy_reference(t, xy, t[inside], SPAN / 2, W)
     assert ppcs(plan, SPAN, W) == pytest.approx(want, abs=1e-7)
+
+
+def test_ppcs_windows_of_three_samples_have_no_value_instead_of_failing():
+    """comfort_span 1.0 s on a 0.5 s grid: each fit window holds 3 samples, too few for a
+    cubic, so ppcs has no value (it raised LinAlgError from the singular projection)."""
+    t = np.arange(0.0, 5.01, 0.5)
+    plan = np.column_stack([t, 10.0 * t, 0.1 * t**2])
+    assert ppcs(plan, 1.0, 1.0) is None
+    assert ppcs(plan, 1.5, 1.0) is None  # [t - 0.75, t + 0.75] still holds 3 samples
+    # five samples per window (span 2 s) fit: a straight constant-speed plan is fully comfortable
+    straight = np.column_stack([t, 10.0 * t, np.zeros_like(t)])
+    assert ppcs(straight, 2.0, 1.0) == pytest.approx(1.0, abs=1e-9)
