@@ -384,9 +384,9 @@ def test_ppcs_equals_its_old_formulation(seed):
         steep = float(rng.choice([0.2, 1.0]))
         try:
             want = _old_ppcs(plan, span, steep)
-        except np.linalg.LinAlgError:  # windows of 3 samples (h = 1): no cubic, both raise
-            with pytest.raises(np.linalg.LinAlgError):
-                ppcs(plan, span, steep)
+        except np.linalg.LinAlgError:
+            # windows of 3 samples (h = 1): no cubic; the old code raised, ppcs has no value
+            assert ppcs(plan, span, steep) is None
             continue
         got = ppcs(plan, span, steep)
         assert (got is None and want is None) or got == want
