@@ -235,26 +235,28 @@ def common_path(p: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 @kernel
+def _kept_points(plan, begin, horizon):  # pragma: no cover - compiled
+    """The points of `plan` whose dt lies in [begin, horizon], packed first into a zeroed
+    (len(plan), 3) array (x, y in columns 1 and 2), and their count."""
+    kept = np.zeros((plan.shape[0], 3))
+    n = 0
+    for i in range(plan.shape[0]):
+        if begin <= plan[i, 0] <= horizon:
+            kept[n, 1] = plan[i, 1]
+            kept[n, 2] = plan[i, 2]
+            n += 1
+    return kept, n
+
+
+@kernel
 def _crpps_path(plan_a, plan_b):  # pragma: no cover - compiled
     """`crpps_path` in one compiled call: the rows of both plans inside their common time
     range (+-1e-9 s), plan B's translated so that its first kept point is plan A's first kept
     point, then `_common_path` of the two."""
     horizon = min(plan_a[-1, 0], plan_b[-1, 0]) + 1e-9
     begin = max(plan_a[0, 0], plan_b[0, 0]) - 1e-9
-    pa = np.zeros((plan_a.shape[0], 3))
-    pb = np.zeros((plan_b.shape[0], 3))
-    na = 0
-    for i in range(plan_a.shape[0]):
-        if begin <= plan_a[i, 0] <= horizon:
-            pa[na, 1] = plan_a[i, 1]
-            pa[na, 2] = plan_a[i, 2]
-            na += 1
-    nb = 0
-    for i in range(plan_b.shape[0]):
-        if begin <= plan_b[i, 0] <= horizon:
-            pb[nb, 1] = plan_b[i, 1]
-            pb[nb, 2] = plan_b[i, 2]
-            nb += 1
+    pa, na = _kept_points(plan_a, begin, horizon)
+    pb, nb = _kept_points(plan_b, begin, horizon)
     if na == 0 or nb == 0:
         return np.empty((0, 2)), 0
     x0, y0 = pb[0, 1], pb[0, 2]
