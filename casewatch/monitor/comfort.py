@@ -268,3 +268,161 @@ def ppcs(plan: np.ndarray, span: float, steepness: float) -> float | None:
         return _score(times, xy, np.array([0.5 * (first + last)]), 0.5 * (last - first), steepness)
     inside = (times - half >= first - TIME_EPS) & (times + half <= last + TIME_EPS)
     return _score(times, xy, times[inside], half, steepness)
+
+
+@kernel
+def _push_row(buf, start, end, i, t, a, b, span, max_gap):  # pragma: no cover - compiled
+    """`family.PoseWindow.push(t, a, b)` on window i of `family.PoseWindows`: this module's
+    copy of `situation.push_row` (a kernel calls only kernels of its own module, monitor.jit);
+    a test holds both to `PoseWindow`."""
+    s = start[i]
+    e = end[i]
+    if e > s and t - buf[i, e - 1, 0] > max_gap + 1e-9:
+        s = 0
+        e = 0
+    if e == buf.shape[1]:  # move the live rows to the front (there is room: make_room)
+        live = e - s
+        for r in range(live):
+            buf[i, r, 0] = buf[i, s + r, 0]
+            buf[i, r, 1] = buf[i, s + r, 1]
+            buf[i, r, 2] = buf[i, s + r, 2]
+        s = 0
+        e = live
+    buf[i, e, 0] = t
+    buf[i, e, 1] = a
+    buf[i, e, 2] = b
+    e += 1
+    limit = t - span + 1e-9
+    while e - s > 1 and buf[i, s + 1, 0] <= limit:
+        s += 1
+    start[i] = s
+    end[i] = e
+    return e - s
+
+
+@kernel
+def _uniform_h(plan, span):  # pragma: no cover - compiled
+    """The window half-width h (samples) with which `ppcs` takes the uniform-grid kernel for
+    `plan`, or -1 when it takes the general fit: `ppcs`'s tests, to the bit (`round` is
+    Python's, half to even, as np.rint)."""
+    n = plan.shape[0]
+    if n < MIN_POINTS:
+        return -1
+    half = 0.5 * span
+    first = plan[0, 0]
+    last = plan[n - 1, 0]
+    if last - first >= span - TIME_EPS:
+        step = (last - first) / (n - 1)
+        h = int(np.rint(half / step))
+        if 2 * h + 1 >= MIN_POINTS and abs(h * step - half) <= TIME_EPS and _uniform(plan, step):
+            return h
+    return -1
+
+
+@kernel
+def _ppcs_general(plan, span, steepness):  # pragma: no cover - compiled
+    """`ppcs`'s general fit (not the uniform grid), NaN for no value (n >= MIN_POINTS)."""
+    n = plan.shape[0]
+    half = 0.5 * span
+    first = plan[0, 0]
+    last = plan[n - 1, 0]
+    times = plan[:, 0]
+    xy = plan[:, 1:3]
+    if last - first < span - TIME_EPS:
+        centres = np.empty(1)
+        centres[0] = 0.5 * (first + last)
+        return _comfort_kernel(times, xy, centres, 0.5 * (last - first), steepness)
+    count = 0
+    for j in range(n):
+        if times[j] - half >= first - TIME_EPS and times[j] + half <= last + TIME_EPS:
+            count += 1
+    centres = np.empty(count)
+    count = 0
+    for j in range(n):
+        if times[j] - half >= first - TIME_EPS and times[j] + half <= last + TIME_EPS:
+            centres[count] = times[j]
+            count += 1
+    return _comfort_kernel(times, xy, centres, half, steepness)
+
+
+@kernel
+def comfort_tick(
+    t, chans, ego, e_start, e_end, span, max_gap, steepness, projs, have, vals, nones
+):  # pragma: no cover - compiled
+    """Every comfort signal of one tick in one call (issue 36): each channel's ego position
+    pushed on its window of `family.PoseWindows` `ego` (the path the situation family reads
+    too), hcs and ppcs per channel into `vals[2 i]`, `vals[2 i + 1]`, then their worst
+    `vals[2 n:]`, as `families.comfort` computed them with `hcs`, `ppcs` and `family.worst`.
+
+    `chans[i]` is (present, x, y, plan) of channel i. `projs[h, :, :2 h + 1]` is
+    `_projection(h)` where `have[h]`. A value with no value is NaN and its row listed in
+    `nones` (a NaN the uniform kernel returns stays a value, as in `ppcs`). Returns (bit mask
+    of the rows with no value, or -1 beyond 62 rows, their count, the most rows in a window),
+    or (-2, h, 0) before changing anything when a plan needs the projection h not in `projs`."""
+    nc = len(chans)
+    for i in range(nc):
+        ch = chans[i]
+        if ch[0]:
+            h = _uniform_h(ch[3], span)
+            if h >= 0 and (h >= have.shape[0] or not have[h]):
+                return -2, h, 0
+    rows = 2 * (nc + 1)
+    none = np.zeros(rows, dtype=np.bool_)
+    live = 0
+    for i in range(nc):
+        ch = chans[i]
+        if not ch[0]:
+            none[2 * i] = True
+            none[2 * i + 1] = True
+            continue
+        n = _push_row(ego, e_start, e_end, i, t, ch[1], ch[2], span, max_gap)
+        if n > live:
+            live = n
+        s0 = e_start[i]
+        s1 = e_end[i]
+        v = _hcs_kernel(ego[i, s0:s1, 0], ego[i, s0:s1, 1:3], span, steepness)
+        vals[2 * i] = v
+        if math.isnan(v):
+            none[2 * i] = True
+        plan = ch[3]
+        if plan.shape[0] < MIN_POINTS:
+            none[2 * i + 1] = True
+            continue
+        h = _uniform_h(plan, span)
+        if h >= 0:
+            n = plan.shape[0]
+            half = 0.5 * span
+            vals[2 * i + 1] = _uniform_kernel(
+                plan, h, n - 1 - h, projs[h, :, : 2 * h + 1], half, steepness, 1
+            )
+        else:
+            v = _ppcs_general(plan, span, steepness)
+            vals[2 * i + 1] = v
+            if math.isnan(v):
+                none[2 * i + 1] = True
+    # the worst (smallest) over the channels (`family.worst`): no value when any has none
+    top = 2 * nc
+    for m in range(2):
+        missing = False
+        best = 0.0
+        for i in range(nc):
+            if none[2 * i + m]:
+                missing = True
+                break
+            v = vals[2 * i + m]
+            if i == 0 or v < best:
+                best = v
+        if missing or nc == 0:
+            none[top + m] = True
+        else:
+            vals[top + m] = best
+    count = 0
+    mask = 0
+    for r in range(rows):
+        if none[r]:
+            vals[r] = math.nan
+            nones[count] = r
+            count += 1
+            if rows <= 62:
+                mask |= 1 << r
+    return (mask if rows <= 62 else -1), count, live

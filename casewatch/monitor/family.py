@@ -106,6 +106,69 @@ class PoseWindow:
         return self.buf[self.start : self.end]
 
 
+class PoseWindows:
+    """`PoseWindow`s of several channels in one array, for kernels that push and read every
+    channel's window in one call (issue 36): window i is the rows `buf[i, start[i]:end[i]]`,
+    (t, a, b) oldest first. The kernels push with the rule of `PoseWindow.push` (each
+    kernel module has its own copy: `monitor.jit`'s rule) and the caller calls `make_room`
+    after each push, so that the next push always finds a free row."""
+
+    __slots__ = ("buf", "end", "max_gap", "span", "start")
+
+    def __init__(self, channels: int, span: float, max_gap: float, capacity: int = 64):
+        self.buf = np.zeros((channels, capacity, 3))
+        self.start = np.zeros(channels, dtype=np.int64)
+        self.end = np.zeros(channels, dtype=np.int64)
+        self.span = span
+        self.max_gap = max_gap
+
+    def make_room(self, rows: int) -> None:
+        """After a push that left a window with `rows` rows: twice the capacity when that
+        filled it (a push moves live rows to the front, but needs one free row)."""
+        if rows < self.buf.shape[1]:
+            return
+        old = self.buf
+        self.buf = np.zeros((old.shape[0], 2 * old.shape[1], 3))
+        for i in range(old.shape[0]):
+            live = old[i, self.start[i] : self.end[i]]
+            self.buf[i, : len(live)] = live
+            self.start[i] = 0
+            self.end[i] = len(live)
+
+    def window(self, i: int) -> np.ndarray:
+        """Window i's rows [t, a, b], oldest first (a view, as `PoseWindow.window`)."""
+        return self.buf[i, self.start[i] : self.end[i]]
+
+
+class KernelOutputs:
+    """A family's signals as one kernel writes them: `vals[j]` is the value of `names[j]`,
+    NaN where the signal has no value and then listed by the kernel (its rows, and a bit mask
+    of them when there are at most 62). `write` copies them into the tick's dict in one
+    `dict.update` and sets the listed ones to None: a NaN the kernel does not list stays a
+    value, as it was."""
+
+    __slots__ = ("_nones", "names", "nones", "vals")
+
+    def __init__(self, names: list[str]):
+        self.names = names
+        self.vals = np.zeros(len(names))
+        self.nones = np.zeros(len(names), dtype=np.int64)
+        #: bit mask -> {name: None} of its rows (the same few patterns come every tick)
+        self._nones: dict[int, dict[str, None]] = {}
+
+    def write(self, out: dict[str, float | None], mask: int, count: int) -> None:
+        """`out[names[j]] = vals[j]`, None for the `count` rows the kernel listed."""
+        out.update(zip(self.names, self.vals.tolist(), strict=True))
+        if count:
+            nones = self._nones.get(mask) if mask >= 0 else None
+            if nones is None:
+                names = self.names
+                nones = dict.fromkeys(names[j] for j in self.nones[:count].tolist())
+                if mask >= 0:
+                    self._nones[mask] = nones
+            out.update(nones)
+
+
 class MetricFamily:
     """One family of signals and the history it needs, stepped once per tick.
 

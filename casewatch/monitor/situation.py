@@ -308,6 +308,51 @@ def _neighbours(
     follower is the nearer of the one along the driven path and the one whose own lane holds
     the ego (`_in_own_lane`). See `neighbour`."""
     out = np.zeros(6)
+    _neighbours_into(
+        out,
+        x0,
+        y0,
+        heading,
+        plan_x,
+        plan_y,
+        driven_x,
+        driven_y,
+        behind,
+        pos,
+        yaw,
+        hl,
+        hw,
+        vel,
+        half_width,
+        ego_half,
+        ego_hw,
+        lookahead,
+    )
+    return out
+
+
+@kernel
+def _neighbours_into(
+    out,
+    x0,
+    y0,
+    heading,
+    plan_x,
+    plan_y,
+    driven_x,
+    driven_y,
+    behind,
+    pos,
+    yaw,
+    hl,
+    hw,
+    vel,
+    half_width,
+    ego_half,
+    ego_hw,
+    lookahead,
+):  # pragma: no cover - compiled
+    """`_neighbours` into `out` (6,), which must hold zeros: the tick kernel's scratch."""
     out[0] = out[3] = GAP_CAP
     path = _path(x0, y0, plan_x, plan_y, False, heading, lookahead)
     k, gap, ux, uy = _nearest(
@@ -331,7 +376,6 @@ def _neighbours(
             out[3] = min(gap, GAP_CAP)
             out[4] = vel[k, 0] * ux + vel[k, 1] * uy
             out[5] = 1.0
-    return out
 
 
 @kernel
@@ -517,3 +561,242 @@ def ego_half_length(ego: Ego) -> float:
     if ego.half is not None:
         return ego.half[0]
     return float(np.max(np.abs(ego.footprint[:, 0])))
+
+
+#: The per-channel values of `situation_tick`, in the order of its output rows (the
+#: catalogue's, `safety_case.signals.SITUATION_METRICS`; a test holds them equal).
+TICK_METRICS = (
+    "lead_gap",
+    "lead_thw",
+    "lead_ttc",
+    "lead_speed",
+    "follow_gap",
+    "follow_thw",
+    "follow_ttc",
+    "follow_speed",
+    "ego_speed",
+    "ego_accel",
+)
+#: Rows of TICK_METRICS: the follower's four (worst over the channels that see behind), and
+#: the two whose worst is the largest (`safety_case.signals.WORST_IS_MAX`).
+_FOLLOW_FIRST = 4
+_FOLLOW_LAST = 7
+_MAX_ROWS = (7, 8)
+_ROWS = len(TICK_METRICS)
+
+
+@kernel
+def push_row(buf, start, end, i, t, a, b, span, max_gap):  # pragma: no cover - compiled
+    """`family.PoseWindow.push(t, a, b)` on window i of `family.PoseWindows` (rows
+    buf[i, start[i]:end[i]]): the same rows kept, the same tests. The caller keeps a free row
+    (`PoseWindows.make_room`); returns the window's rows after the push."""
+    s = start[i]
+    e = end[i]
+    if e > s and t - buf[i, e - 1, 0] > max_gap + 1e-9:
+        s = 0
+        e = 0
+    if e == buf.shape[1]:  # move the live rows to the front (there is room: make_room)
+        live = e - s
+        for r in range(live):
+            buf[i, r, 0] = buf[i, s + r, 0]
+            buf[i, r, 1] = buf[i, s + r, 1]
+            buf[i, r, 2] = buf[i, s + r, 2]
+        s = 0
+        e = live
+    buf[i, e, 0] = t
+    buf[i, e, 1] = a
+    buf[i, e, 2] = b
+    e += 1
+    limit = t - span + 1e-9
+    while e - s > 1 and buf[i, s + 1, 0] <= limit:
+        s += 1
+    start[i] = s
+    end[i] = e
+    return e - s
+
+
+@kernel
+def _headway(gap, speed):  # pragma: no cover - compiled
+    """`headway`, to the bit (Python's `min(a, b)` is `b if b < a else a`)."""
+    if speed < STANDING:
+        return TIME_CAP
+    r = gap / speed
+    return TIME_CAP if r > TIME_CAP else r
+
+
+@kernel
+def _ttc(gap, closing):  # pragma: no cover - compiled
+    """`time_to_collision`, to the bit."""
+    if closing <= 1e-3:
+        return TIME_CAP
+    r = gap / closing
+    return TIME_CAP if r > TIME_CAP else r
+
+
+@kernel
+def situation_tick(
+    t,
+    chans,
+    driven,
+    d_start,
+    d_end,
+    speeds,
+    s_start,
+    s_end,
+    half_width,
+    lookahead,
+    max_gap,
+    all_seeing,
+    vals,
+    nones,
+):  # pragma: no cover - compiled
+    """Every situation signal of one tick in one call (issue 36: the family's glue was most of
+    its cost): per channel the TICK_METRICS rows `vals[10 i: 10 i + 10]`, then their worst
+    over the channels `vals[10 n:]`, as `families.situation` computed them with `neighbours`,
+    `headway`, `time_to_collision`, `acceleration` and `family.worst`.
+
+    `chans[i]` is (present, sees behind, x, y, yaw, speed, half length, half width, plan,
+    pos, yaw, half, vel, radii) of channel i (`radii`: the objects' bounding radii, or empty
+    when their footprints are all boxes). `driven` is the comfort family's windows of ego
+    positions (the path driven: every row but the newest), `speeds` this family's windows of
+    (t, reported speed, 0) for ego_accel, pushed here. A value with no value is NaN in `vals`
+    and its row is listed in `nones`. Returns (bit mask of the rows with no value, or -1 when
+    there are more than 62 rows, their count, the most rows in a speed window), or (-2, 0, 0)
+    before changing anything when a channel has polygon footprints and no `radii`."""
+    nc = len(chans)
+    for i in range(nc):
+        ch = chans[i]
+        half = ch[11]
+        if ch[0] and ch[13].shape[0] != half.shape[0]:
+            for k in range(half.shape[0]):
+                if math.isnan(half[k, 0]):
+                    return -2, 0, 0
+    rows = _ROWS * (nc + 1)
+    none = np.zeros(rows, dtype=np.bool_)
+    six = np.zeros(6)
+    live = 0
+    for i in range(nc):
+        ch = chans[i]
+        base = _ROWS * i
+        if not ch[0]:
+            for m in range(_ROWS):
+                none[base + m] = True
+            continue
+        behind = ch[1]
+        x0 = ch[2]
+        y0 = ch[3]
+        heading = ch[4]
+        speed = ch[5]
+        plan = ch[8]
+        pos = ch[9]
+        half = ch[11]
+        radii = ch[13]
+        k = pos.shape[0]
+        for m in range(6):
+            six[m] = 0.0
+        if k == 0:  # `neighbours`: NONE for both
+            six[0] = GAP_CAP
+            six[3] = GAP_CAP
+        else:
+            hl = np.empty(k)
+            hw = np.empty(k)
+            for r in range(k):  # `_half_extents`
+                if math.isnan(half[r, 0]):
+                    hl[r] = radii[r]
+                    hw[r] = radii[r]
+                else:
+                    hl[r] = half[r, 0]
+                    hw[r] = half[r, 1]
+            ds = d_start[i]
+            de = d_end[i] - 1
+            if not behind:
+                de = ds
+            _neighbours_into(
+                six,
+                x0,
+                y0,
+                heading,
+                plan[:, 1],
+                plan[:, 2],
+                driven[i, ds:de, 1],
+                driven[i, ds:de, 2],
+                behind,
+                pos,
+                ch[10],
+                hl,
+                hw,
+                ch[12],
+                half_width,
+                ch[6],
+                ch[7],
+                lookahead,
+            )
+        lead_gap = six[0]
+        lead_speed = six[1]
+        vals[base] = lead_gap
+        vals[base + 8] = speed
+        if six[2] != 0.0:
+            vals[base + 3] = lead_speed
+            vals[base + 1] = _headway(lead_gap, speed)
+            vals[base + 2] = _ttc(lead_gap, speed - lead_speed)
+        else:
+            vals[base + 3] = 0.0
+            vals[base + 1] = TIME_CAP
+            vals[base + 2] = TIME_CAP
+        if behind:
+            gap = six[3]
+            towards = -six[4]
+            if towards < 0.0:  # Python's max(towards, 0.0), -0.0 kept
+                towards = 0.0
+            vals[base + 4] = gap
+            vals[base + 7] = towards
+            if six[5] != 0.0:
+                vals[base + 5] = _headway(gap, towards)
+                vals[base + 6] = _ttc(gap, towards - speed)
+            else:
+                vals[base + 5] = TIME_CAP
+                vals[base + 6] = TIME_CAP
+        else:
+            for m in range(_FOLLOW_FIRST, _FOLLOW_LAST + 1):
+                none[base + m] = True
+        n = push_row(speeds, s_start, s_end, i, t, speed, 0.0, 1.0, max_gap)
+        if n > live:
+            live = n
+        s0 = s_start[i]
+        s1 = s_end[i]
+        accel = _slope(speeds[i, s0:s1, 0], speeds[i, s0:s1, 1], 1.0)
+        vals[base + 9] = accel
+        if math.isnan(accel):
+            none[base + 9] = True
+    # the worst over the channels (`family.worst`): no value when any has none
+    top = _ROWS * nc
+    for m in range(_ROWS):
+        behind_only = not all_seeing and _FOLLOW_FIRST <= m <= _FOLLOW_LAST
+        use_max = m == _MAX_ROWS[0] or m == _MAX_ROWS[1]
+        seen = 0
+        missing = False
+        best = 0.0
+        for i in range(nc):
+            if behind_only and not chans[i][1]:
+                continue
+            if none[_ROWS * i + m]:
+                missing = True
+                break
+            v = vals[_ROWS * i + m]
+            if seen == 0 or (v > best if use_max else v < best):
+                best = v
+            seen += 1
+        if missing or seen == 0:
+            none[top + m] = True
+        else:
+            vals[top + m] = best
+    count = 0
+    mask = 0
+    for r in range(rows):
+        if none[r]:
+            vals[r] = math.nan
+            nones[count] = r
+            count += 1
+            if rows <= 62:
+                mask |= 1 << r
+    return (mask if rows <= 62 else -1), count, live

@@ -23,6 +23,13 @@ class _Recording(dict):
         self.written.add(key)
         super().__setitem__(key, value)
 
+    def update(self, *args, **kwargs):
+        # a family may write its signals in one `dict.update` (family.KernelOutputs), which
+        # does not go through __setitem__
+        items = dict(*args, **kwargs)
+        self.written.update(items)
+        super().update(items)
+
 
 def test_every_catalogue_signal_has_exactly_one_family():
     engine = MetricEngine(MetricParams(), CHANNELS)

@@ -1,14 +1,19 @@
 """Comfort (spi-reference "Comfort"): hcs from the ego's driven path of the last
-`comfort_span` seconds, ppcs from the plan. Keeps each channel's recent ego positions in `ego`,
-which the situation family reads for the path driven behind the ego.
+`comfort_span` seconds, ppcs from the plan. Keeps each channel's recent ego positions in `ego`
+(`family.PoseWindows`, window i for channel i), which the situation family reads for the path
+driven behind the ego.
 """
 
 from __future__ import annotations
 
-from casewatch.monitor.comfort import hcs, ppcs
-from casewatch.monitor.family import Engine, MetricFamily, PoseWindow, worst
+import numpy as np
+
+from casewatch.monitor.comfort import _projection, comfort_tick
+from casewatch.monitor.family import Engine, KernelOutputs, MetricFamily, PoseWindows
 from casewatch.monitor.frames import ChannelState
 from casewatch.safety_case.signals import channel_name
+
+_NO_PLAN = np.zeros((0, 3))
 
 
 class ComfortFamily(MetricFamily):
@@ -17,24 +22,59 @@ class ComfortFamily(MetricFamily):
     def __init__(self, engine: Engine):
         super().__init__(engine)
         p = self.params
-        self.ego = {c: PoseWindow(p.comfort_span, p.max_gap) for c in self.channels}
-        self._channel_names = {
-            c: {m: channel_name(m, c) for m in ("hcs", "ppcs")} for c in self.channels
-        }
-        self._hcs_names = [self._channel_names[c]["hcs"] for c in self.channels]
-        self._ppcs_names = [self._channel_names[c]["ppcs"] for c in self.channels]
+        self.ego = PoseWindows(len(self.channels), p.comfort_span, p.max_gap)
+        metrics = ("hcs", "ppcs")
+        names = [channel_name(m, c) for c in self.channels for m in metrics]
+        self._out = KernelOutputs([*names, *metrics])
+        self._absent = (False, 0.0, 0.0, _NO_PLAN)
+        #: `_projection(h)` for the h the plans have needed (`comfort_tick`'s table)
+        self._projs = np.zeros((1, 4, 1))
+        self._have = np.zeros(1, dtype=np.bool_)
 
     def step(self, t: float, states: dict[str, ChannelState], out: dict[str, float | None]) -> None:
+        """One compiled call for every channel (`comfort.comfort_tick`)."""
         p = self.params
+        absent = self._absent
+        chans = []
         for c in self.channels:
             s = states.get(c)
             if s is None:
-                continue
-            window = self.ego[c]
-            window.push(t, s.ego.x, s.ego.y)
-            rows = window.window()
-            names = self._channel_names[c]
-            out[names["hcs"]] = hcs(rows[:, 0], rows[:, 1:3], p.comfort_span, p.comfort_steepness)
-            out[names["ppcs"]] = ppcs(s.plan, p.comfort_span, p.comfort_steepness)
-        out["hcs"] = worst([out[n] for n in self._hcs_names], False)
-        out["ppcs"] = worst([out[n] for n in self._ppcs_names], False)
+                chans.append(absent)
+            else:
+                e = s.ego
+                chans.append((True, float(e.x), float(e.y), s.plan))
+        args = tuple(chans)
+        w = self.ego
+        o = self._out
+        while True:
+            mask, count, live = comfort_tick(
+                t,
+                args,
+                w.buf,
+                w.start,
+                w.end,
+                float(p.comfort_span),
+                float(p.max_gap),
+                float(p.comfort_steepness),
+                self._projs,
+                self._have,
+                o.vals,
+                o.nones,
+            )
+            if mask != -2:
+                break
+            self._add_projection(count)
+        o.write(out, mask, count)
+        w.make_room(live)
+
+    def _add_projection(self, h: int) -> None:
+        """Put `_projection(h)` in the kernel's table (grown to hold it)."""
+        if h >= len(self._have):
+            size = max(h + 1, 2 * len(self._have))
+            projs = np.zeros((size, 4, 2 * size + 1))
+            projs[: len(self._have), :, : self._projs.shape[2]] = self._projs
+            have = np.zeros(size, dtype=np.bool_)
+            have[: len(self._have)] = self._have
+            self._projs, self._have = projs, have
+        self._projs[h, :, : 2 * h + 1] = _projection(h)
+        self._have[h] = True

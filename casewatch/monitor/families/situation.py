@@ -7,19 +7,53 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+from numba.core.errors import TypingError
+
 from casewatch.monitor.families.comfort import ComfortFamily
-from casewatch.monitor.family import Engine, MetricFamily, PoseWindow, worst
+from casewatch.monitor.family import Engine, KernelOutputs, MetricFamily, PoseWindows
 from casewatch.monitor.frames import ChannelState
 from casewatch.monitor.situation import (
     GAP_CAP,
-    TIME_CAP,
-    acceleration,
+    TICK_METRICS,
     ego_half_length,
-    headway,
-    neighbours,
-    time_to_collision,
+    ego_half_width,
+    situation_tick,
 )
-from casewatch.safety_case.signals import SITUATION_METRICS, WORST_IS_MAX, channel_name
+from casewatch.safety_case.signals import channel_name
+
+_NO_PLAN = np.zeros((0, 3))
+_NO_POINTS = np.zeros((0, 2))
+_NO_VALUES = np.zeros(0)
+
+
+def _absent(behind: bool) -> tuple:
+    """`situation_tick`'s row of a channel absent at the tick (its types those of a present
+    one: one compiled variant)."""
+    return (
+        False,
+        behind,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        _NO_PLAN,
+        _NO_POINTS,
+        _NO_VALUES,
+        _NO_POINTS,
+        _NO_POINTS,
+        _NO_VALUES,
+    )
+
+
+_ABSENT = {True: _absent(True), False: _absent(False)}
+
+
+def _c(a: np.ndarray) -> np.ndarray:
+    """`a` as a C-contiguous float array (the same values)."""
+    return np.ascontiguousarray(a, dtype=np.float64)
 
 
 class SituationFamily(MetricFamily):
@@ -28,70 +62,94 @@ class SituationFamily(MetricFamily):
     def __init__(self, engine: Engine):
         super().__init__(engine)
         p = self.params
-        self._situation_names = {
-            c: {m: channel_name(m, c) for m in SITUATION_METRICS} for c in self.channels
-        }
-        #: per metric: its channel names, whether its worst is the max, whether it is behind
-        self._worst_of = [
-            (
-                metric,
-                [self._situation_names[c][metric] for c in self.channels],
-                metric in WORST_IS_MAX,
-                metric.startswith("follow_"),
-            )
-            for metric in SITUATION_METRICS
-        ]
+        names = [channel_name(m, c) for c in self.channels for m in TICK_METRICS]
+        self._out = KernelOutputs([*names, *TICK_METRICS])
         #: per channel, rows (t, reported speed, 0) of the last second: ego_accel's slope
-        self._speeds = {c: PoseWindow(1.0, p.max_gap) for c in self.channels}
+        self._speeds = PoseWindows(len(self.channels), 1.0, p.max_gap)
+        self._comfort: ComfortFamily | None = None
+        #: set once a tick's arrays came in mixed layouts or types: from then on they are
+        #: made C-contiguous floats first (the kernel takes one type for every channel)
+        self._normalise = False
 
     def step(self, t: float, states: dict[str, ChannelState], out: dict[str, float | None]) -> None:
         """spi-reference "Situation signals": leader and follower of each channel's ego, and
         the unsuffixed worst over the channels that can see the region (ahead: every channel;
-        behind: the all-round ones)."""
-        p = self.params
-        reach = GAP_CAP + 50.0
-        behind_seeing = [c for c in self.channels if self.coverage[c].fov_deg >= 360.0]
-        driven_paths = self.engine.family(ComfortFamily).ego
+        behind: the all-round ones). One compiled call for every channel
+        (`situation.situation_tick`)."""
+        coverage = self.coverage
+        chans = []
+        all_seeing = True
         for c in self.channels:
+            behind = coverage[c].fov_deg >= 360.0
+            if not behind:
+                all_seeing = False
             s = states.get(c)
             if s is None:
+                chans.append(_ABSENT[behind])
                 continue
-            ego = s.ego
-            speed = math.hypot(ego.vx, ego.vy)
-            names = self._situation_names[c]
-            driven = driven_paths[c].window()[:-1, 1:3] if c in behind_seeing else None
-            lead, follower = neighbours(
-                ego, s.plan, driven, s.objects, p.lane_half_width, ego_half_length(ego), reach
+            e = s.ego
+            o = s.objects
+            if e.half is not None:
+                hl, hw = e.half[0], abs(e.half[1])
+            else:
+                hl, hw = ego_half_length(e), ego_half_width(e)
+            chans.append(
+                (
+                    True,
+                    behind,
+                    float(e.x),
+                    float(e.y),
+                    float(e.yaw),
+                    math.hypot(e.vx, e.vy),
+                    float(hl),
+                    float(hw),
+                    s.plan,
+                    o.pos,
+                    o.yaw,
+                    o.half,
+                    o.vel,
+                    _NO_VALUES,
+                )
             )
-            out[names["ego_speed"]] = speed
-            out[names["ego_accel"]] = self._accel(c, t, speed)
-            out[names["lead_gap"]] = lead.gap
-            out[names["lead_speed"]] = lead.speed if lead.present else 0.0
-            # no leader: the caps (nothing to tailgate), not a headway to the look-ahead's end
-            out[names["lead_thw"]] = headway(lead.gap, speed) if lead.present else TIME_CAP
-            out[names["lead_ttc"]] = (
-                time_to_collision(lead.gap, speed - lead.speed) if lead.present else TIME_CAP
-            )
-            if follower is not None:
-                # the path behind points away from the ego: a follower closing in moves against it
-                towards = max(-follower.speed, 0.0)
-                out[names["follow_gap"]] = follower.gap
-                out[names["follow_speed"]] = towards
-                if follower.present:
-                    out[names["follow_thw"]] = headway(follower.gap, towards)
-                    out[names["follow_ttc"]] = time_to_collision(follower.gap, towards - speed)
-                else:
-                    out[names["follow_thw"]] = out[names["follow_ttc"]] = TIME_CAP
-        all_seeing = len(behind_seeing) == len(self.channels)
-        for metric, seeing, use_max, behind in self._worst_of:
-            if behind and not all_seeing:
-                seeing = [self._situation_names[c][metric] for c in behind_seeing]
-            out[metric] = worst([out[n] for n in seeing], use_max) if seeing else None
+        if self._normalise:
+            chans = [(*ch[:8], *map(_c, ch[8:])) for ch in chans]
+        try:
+            mask, count, live = self._tick(t, tuple(chans), all_seeing)
+        except TypingError:
+            if self._normalise:
+                raise
+            self._normalise = True  # mixed layouts: see __init__
+            chans = [(*ch[:8], *map(_c, ch[8:])) for ch in chans]
+            mask, count, live = self._tick(t, tuple(chans), all_seeing)
+        if mask == -2:  # polygon footprints: their bounding radii too
+            chans = [
+                ch if not ch[0] else (*ch[:13], _c(states[c].objects.radii))
+                for c, ch in zip(self.channels, chans, strict=True)
+            ]
+            mask, count, live = self._tick(t, tuple(chans), all_seeing)
+        self._out.write(out, mask, count)
+        self._speeds.make_room(live)
 
-    def _accel(self, channel: str, t: float, speed: float) -> float | None:
-        """spi-reference ego_accel: slope of the channel's reported speed over the last second
-        (the window restarts after `max_gap` without the channel, like every history)."""
-        window = self._speeds[channel]
-        window.push(t, speed, 0.0)
-        rows = window.window()
-        return acceleration(rows[:, 0], rows[:, 1])
+    def _tick(self, t: float, chans: tuple, all_seeing: bool) -> tuple[int, int, int]:
+        comfort = self._comfort
+        if comfort is None:
+            comfort = self._comfort = self.engine.family(ComfortFamily)
+        driven = comfort.ego
+        speeds = self._speeds
+        o = self._out
+        return situation_tick(  # type: ignore[no-any-return]
+            t,
+            chans,
+            driven.buf,
+            driven.start,
+            driven.end,
+            speeds.buf,
+            speeds.start,
+            speeds.end,
+            float(self.params.lane_half_width),
+            GAP_CAP + 50.0,
+            float(self.params.max_gap),
+            all_seeing,
+            o.vals,
+            o.nones,
+        )
