@@ -12,7 +12,12 @@ import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from casewatch.monitor.frechet import frechet_distance, frechet_pairs
+from casewatch.monitor.frechet import (
+    _full_pair_distances,
+    _pair_distances,
+    frechet_distance,
+    frechet_pairs,
+)
 
 
 def _point_distance(p: np.ndarray, q: np.ndarray) -> float:
@@ -132,3 +137,84 @@ def test_no_pairs_and_bad_layouts():
         frechet_pairs(np.zeros((3, 2)), np.array([0, 1, 2]))
     with pytest.raises(ValueError, match="at least one point"):
         frechet_distance(np.zeros((0, 2)), np.zeros((2, 2)))
+
+
+# The shortcuts (`_bounds`, `_greedy_bound`, `_banded_cost`) against the full programme they
+# skip cells of, value for value: the reference is `_full_pair_distances`, the recurrence over
+# every cell.
+
+
+def _batch(lines: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, int]:
+    coords = np.ascontiguousarray(np.concatenate(lines), dtype=np.float64)
+    index = np.repeat(np.arange(len(lines), dtype=np.int64), [len(x) for x in lines])
+    return coords, index, len(lines)
+
+
+def _same(a: np.ndarray, b: np.ndarray) -> bool:
+    return a.tobytes() == b.tobytes()  # bit for bit, NaN included
+
+
+def _near(p: np.ndarray, wobble: np.ndarray) -> np.ndarray:
+    """A path like p: what chpps compares (the same number of points, a little off)."""
+    return p + wobble
+
+
+@settings(max_examples=400, deadline=None)
+@given(
+    st.integers(1, 40),
+    st.integers(1, 40),
+    st.floats(0.0, 3.0),
+    st.integers(0, 2**32 - 1),
+)
+def test_shortcuts_equal_the_full_programme(n, m, scale, seed):
+    rng = np.random.default_rng(seed)
+    p = _random_walk(rng, n)
+    same_length = _near(p, scale * rng.normal(size=p.shape))  # the diagonal bound's case
+    other = _random_walk(rng, m)  # lengths differ: the greedy bound
+    shifted = p[::-1].copy()  # the diagonal is a poor coupling: the band is wide
+    coords, index, n_lines = _batch([p, same_length, p, other, p, shifted])
+    assert _same(
+        _pair_distances(coords, index, n_lines), _full_pair_distances(coords, index, n_lines)
+    )
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 6), st.integers(0, 6)), min_size=2, max_size=12))
+def test_shortcuts_on_a_coarse_grid_with_ties(points):
+    """Integer points: many equal distances, so the bounds meet and tie often."""
+    half = len(points) // 2
+    p = np.array(points[:half], dtype=float)
+    q = np.array(points[half : 2 * half], dtype=float)
+    coords, index, n_lines = _batch([p, q, q, p])
+    got = _pair_distances(coords, index, n_lines)
+    assert _same(got, _full_pair_distances(coords, index, n_lines))
+    assert got[0] == brute_force(p, q)
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf, 1e308])
+def test_a_coordinate_that_is_not_finite_takes_the_full_programme(bad):
+    rng = np.random.default_rng(11)
+    p = _random_walk(rng, 9)
+    q = p + 0.1
+    for k in (0, 4, 8):
+        for side in (p, q):
+            broken = side.copy()
+            broken[k, k % 2] = bad
+            lines = [broken, q] if side is p else [p, broken]
+            coords, index, n_lines = _batch([*lines, p[:5], broken[:7]])
+            assert _same(
+                _pair_distances(coords, index, n_lines),
+                _full_pair_distances(coords, index, n_lines),
+            )
+
+
+def test_the_band_when_the_diagonal_bound_is_not_the_distance():
+    # Q lags P by one point: the diagonal coupling pays 1.0, the best one (Q's first point
+    # twice, then P's last twice) pays nothing; both ends coincide, so L = 0 < U = 1 and the
+    # banded programme runs
+    p = np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [3.0, 0.0], [3.0, 0.0]])
+    q = np.array([[0.0, 0.0], [0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [3.0, 0.0]])
+    coords, index, n_lines = _batch([p, q])
+    assert _pair_distances(coords, index, n_lines).tolist() == [0.0]
+    assert _full_pair_distances(coords, index, n_lines).tolist() == [0.0]
+    assert frechet_distance(p, q) == brute_force(p, q) == 0.0
