@@ -288,6 +288,8 @@ def _push_row(buf, start, end, i, t, a, b, span, max_gap):  # pragma: no cover -
             buf[i, r, 2] = buf[i, s + r, 2]
         s = 0
         e = live
+        if e == buf.shape[1]:
+            raise IndexError("a full window: PoseWindows.make_room was not called")
     buf[i, e, 0] = t
     buf[i, e, 1] = a
     buf[i, e, 2] = b

@@ -264,13 +264,7 @@ def resample_objects(objects: Objects, step: float) -> Objects:
     start = _predictions_grid_start(objects.pred, objects.pred_len, float(step))
     if start == 1:
         return objects
-    if start == 0:  # on the grid from dt = 0: the grid points are the samples after the first
-        # contiguous, like every other prediction array: one compiled layout per kernel
-        pred = np.ascontiguousarray(objects.pred[:, 1:])
-        lens = np.maximum(objects.pred_len - 1, 0)
-    else:
-        pred, lens = _resample_predictions(objects.pos, objects.pred, objects.pred_len, float(step))
-    return with_predictions(objects, pred, lens)
+    return objects_on_grid(objects, start, step)
 
 
 def with_predictions(objects: Objects, pred: np.ndarray, pred_len: np.ndarray) -> Objects:
@@ -408,6 +402,29 @@ def _prepare_plan(plan, half, smooth, step, radius):  # pragma: no cover - compi
             out[i, 2] = p[0, 2]
         p = out
     return p
+
+
+@kernel
+def prepare_channel(plan, pred, pred_len, half, smooth, step, radius):  # pragma: no cover
+    """A channel's resampling in one call (the engine's per-tick step, issue 36): its plan as
+    `prepare_plan` gives it (C-contiguous), and what `resample_objects` does with its
+    predictions: 1 nothing (none, or already on the grid from `step`), 0 drop their dt = 0
+    point, -1 interpolate (`_predictions_grid_start`)."""
+    p = np.ascontiguousarray(_prepare_plan(plan, half, smooth, step, radius))
+    if pred.shape[0] == 0 or pred.shape[1] == 0:
+        return p, 1
+    return p, _predictions_grid_start(pred, pred_len, step)
+
+
+def objects_on_grid(objects: Objects, start: int, step: float) -> Objects:
+    """`resample_objects(objects, step)` once `prepare_channel` said `start` (not 1) for them."""
+    if start == 0:  # on the grid from dt = 0: the grid points are the samples after the first
+        # contiguous, like every other prediction array: one compiled layout per kernel
+        pred = np.ascontiguousarray(objects.pred[:, 1:])
+        lens = np.maximum(objects.pred_len - 1, 0)
+    else:
+        pred, lens = _resample_predictions(objects.pos, objects.pred, objects.pred_len, float(step))
+    return with_predictions(objects, pred, lens)
 
 
 def prepare_plan(plan: np.ndarray, span: float, step: float, radius: float) -> np.ndarray:
