@@ -278,6 +278,22 @@ def _pair_distances(coords, index, n_lines):  # pragma: no cover - compiled
 
 
 @kernel
+def pair_distances_into(coords, starts, n_pairs, out):  # pragma: no cover - compiled
+    """`_pair_distances` with the lines given by where they start: pair m is lines 2m and
+    2m + 1, line g is coords[starts[g]:starts[g + 1]] (non-empty); fd of pair m into out[m].
+    The layout `history._tick_cut` writes, so a tick's distances are one call with nothing
+    built around it."""
+    widest = 0
+    for g in range(2 * n_pairs):
+        widest = max(widest, starts[g + 1] - starts[g])
+    row = np.empty(widest)
+    for pair in range(n_pairs):
+        sp = starts[2 * pair]
+        sq = starts[2 * pair + 1]
+        out[pair] = _pair_distance(coords, sp, sq - sp, sq, starts[2 * pair + 2] - sq, row)
+
+
+@kernel
 def _full_pair_distances(coords, index, n_lines):  # pragma: no cover - compiled
     """`_pair_distances` by the full programme for every pair (`_coupling_cost`): the
     reference the tests hold the shortcuts to."""

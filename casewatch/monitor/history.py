@@ -58,19 +58,25 @@ class PlanHistory:
     A plan longer than the buffer's width widens the buffer (all channels, once).
 
     The engine pushes only non-empty plans (spi-reference: the channel keeps its non-empty
-    plans); an empty plan pushed anyway holds its rank and never overlaps.
+    plans); an empty plan pushed anyway holds its rank and never overlaps. `push` is the
+    reference formulation; the motion family's tick pushes with `_push_plan` inside
+    `chpps_tick`, into the same arrays by the same rule.
+
+    `coords`, `starts` and `table` are the tick's work space (`chpps_tick`): the cut sequences,
+    where each Fréchet line starts in `coords`, and the pair table; `coords` grows when a tick
+    needs more points.
     """
 
     __slots__ = (
-        "_count",
-        "_head",
-        "_last",
+        "coords",
         "count",
         "head",
         "lens",
         "max_gap",
         "plans",
         "segs",
+        "starts",
+        "table",
         "times",
     )
 
@@ -89,39 +95,168 @@ class PlanHistory:
         self.count = np.zeros(channels, dtype=np.int64)
         self.head = np.zeros(channels, dtype=np.int64)
         self.max_gap = max_gap
-        # Python mirrors of count / head and the last push time: numpy scalar reads are slow.
-        self._count = [0] * channels
-        self._head = [0] * channels
-        self._last = [0.0] * channels
+        self.coords = np.zeros((64, 2))
+        # pairs of a tick: the given ones (at most one per pair of channels) and the stored plans
+        cap = channels * slots + channels * channels
+        self.starts = np.zeros(2 * cap + 1, dtype=np.int64)
+        self.table = np.zeros((cap, 5))
 
     def push(self, channel: int, t: float, plan: np.ndarray) -> None:
         """Store `plan` ((n, 3) [dt, x, y]) of `channel` at frame time `t`; the history restarts
         first when `t` is more than `max_gap` (+1e-9 s) after the channel's previous plan."""
         n = len(plan)
         if n > self.plans.shape[2]:
-            self._widen(max(n, 2 * self.plans.shape[2]))
-        count = self._count[channel]
-        if count and t - self._last[channel] > self.max_gap + 1e-9:
+            self.widen(max(n, 2 * self.plans.shape[2]))
+        count = int(self.count[channel])
+        head = int(self.head[channel])
+        # the newest slot's time is the channel's previous push
+        if count and t - float(self.times[channel, head]) > self.max_gap + 1e-9:
             count = 0
-        slot = (self._head[channel] + 1) % self.plans.shape[1]
+        slot = (head + 1) % self.plans.shape[1]
         self.plans[channel, slot, :n] = plan
         _segments(self.plans[channel, slot], n, self.segs[channel, slot])
         self.lens[channel, slot] = n
         self.times[channel, slot] = t
-        count = min(count + 1, self.plans.shape[1])
-        self._count[channel] = count
-        self.count[channel] = count
-        self._head[channel] = slot
+        self.count[channel] = min(count + 1, self.plans.shape[1])
         self.head[channel] = slot
-        self._last[channel] = t
 
-    def _widen(self, width: int) -> None:
+    def widen(self, width: int) -> None:
+        """Room for plans of `width` points (every channel's buffer, the stored plans kept)."""
         old = self.plans
         self.plans = np.zeros((*old.shape[:2], width, 3))
         self.plans[:, :, : old.shape[2]] = old
         old_segs = self.segs
         self.segs = np.zeros((*old.shape[:2], width))
         self.segs[:, :, : old.shape[2]] = old_segs
+
+
+class _IdCodes(dict):
+    """Object id -> a number, a new one for an id not seen before (`dict.__getitem__` calls
+    `__missing__`), so that kernels match ids as integers."""
+
+    __slots__ = ("next",)
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.next = 0
+
+    def __missing__(self, key: object) -> int:
+        code = self.next
+        self.next += 1
+        self[key] = code
+        return code
+
+
+class ObjectHistory:
+    """Each channel's recent observations of its objects, for ompv's lookback (spi-reference
+    "ompv"): what `family.TimedHistory` of `Objects` held, in preallocated arrays that
+    `prediction.ompv_tick` reads and updates in one compiled call per tick.
+
+    Channel c's observations sit in a ring of `slots` slots, oldest to newest ending at
+    `head[c]`, `count[c]` of them: slot s holds the frame time `times[c, s]`, `n_obj[c, s]`
+    objects with their positions `pos[c, s, :n]`, predictions `pred[c, s, :n, :n_pred[c, s]]`
+    (the frame's padding kept: ompv reads the width as `Objects.pred`'s), real prediction
+    lengths `pred_len` and ids as numbers (`codes`, from `codes_of`). `fit` grows the arrays
+    when a tick brings more objects, longer predictions or needs another slot.
+
+    `pending`, `elapsed`: the tick's channels whose ompv needs the nearest matching (no id
+    carried over, `prediction.ompv_tick`): the slot compared with and its age, -1 otherwise.
+    """
+
+    __slots__ = (
+        "_ids",
+        "codes",
+        "count",
+        "elapsed",
+        "head",
+        "n_obj",
+        "n_pred",
+        "pending",
+        "pos",
+        "pred",
+        "pred_len",
+        "times",
+    )
+
+    #: ids remembered before `forget_unused` drops those no observation holds any more
+    ID_LIMIT = 1 << 16
+
+    def __init__(self, channels: int, slots: int = 8, objects: int = 8, points: int = 32):
+        if channels < 1 or slots < 2 or objects < 1 or points < 1:
+            raise ValueError(
+                f"ObjectHistory needs channels, objects, points >= 1 and slots >= 2 (got "
+                f"{channels}, {objects}, {points}, {slots})"
+            )
+        self.times = np.zeros((channels, slots))
+        self.count = np.zeros(channels, dtype=np.int64)
+        self.head = np.zeros(channels, dtype=np.int64)
+        self.n_obj = np.zeros((channels, slots), dtype=np.int64)
+        self.n_pred = np.zeros((channels, slots), dtype=np.int64)
+        self.pos = np.zeros((channels, slots, objects, 2))
+        self.pred = np.zeros((channels, slots, objects, points, 3))
+        self.pred_len = np.zeros((channels, slots, objects), dtype=np.int64)
+        self.codes = np.zeros((channels, slots, objects), dtype=np.int64)
+        self.pending = np.full(channels, -1, dtype=np.int64)
+        self.elapsed = np.zeros(channels)
+        self._ids = _IdCodes()
+
+    def codes_of(self, ids: list[str]) -> np.ndarray:
+        """The numbers of `ids` (equal ids, equal numbers), as int64."""
+        return np.array(list(map(self._ids.__getitem__, ids)), dtype=np.int64)
+
+    def forget_unused(self) -> None:
+        """Drop the ids no stored observation holds once more than `ID_LIMIT` are known (call
+        between ticks: a tick's current ids are not stored yet). An id seen again later gets a
+        new number, which nothing stored can match: matching is unchanged, memory bounded."""
+        if len(self._ids) <= self.ID_LIMIT:
+            return
+        live: set[int] = set()
+        slots = self.times.shape[1]
+        for c in range(len(self.count)):
+            head = int(self.head[c])
+            for r in range(int(self.count[c])):
+                s = (head - r) % slots
+                live.update(self.codes[c, s, : self.n_obj[c, s]].tolist())
+        kept = _IdCodes()
+        kept.next = self._ids.next
+        kept.update((k, v) for k, v in self._ids.items() if v in live)
+        self._ids = kept
+
+    def fit(self, objects: int, points: int) -> None:
+        """Room for a tick of `objects` objects with `points`-point predictions per channel
+        and one more observation per channel (`prediction.ompv_tick` asks for it)."""
+        channels, slots = self.times.shape
+        k = self.pos.shape[2]
+        p = self.pred.shape[3]
+        full = bool((self.count >= slots).any())
+        new_slots = 2 * slots if full else slots
+        new_k = max(k, objects) if objects <= k else max(objects, 2 * k)
+        new_p = max(p, points) if points <= p else max(points, 2 * p)
+        if (new_slots, new_k, new_p) == (slots, k, p):
+            return
+        # observations oldest first into slots 0.., so the ring may grow
+        order = [
+            [(int(self.head[c]) - int(self.count[c]) + 1 + r) % slots for r in range(slots)]
+            for c in range(channels)
+        ]
+        idx = np.array(order, dtype=np.int64)
+        rows = np.arange(channels)[:, None]
+
+        def moved(a: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+            """a's observations in order, in an array of the new sizes."""
+            src = a[rows, idx]
+            out = np.zeros((channels, new_slots, *shape), dtype=a.dtype)
+            out[tuple(slice(0, n) for n in src.shape)] = src
+            return out
+
+        self.times = moved(self.times, ())
+        self.n_obj = moved(self.n_obj, ())
+        self.n_pred = moved(self.n_pred, ())
+        self.pos = moved(self.pos, (new_k, 2))
+        self.pred = moved(self.pred, (new_k, new_p, 3))
+        self.pred_len = moved(self.pred_len, (new_k,))
+        self.codes = moved(self.codes, (new_k,))
+        self.head = np.maximum(self.count - 1, 0).astype(np.int64)
 
 
 #: Columns of the pair table `_cut` returns, one row per Fréchet pair of the frame: owner
@@ -460,6 +595,306 @@ def _combine(distances, table, n_ch, n_out):  # pragma: no cover - compiled
         if out[1, o] > 0.0:
             out[0, o] = num[o] / den[o]
     return out
+
+
+def tick_rows(n_channels: int, n_pairs: int) -> dict[str, int]:
+    """The motion family's output rows (`_finish`, `prediction.ompv_tick`): the first row of
+    the per-channel chpps, of the per-channel ompv and of the per-pair crpps, then `worst`:
+    the unsuffixed chpps, ompv, crpps and crpps_mean in that order; `size` rows in all."""
+    worst = 2 * n_channels + n_pairs
+    return {
+        "chpps": 0,
+        "ompv": n_channels,
+        "crpps": 2 * n_channels,
+        "worst": worst,
+        "size": worst + 4,
+    }
+
+
+@kernel
+def _push_plan(plans, segs, lens, times, count, head, c, t, plan, max_gap):  # pragma: no cover
+    """`PlanHistory.push` of channel c's plan at t (the buffer wide enough), by the same rule:
+    the history restarts when t is more than max_gap (+1e-9 s) after the channel's newest
+    plan."""
+    n = plan.shape[0]
+    slots = lens.shape[1]
+    k = count[c]
+    h = head[c]
+    if k > 0 and t - times[c, h] > max_gap + 1e-9:
+        k = 0
+    slot = (h + 1) % slots
+    for r in range(n):
+        plans[c, slot, r, 0] = plan[r, 0]
+        plans[c, slot, r, 1] = plan[r, 1]
+        plans[c, slot, r, 2] = plan[r, 2]
+    _segments(plans[c, slot], n, segs[c, slot])
+    lens[c, slot] = n
+    times[c, slot] = t
+    count[c] = min(k + 1, slots)
+    head[c] = slot
+
+
+@kernel
+def _tick_cut(
+    t,
+    chans,
+    given,
+    n_given,
+    plans,
+    segs,
+    lens,
+    times,
+    count,
+    head,
+    max_gap,
+    decay,
+    coords,
+    starts,
+    table,
+    push,
+):  # pragma: no cover - compiled
+    """The tick's plans pushed (when `push`: `chans[c][0]` says channel c is present, and its
+    non-empty plan `chans[c][1]` joins the history), then `_cut`'s pairs of the tick, in its
+    order and with its arithmetic, written into the history's work space: line g of the
+    Fréchet batch is `coords[starts[g]:starts[g + 1]]` (pair m: lines 2m and 2m + 1),
+    `table[:k]` the pair table (`_cut`'s columns; OWNER n_channels + i: the i-th given pair).
+    `given[i]` (i < n_given) is (present, P, Q): the crpps inputs of pair i (`given` holds one
+    absent entry when there is no pair).
+
+    Returns (status, k, n_geos, need): status 0 done; 1 a plan is longer than the buffer is
+    wide (need: its length; nothing pushed); 2 `coords` holds fewer than `need` points (the
+    plans were pushed: grow it and call again with `push` off)."""
+    n_ch, slots = lens.shape
+    if push:
+        for c in range(n_ch):  # every plan fits before any is pushed: a refusal changes nothing
+            if chans[c][0] and chans[c][1].shape[0] > plans.shape[2]:
+                return 1, 0, 0, chans[c][1].shape[0]
+        for c in range(n_ch):
+            if chans[c][0] and chans[c][1].shape[0] > 0:
+                _push_plan(plans, segs, lens, times, count, head, c, t, chans[c][1], max_gap)
+    cap = n_given + n_ch * (slots - 1)
+    # per pair: slot, start, length of its first and second sequence (slot -1: a given pair;
+    # start then its index among the given pairs)
+    src = np.empty((cap, 6), dtype=np.int64)
+    owner = np.empty(cap, dtype=np.int64)
+    weight = np.empty(cap)
+    raw = np.empty((cap, 2), dtype=np.int64)  # chpps pairs: the cut lengths before resampling
+    common = np.empty(cap)  # chpps pairs: the path length both cover [m]
+    k = 0
+    for i in range(n_given):
+        if not given[i][0]:
+            continue
+        src[k, 0] = -1
+        src[k, 1] = i
+        src[k, 2] = given[i][1].shape[0]
+        src[k, 3] = -1
+        src[k, 4] = i
+        src[k, 5] = given[i][2].shape[0]
+        owner[k] = n_ch + i
+        weight[k] = 1.0
+        k += 1
+    for c in range(n_ch):
+        if count[c] == 0:
+            continue
+        h = head[c]
+        nc = lens[c, h]
+        if times[c, h] != t or nc == 0:
+            continue  # no plan from this frame: no value
+        cur = plans[c, h, :, 0]
+        c0 = cur[0]
+        c1 = cur[nc - 1]
+        for rank in range(count[c] - 1):
+            s = (h - 1 - rank + slots) % slots
+            ns = lens[c, s]
+            if ns == 0:
+                continue
+            age = t - times[c, s]
+            sdt = plans[c, s, :, 0]
+            lo = max(c0, sdt[0] - age) - TIME_EPS
+            hi = min(c1, sdt[ns - 1] - age) + TIME_EPS
+            if lo > hi:
+                continue
+            a = _bisect(cur, nc, lo, False)
+            b = _bisect(cur, nc, hi, True)
+            sa = _bisect(sdt, ns, lo + age, False)
+            sb = _bisect(sdt, ns, hi + age, True)
+            if a >= b or sa >= sb:
+                continue  # Decision: a common range with no sample of one plan is no overlap
+            n_out = max(b - a, sb - sa)
+            src[k, 0] = h
+            src[k, 1] = a
+            src[k, 2] = n_out
+            src[k, 3] = s
+            src[k, 4] = sa
+            src[k, 5] = n_out
+            raw[k, 0] = b - a
+            raw[k, 1] = sb - sa
+            common[k] = min(
+                _arc_length_segs(segs[c, h], a, b - a), _arc_length_segs(segs[c, s], sa, sb - sa)
+            )
+            owner[k] = c
+            # Decision: j is the rank among stored plans (1 = most recent), skipped included.
+            weight[k] = decay ** float(rank)
+            k += 1
+    n_geos = 0
+    geos_points = 0
+    total = 0
+    for i in range(k):
+        total += src[i, 2] + src[i, 5]
+        if src[i, 2] > 1 and src[i, 5] > 1:
+            n_geos += 1
+            geos_points += src[i, 2] + src[i, 5]
+    if total > coords.shape[0]:
+        return 2, 0, 0, total
+    at_geos = 0  # next point of the multi-point part
+    m_geos = 0  # next pair of it
+    at_one = geos_points  # next point of the one-point part
+    starts[0] = 0
+    for i in range(k):
+        lp = src[i, 2]
+        lq = src[i, 5]
+        multi = lp > 1 and lq > 1
+        pos = at_geos if multi else at_one
+        start = pos
+        for side in range(2):
+            slot = src[i, 3 * side]
+            first = src[i, 3 * side + 1]
+            n_side = src[i, 3 * side + 2]
+            if multi:
+                starts[2 * m_geos + side] = pos
+            if slot < 0:
+                seq = given[first][2] if side else given[first][1]
+                for j in range(n_side):
+                    coords[pos + j, 0] = seq[j, 0]
+                    coords[pos + j, 1] = seq[j, 1]
+            else:
+                # spi-reference chpps Decision: the stored plan moves onto the current plan's
+                # first common point (a plan that moves with the localisation estimate is not
+                # unstable)
+                o = owner[i]
+                off_x = 0.0
+                off_y = 0.0
+                if side == 1:
+                    off_x = plans[o, src[i, 0], src[i, 1], 1] - plans[o, slot, first, 1]
+                    off_y = plans[o, src[i, 0], src[i, 1], 2] - plans[o, slot, first, 2]
+                _along_segs(
+                    plans[o, slot],
+                    segs[o, slot],
+                    first,
+                    raw[i, side],
+                    common[i],
+                    n_side,
+                    off_x,
+                    off_y,
+                    coords,
+                    pos,
+                )
+            pos += n_side
+        table[i, OWNER] = owner[i]
+        table[i, WEIGHT] = weight[i]
+        table[i, GEOM] = 0.0
+        if multi:
+            table[i, DIRECT] = np.nan
+            table[i, SLOT] = m_geos
+            m_geos += 1
+            starts[2 * m_geos] = pos
+            at_geos = pos
+        else:
+            # The one point and the other sequence (P's point when both have one).
+            one = start if lp == 1 else start + lp
+            other = start + lp if lp == 1 else start
+            n_other = lq if lp == 1 else lp
+            best = -np.inf
+            for j in range(other, other + n_other):
+                d = np.hypot(coords[j, 0] - coords[one, 0], coords[j, 1] - coords[one, 1])
+                if d > best:
+                    best = d
+            table[i, DIRECT] = best
+            table[i, SLOT] = -1
+            at_one = pos
+    return 0, k, n_geos, 0
+
+
+@kernel
+def _worst_row(vals, has, first, n, row):  # pragma: no cover - compiled
+    """vals[row] = `family.worst` (use_max False) of vals[first:first + n]: no value when
+    there are none or one has none, else Python's `min` (the first of equal values; a NaN
+    first stays, a later one is passed over)."""
+    if n == 0:
+        has[row] = False
+        return
+    best = vals[first]
+    for j in range(first, first + n):
+        if not has[j]:
+            has[row] = False
+            return
+        if vals[j] < best:
+            best = vals[j]
+    vals[row] = best
+    has[row] = True
+
+
+@kernel
+def _finish(distances, table, k, n_ch, n_pairs, vals, has, nones, fd):  # pragma: no cover
+    """The chpps and crpps rows of the motion family's output (`tick_rows`) from the tick's
+    pair table and Fréchet distances, as `_combine` and the family computed them (chpps:
+    sum_j w_j inv(fd_j) / sum_j w_j in table order; crpps: inv(fd) per pair), then the
+    unsuffixed rows (the ompv rows are written before) and the rows with no value.
+
+    Returns (mask, count, mean_left): `nones[:count]` the rows with no value, `mask` their bits
+    (-1 beyond 62 rows); mean_left: crpps_mean is the caller's to compute from the pairs'
+    distances, written into `fd` (three pairs or more: numpy's pairwise sum)."""
+    num = np.zeros(n_ch)
+    den = np.zeros(n_ch)
+    crpps = 2 * n_ch
+    for c in range(n_ch):
+        has[c] = False
+    for i in range(n_pairs):
+        has[crpps + i] = False
+    for r in range(k):
+        o = int(table[r, OWNER])
+        slot = int(table[r, SLOT])
+        d = distances[slot] if slot >= 0 else table[r, DIRECT]
+        if o < n_ch:
+            w = table[r, WEIGHT]
+            num[o] += w / (1.0 + d)
+            den[o] += w
+            has[o] = True
+        else:
+            fd[o - n_ch] = d
+            has[crpps + o - n_ch] = True
+    for c in range(n_ch):
+        if has[c]:
+            vals[c] = num[c] / den[c]
+    all_pairs = n_pairs > 0
+    for i in range(n_pairs):
+        if has[crpps + i]:
+            vals[crpps + i] = 1.0 / (1.0 + fd[i])
+        else:
+            all_pairs = False
+    worst = crpps + n_pairs
+    _worst_row(vals, has, 0, n_ch, worst)
+    _worst_row(vals, has, n_ch, n_ch, worst + 1)
+    _worst_row(vals, has, crpps, n_pairs, worst + 2)
+    # Decision: no crpps_mean when any pair has none.
+    mean_left = all_pairs and n_pairs > 2
+    has[worst + 3] = all_pairs and not mean_left
+    if has[worst + 3]:
+        # np.add.reduce of one value is that value, of two their sum
+        mean = fd[0] if n_pairs == 1 else (fd[0] + fd[1]) / 2
+        vals[worst + 3] = 1.0 / (1.0 + mean)
+    n_rows = worst + 4
+    count = 0
+    mask = 0
+    for j in range(n_rows):
+        if not has[j]:
+            nones[count] = j
+            count += 1
+            if n_rows <= 62:
+                mask |= 1 << j
+    if n_rows > 62:
+        mask = -1
+    return mask, count, mean_left
 
 
 _NO_XY = np.zeros((0, 2))

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from casewatch.monitor.frames import Objects
+from casewatch.monitor.history import ObjectHistory
 from casewatch.monitor.jit import kernel
 from casewatch.monitor.similarity import pair_objects
 
@@ -207,18 +208,33 @@ def ompv(
         float(standing),
     )
     if not tracked:
-        # No stable ids: the nearest current object to each predicted position, within the gate.
-        cand = np.flatnonzero(reaches)
-        pa, ci, _ = pair_objects(predicted.take(cand, axis=0), cur.pos, gate)
-        pi = cand.take(pa)
-        if standing <= 0.0:
-            n1, n2 = _ompv_counts(predicted, reaches, cur.pos, pi, ci, float(tolerance))
-        else:
-            n1, n2 = _standing_counts(
-                predicted, reaches, prev.pos, cur.pos, pi, ci, float(tolerance), float(standing)
-            )
+        return _nearest_ompv(
+            predicted, reaches, prev.pos, cur.pos, float(tolerance), gate, float(standing)
+        )
     if standing <= 0.0:
         return n1 / n2
+    return 1.0 if n2 == 0 else n1 / n2
+
+
+def _nearest_ompv(
+    predicted: np.ndarray,
+    reaches: np.ndarray,
+    prev_pos: np.ndarray,
+    cur_pos: np.ndarray,
+    tolerance: float,
+    gate: float,
+    standing: float,
+) -> float:
+    """ompv of a channel that does not track (no id carried over): each predicted position
+    (`_predict`) paired with the nearest current object within `gate`, then counted as the
+    tracked case counts (`ompv`)."""
+    cand = np.flatnonzero(reaches)
+    pa, ci, _ = pair_objects(predicted.take(cand, axis=0), cur_pos, gate)
+    pi = cand.take(pa)
+    if standing <= 0.0:
+        n1, n2 = _ompv_counts(predicted, reaches, cur_pos, pi, ci, tolerance)
+        return n1 / n2
+    n1, n2 = _standing_counts(predicted, reaches, prev_pos, cur_pos, pi, ci, tolerance, standing)
     return 1.0 if n2 == 0 else n1 / n2
 
 
@@ -275,3 +291,200 @@ def _standing_counts(predicted, reaches, prev_pos, cur_pos, pi, ci, tolerance, s
             if reaches[i] and err <= tolerance + TOLERANCE_EPS:
                 n1 += 1
     return n1, n2
+
+
+@kernel
+def _ompv_observed(
+    prev_pos, pred, pred_len, prev_codes, elapsed, cur_pos, cur_codes, tolerance, standing
+):  # pragma: no cover
+    """`ompv` of one channel against one stored observation, ids as numbers; (value, 0), or
+    (0.0, 1) when the channel does not track (the nearest matching, `_nearest_ompv`, is
+    the caller's: it is another module's kernel)."""
+    n_prev = prev_pos.shape[0]
+    n_cur = cur_pos.shape[0]
+    if n_prev == 0 and standing > 0.0:
+        return 1.0, 0  # nothing was predicted: nothing to check
+    if n_prev == 0:
+        return (1.0 if n_cur == 0 else 0.0), 0  # every current object is new: a miss
+    match = np.empty(n_prev, dtype=np.int64)
+    for i in range(n_prev):
+        m = -1
+        for j in range(n_cur - 1, -1, -1):  # a repeated id: its last index
+            if cur_codes[j] == prev_codes[i]:
+                m = j
+                break
+        match[i] = m
+    n1, n2, tracked, _, _ = _ompv_tracked(
+        prev_pos, pred, pred_len, elapsed, cur_pos, match, tolerance, standing
+    )
+    if not tracked:
+        return 0.0, 1
+    if standing <= 0.0:
+        return n1 / n2, 0
+    return (1.0 if n2 == 0 else n1 / n2), 0
+
+
+@kernel
+def _ompv_tick(
+    t,
+    chans,
+    times,
+    count,
+    head,
+    n_obj,
+    n_pred,
+    pos,
+    pred,
+    pred_len,
+    codes,
+    lookback,
+    max_gap,
+    tolerance,
+    standing,
+    vals,
+    has,
+    row0,
+    pending,
+    elapsed,
+):  # pragma: no cover - compiled
+    """ompv of every channel at t in one call, over `history.ObjectHistory`'s arrays: what the
+    motion family did per channel with a `TimedHistory` of `Objects`, by the same rules.
+
+    `chans[c]`: (present, plan, positions, predictions, prediction lengths, id numbers) of
+    channel c. A present channel whose previous observation is within max_gap (+1e-9 s) is
+    compared with its newest observation at least `lookback` old (spi-reference "ompv"
+    Decision), into vals[row0 + c] (has: it has a value); then its observation is stored (the
+    history restarting after a gap) and the observations older than the newest one at least
+    `lookback` old are dropped. An absent channel has no value and stores nothing.
+
+    Returns the number of channels that do not track (`pending[c]`: the slot compared with,
+    `elapsed[c]` its age: the caller computes their value), or -1 with nothing changed when
+    the arrays need room (`ObjectHistory.fit`)."""
+    n_ch, slots = times.shape
+    for c in range(n_ch):
+        ch = chans[c]
+        if ch[0] and (
+            ch[2].shape[0] > pos.shape[2] or ch[3].shape[1] > pred.shape[3] or count[c] >= slots
+        ):
+            return -1
+    gap = max_gap + 1e-9
+    n_pending = 0
+    for c in range(n_ch):
+        ch = chans[c]
+        row = row0 + c
+        has[row] = False
+        pending[c] = -1
+        if not ch[0]:
+            continue
+        cur_pos = ch[2]
+        cur_pred = ch[3]
+        cur_len = ch[4]
+        cur_codes = ch[5]
+        k = count[c]
+        h = head[c]
+        if k > 0 and t - times[c, h] <= gap:
+            for r in range(k):  # newest first
+                s = (h - r + slots) % slots
+                if t - times[c, s] >= lookback:
+                    n = n_obj[c, s]
+                    value, untracked = _ompv_observed(
+                        pos[c, s, :n],
+                        pred[c, s, :n, : n_pred[c, s]],
+                        pred_len[c, s, :n],
+                        codes[c, s, :n],
+                        t - times[c, s],
+                        cur_pos,
+                        cur_codes,
+                        tolerance,
+                        standing,
+                    )
+                    if untracked:
+                        pending[c] = s
+                        elapsed[c] = t - times[c, s]
+                        n_pending += 1
+                    else:
+                        vals[row] = value
+                        has[row] = True
+                    break
+        if k > 0 and t - times[c, h] > gap:
+            k = 0
+        s = (h + 1) % slots
+        n = cur_pos.shape[0]
+        p = cur_pred.shape[1]
+        for i in range(n):
+            pos[c, s, i, 0] = cur_pos[i, 0]
+            pos[c, s, i, 1] = cur_pos[i, 1]
+            pred_len[c, s, i] = cur_len[i]
+            codes[c, s, i] = cur_codes[i]
+            for j in range(p):
+                pred[c, s, i, j, 0] = cur_pred[i, j, 0]
+                pred[c, s, i, j, 1] = cur_pred[i, j, 1]
+                pred[c, s, i, j, 2] = cur_pred[i, j, 2]
+        n_obj[c, s] = n
+        n_pred[c, s] = p
+        times[c, s] = t
+        k += 1
+        # keep one observation at least lookback old, and everything newer
+        while k > 1 and t - times[c, (s - k + 2 + slots) % slots] >= lookback:
+            k -= 1
+        count[c] = k
+        head[c] = s
+    return n_pending
+
+
+def ompv_tick(
+    history: ObjectHistory,
+    t: float,
+    chans: tuple[tuple[bool, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray], ...],
+    params: tuple[float, float, float, float, float],
+    vals: np.ndarray,
+    has: np.ndarray,
+    row0: int,
+) -> None:
+    """ompv of every channel at t into vals[row0 + c] / has[row0 + c] (`_ompv_tick`), room
+    made when needed, the channels that do not track by the nearest matching. `params`:
+    (lookback - 1e-9 s, max_gap, tolerance, gate, standing)."""
+    lookback, max_gap, tolerance, gate, standing = params
+    h = history
+    while True:
+        n_pending = _ompv_tick(
+            t,
+            chans,
+            h.times,
+            h.count,
+            h.head,
+            h.n_obj,
+            h.n_pred,
+            h.pos,
+            h.pred,
+            h.pred_len,
+            h.codes,
+            lookback,
+            max_gap,
+            tolerance,
+            standing,
+            vals,
+            has,
+            row0,
+            h.pending,
+            h.elapsed,
+        )
+        if n_pending >= 0:
+            break
+        h.fit(max(len(ch[2]) for ch in chans), max(ch[3].shape[1] for ch in chans))
+    if n_pending:
+        for c, s in enumerate(h.pending.tolist()):
+            if s < 0:
+                continue
+            n = int(h.n_obj[c, s])
+            prev_pos = h.pos[c, s, :n].copy()
+            predicted, reaches = _predict(
+                prev_pos,
+                np.ascontiguousarray(h.pred[c, s, :n, : h.n_pred[c, s]]),
+                h.pred_len[c, s, :n].copy(),
+                float(h.elapsed[c]),
+            )
+            vals[row0 + c] = _nearest_ompv(
+                predicted, reaches, prev_pos, chans[c][2], tolerance, gate, standing
+            )
+            has[row0 + c] = True

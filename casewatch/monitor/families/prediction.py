@@ -1,6 +1,14 @@
 """Plans and predictions over time (spi-reference "Motion and plans"): chpps (a channel's plan
 against its own earlier plans), ompv (objects against their earlier predictions), and crpps /
-crpps_mean, whose Fréchet distances share one GEOS call with chpps's.
+crpps_mean, whose Fréchet distances are computed with chpps's.
+
+A tick is four compiled calls whatever the number of channels and stored plans: ompv of every
+channel (`prediction.ompv_tick`, the objects' history in `history.ObjectHistory`), the plans
+pushed and every Fréchet pair of the tick cut (`history._tick_cut`, the plans in
+`history.PlanHistory`), their distances (`frechet.pair_distances_into`) and the scores
+(`history._finish`), written into one array and copied into the tick's dict by a
+precomputed name list (`family.KernelOutputs`). The per-channel formulation this replaced
+(`prediction.ompv`, `history.chpps_frame`) stays the reference the tests hold it to.
 """
 
 from __future__ import annotations
@@ -8,11 +16,27 @@ from __future__ import annotations
 import numpy as np
 
 from casewatch.monitor.families.similarity import SimilarityFamily
-from casewatch.monitor.family import Engine, MetricFamily, TimedHistory, worst
+from casewatch.monitor.family import Engine, KernelOutputs, MetricFamily
 from casewatch.monitor.frames import ChannelState
-from casewatch.monitor.history import PlanHistory, chpps_frame
-from casewatch.monitor.prediction import ompv
+from casewatch.monitor.frechet import pair_distances_into
+from casewatch.monitor.history import (
+    ObjectHistory,
+    PlanHistory,
+    _finish,
+    _tick_cut,
+    tick_rows,
+)
+from casewatch.monitor.prediction import ompv_tick
 from casewatch.safety_case.signals import channel_name, pair_name
+
+_NO_PLAN = np.zeros((0, 3))
+_NO_XY = np.zeros((0, 2))
+_NO_PRED = np.zeros((0, 0, 3))
+_NO_INT = np.zeros(0, dtype=np.int64)
+#: a channel absent from the tick, as `_tick_cut` and `ompv_tick` read the channels
+_ABSENT = (False, _NO_PLAN, _NO_XY, _NO_PRED, _NO_INT, _NO_INT)
+#: a pair without crpps inputs
+_NO_PAIR = (False, _NO_XY, _NO_XY)
 
 
 class MotionPredictionFamily(MetricFamily):
@@ -21,77 +45,107 @@ class MotionPredictionFamily(MetricFamily):
     def __init__(self, engine: Engine):
         super().__init__(engine)
         p = self.params
-        self._plans = PlanHistory(len(self.channels), p.plan_history, p.max_gap)
+        n_ch = len(self.channels)
+        self._plans = PlanHistory(n_ch, p.plan_history, p.max_gap)
         # ompv compares with the objects of `ompv_lookback` seconds ago: the history is pruned
-        # by time in step, whatever the frame rate
-        self._objects = {c: TimedHistory(None, p.max_gap) for c in self.channels}
-        self._crpps_names = {pr: pair_name("crpps", *pr) for pr in self.pairs}
-        self._channel_names = {
-            c: {m: channel_name(m, c) for m in ("chpps", "ompv")} for c in self.channels
-        }
-        self._names = [self._channel_names[c] for c in self.channels]
-        self._crpps_pair_names = [self._crpps_names[pr] for pr in self.pairs]
+        # by time in the tick, whatever the frame rate
+        self._objects = ObjectHistory(n_ch)
+        self._rows = tick_rows(n_ch, len(self.pairs))
+        names = [
+            *(channel_name("chpps", c) for c in self.channels),
+            *(channel_name("ompv", c) for c in self.channels),
+            *(pair_name("crpps", *pr) for pr in self.pairs),
+            "chpps",
+            "ompv",
+            "crpps",
+            "crpps_mean",
+        ]
+        self._out = KernelOutputs(names)
+        self._has = np.zeros(len(names), dtype=np.bool_)
+        self._fd = np.zeros(self._plans.table.shape[0])
+        #: each pair's Fréchet distance of the tick (`_finish`), for crpps_mean
+        self._pair_fd = np.zeros(max(len(self.pairs), 1))
+        self._ompv_params = (
+            p.ompv_lookback - 1e-9,
+            float(p.max_gap),
+            float(p.prediction_tolerance),
+            float(p.pairing_gate),
+            float(p.standing_motion),
+        )
 
     def step(self, t: float, states: dict[str, ChannelState], out: dict[str, float | None]) -> None:
-        p = self.params
-        # chpps: every channel's plan joins its packed history first, then one compiled cut of
-        # all channels' plan pairs and one GEOS call for them together with the crpps inputs
-        # the similarity family left (so this family's timing includes crpps's Fréchet
-        # distances).
-        plans = self._plans
-        lookback = p.ompv_lookback - 1e-9
-        ompv_values: list[float | None] = []
-        for i, c in enumerate(self.channels):
+        """The tick in four compiled calls (the module docstring)."""
+        objects = self._objects
+        objects.forget_unused()
+        codes_of = objects.codes_of
+        chans = []
+        for c in self.channels:
             s = states.get(c)
-            value = None
             if s is None:
-                ompv_values.append(value)
-                continue
-            if len(s.plan):
-                plans.push(i, t, s.plan)
-            prev = self._objects[c]
-            if prev.recent(t):
-                # spi-reference "ompv" Decision: the newest observation at least ompv_lookback
-                # old (the study's previous frame when the lookback is one period)
-                for tp, objs in reversed(prev.items):
-                    if t - tp >= lookback:
-                        value = ompv(
-                            objs,
-                            t - tp,
-                            s.objects,
-                            p.prediction_tolerance,
-                            p.pairing_gate,
-                            p.standing_motion,
-                        )
-                        break
-            ompv_values.append(value)
-            prev.push(t, s.objects)
-            # keep one observation at least ompv_lookback old, and everything newer
-            items = prev.items
-            while len(items) > 1 and t - items[1][0] >= lookback:
-                items.popleft()
-        chpps_values, crpps_fd = chpps_frame(
-            plans, t, p.trajectory_decay, self.engine.family(SimilarityFamily).crpps_inputs
-        )
-        self._crpps(crpps_fd, out)
-        for metric, values in (("chpps", chpps_values), ("ompv", ompv_values)):
-            for names, v in zip(self._names, values, strict=True):
-                out[names[metric]] = v
-            out[metric] = worst(values, False)
-
-    def _crpps(self, distances: list[float | None], out: dict[str, float | None]) -> None:
-        """crpps per pair, its worst, and crpps_mean = inv(mean fd), from the pairs' Fréchet
-        distances (None: a channel absent or a plan empty)."""
-        values: list[float | None] = []
-        for name, fd in zip(self._crpps_pair_names, distances, strict=True):
-            v = None if fd is None else 1.0 / (1.0 + fd)
-            out[name] = v
-            values.append(v)
-        out["crpps"] = worst(values, False)
-        # Decision: no value when any pair has none.
-        if distances and None not in distances:
-            if len(distances) == 1:  # the sum of one value is that value
-                mean = float(distances[0])  # type: ignore[arg-type]
+                chans.append(_ABSENT)
             else:
-                mean = float(np.add.reduce(np.array(distances)) / len(distances))  # np.mean's
-            out["crpps_mean"] = 1.0 / (1.0 + mean)
+                o = s.objects
+                chans.append((True, s.plan, o.pos, o.pred, o.pred_len, codes_of(o.ids)))
+        ticks = tuple(chans)
+        vals = self._out.vals
+        has = self._has
+        ompv_tick(objects, t, ticks, self._ompv_params, vals, has, self._rows["ompv"])
+        # crpps: the Fréchet inputs the similarity family left, one per pair (None: no value)
+        inputs = self.engine.family(SimilarityFamily).crpps_inputs
+        given = tuple(_NO_PAIR if x is None else (True, x[0], x[1]) for x in inputs)
+        k, n_geos = self._cut(t, ticks, given or (_NO_PAIR,), len(given))
+        plans = self._plans
+        if n_geos:
+            pair_distances_into(plans.coords, plans.starts, n_geos, self._fd)
+        mask, count, mean_left = _finish(
+            self._fd,
+            plans.table,
+            k,
+            len(self.channels),
+            len(self.pairs),
+            vals,
+            has,
+            self._out.nones,
+            self._pair_fd,
+        )
+        self._out.write(out, mask, count)
+        if mean_left:
+            self._mean(out)
+
+    def _cut(self, t: float, ticks: tuple, given: tuple, n_given: int) -> tuple[int, int]:
+        """`_tick_cut` of the tick, its buffers grown when it asks: (pairs, Fréchet pairs)."""
+        plans = self._plans
+        p = self.params
+        push = True
+        while True:
+            status, k, n_geos, need = _tick_cut(
+                t,
+                ticks,
+                given,
+                n_given,
+                plans.plans,
+                plans.segs,
+                plans.lens,
+                plans.times,
+                plans.count,
+                plans.head,
+                float(p.max_gap),
+                float(p.trajectory_decay),
+                plans.coords,
+                plans.starts,
+                plans.table,
+                push,
+            )
+            if status == 0:
+                return k, n_geos
+            if status == 1:
+                plans.widen(max(need, 2 * plans.plans.shape[2]))
+            else:
+                push = False  # the plans are in: only the work space was short
+                plans.coords = np.zeros((max(need, 2 * len(plans.coords)), 2))
+
+    def _mean(self, out: dict[str, float | None]) -> None:
+        """crpps_mean = inv(mean fd) over three pairs or more, with np.mean's pairwise sum."""
+        distances = self._pair_fd[: len(self.pairs)].tolist()
+        mean = float(np.add.reduce(np.array(distances)) / len(distances))
+        out["crpps_mean"] = 1.0 / (1.0 + mean)
