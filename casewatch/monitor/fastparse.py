@@ -817,12 +817,37 @@ def _finite(v):  # pragma: no cover - compiled
 _UNKNOWN = np.frombuffer(b"unknown", np.uint8)
 
 
+# The output buffer `_build` lays a frame out in (float64 words). It starts with a header of
+# int64 words (the same memory viewed as int64), then the frame's numbers in five regions, each
+# holding one shape for every channel, so that Python makes each of a frame's arrays with one
+# slice of a region (see `fast_frame`), then the strings as bytes.
+_H_STATUS, _H_LEN, _H_NC, _H_K, _H_NS, _H_NBYTES = 0, 1, 2, 3, 4, 5
+_H_R1, _H_YAW, _H_R2, _H_R4, _H_R3, _H_ROWS3, _H_STR = 6, 7, 8, 9, 10, 11, 12
+_H_FIXED = 13
+#: Per-channel header row: plan (first row of region 3, points), objects (first object of
+#: the frame's object order, count, prediction points), first prediction row of region 3.
+_CH_PLAN, _CH_N, _CH_OBJ, _CH_K, _CH_P, _CH_PRED = 0, 1, 2, 3, 4, 5
+_CH_COLS = 6
+_REFUSE = np.int64(_FALLBACK)  # as an int64 (a literal would take its own compiled variant)
+_H_FIXED_I = np.int64(_H_FIXED)
+_OK_I = np.int64(_OK)
+
+
 @kernel
-def _fill(vals, chans, nc, objs, layout, out):  # pragma: no cover - compiled
-    """_build's checks and numbers: False at the first value parse_frame would not take."""
+def _fill(vals, t_index, chans, nc, objs, out, o1, oy, o2, o4, o3, kk):  # pragma: no cover
+    """_build's checks and numbers: False at the first value parse_frame would not take.
+
+    Region 1 (o1): t, then per channel x, y, yaw, vx, vy, half length, half width of the ego.
+    Region yaw (oy): every object's yaw, in the frame's object order. Region 2 (o2, rows of 2):
+    every object's position, then every velocity, then every (half length, half width).
+    Region 4 (o4, 4x2 blocks): each channel's ego footprint, then every object's. Region 3 (o3,
+    rows of 3): per channel its plan, then its objects' predictions."""
+    out[o1] = vals[t_index]
+    row3 = 0
+    first = 0
     for c in range(nc):
         # ego: x, y, yaw required; vx, vy default 0; a box of positive size; all within 1e9
-        e0 = layout[c, 0]
+        e0 = o1 + 1 + 7 * c
         for f in range(7):
             idx = chans[c, _C_EGO + f]
             if idx < 0:
@@ -844,18 +869,19 @@ def _fill(vals, chans, nc, objs, layout, out):  # pragma: no cover - compiled
         hw = 0.5 * width
         out[e0 + 5] = hl
         out[e0 + 6] = hw
-        out[e0 + 7] = hl
-        out[e0 + 8] = hw
-        out[e0 + 9] = -hl
-        out[e0 + 10] = hw
-        out[e0 + 11] = -hl
-        out[e0 + 12] = -hw
-        out[e0 + 13] = hl
-        out[e0 + 14] = -hw
+        f0 = o4 + 8 * c
+        out[f0] = hl
+        out[f0 + 1] = hw
+        out[f0 + 2] = -hl
+        out[f0 + 3] = hw
+        out[f0 + 4] = -hl
+        out[f0 + 5] = -hw
+        out[f0 + 6] = hl
+        out[f0 + 7] = -hw
         # plan: finite, within 1e9, dt from >= 0 strictly increasing (np.diff(dt) > 0)
-        p0 = layout[c, 1]
+        p0 = o3 + 3 * row3
         v0 = chans[c, _C_PLAN]
-        npl = layout[c, 2]
+        npl = chans[c, _C_PLAN_N]
         for j in range(3 * npl):
             v = vals[v0 + j]
             if not _finite(v) or abs(v) > _MAX:
@@ -868,14 +894,12 @@ def _fill(vals, chans, nc, objs, layout, out):  # pragma: no cover - compiled
                     return False
             elif not dt - out[p0 + 3 * (j - 1)] > 0:
                 return False
+        row3 += npl
         # objects, as parse._box_objects checks them (finite, box > 0, prediction dt; no
         # magnitude bound: the careful route's own fast path has none for box objects)
-        k = layout[c, 4]
-        pts = layout[c, 5]
-        b = layout[c, 3]
+        k = chans[c, _C_OBJ_N]
         o0 = chans[c, _C_OBJ]
-        pos, yaw, vel = b, b + 2 * k, b + 3 * k
-        fps, half, pred = b + 5 * k, b + 13 * k, b + 15 * k
+        pts = objs[o0, _O_PRED_N] if k else 0
         for i in range(k):
             row = o0 + i
             x = vals[objs[row, 0]]
@@ -898,7 +922,7 @@ def _fill(vals, chans, nc, objs, layout, out):  # pragma: no cover - compiled
             if not (length > 0.0 and width > 0.0):
                 return False
             q0 = objs[row, _O_PRED]
-            d0 = pred + 3 * pts * i
+            d0 = o3 + 3 * row3
             for j in range(3 * pts):
                 v = vals[q0 + j]
                 if not _finite(v):
@@ -910,14 +934,18 @@ def _fill(vals, chans, nc, objs, layout, out):  # pragma: no cover - compiled
                         return False
                 elif not out[d0 + 3 * j] > out[d0 + 3 * (j - 1)]:
                     return False
+            row3 += pts
+            g = first + i  # the object's place in the frame's object order
             hl = 0.5 * length
             hw = 0.5 * width
-            out[pos + 2 * i] = x
-            out[pos + 2 * i + 1] = y
-            out[yaw + i] = a
-            out[vel + 2 * i] = vx
-            out[vel + 2 * i + 1] = vy
-            f0 = fps + 8 * i
+            out[oy + g] = a
+            out[o2 + 2 * g] = x
+            out[o2 + 2 * g + 1] = y
+            out[o2 + 2 * (kk + g)] = vx
+            out[o2 + 2 * (kk + g) + 1] = vy
+            out[o2 + 2 * (2 * kk + g)] = hl
+            out[o2 + 2 * (2 * kk + g) + 1] = hw
+            f0 = o4 + 8 * (nc + g)
             out[f0] = hl
             out[f0 + 1] = hw
             out[f0 + 2] = -hl
@@ -926,34 +954,45 @@ def _fill(vals, chans, nc, objs, layout, out):  # pragma: no cover - compiled
             out[f0 + 5] = -hw
             out[f0 + 6] = hl
             out[f0 + 7] = -hw
-            out[half + 2 * i] = hl
-            out[half + 2 * i + 1] = hw
+        first += k
     return True
 
 
-@_entry
-def _build(buf, vals, chans, nc, objs, no):  # pragma: no cover - compiled
-    """Check the scanned numbers as parse_frame does and lay the arrays out in one buffer.
+@kernel
+def _refused(status):  # pragma: no cover - compiled
+    """The output of a line the fast route does not take: (status, header length, buffer)."""
+    out = np.zeros(_H_FIXED)
+    out.view(np.int64)[_H_STATUS] = status
+    return status, _H_FIXED_I, out
 
-    Returns (ok, out, layout, strings): per channel c, layout[c] = (ego offset, plan offset,
-    plan points, objects offset, objects, prediction points); at the ego offset x, y, yaw, vx,
-    vy, half length, half width and the 4x2 footprint; at the objects offset pos (K, 2), yaw
-    (K,), vel (K, 2), footprints (K, 4, 2), half (K, 2), pred (K, P, 3). `strings` holds every
-    object's id, then every object's class, joined by '"' (which no accepted string holds).
+
+@kernel
+def _put_bytes(text, at, buf, s, e):  # pragma: no cover - compiled
+    """Copy buf[s:e] into text at `at`; the position after it."""
+    for q in range(s, e):
+        text[at] = buf[q]
+        at += 1
+    return at
+
+
+@_entry
+def _build(buf, vals, t_index, chans, nc, objs, spans, ns):  # pragma: no cover - compiled
+    """Check the scanned numbers as parse_frame does and lay the frame out in one buffer.
+
+    Returns (status, header length, out): `out` starts with the header (int64 words: the
+    _H_* fields, the spans as (kind, start, end), then a _CH_COLS row per channel), then the
+    regions `_fill` writes, then the strings: every channel's name, every object's id, every
+    object's class, joined by '"' (which no accepted string holds).
     """
-    layout = np.zeros((nc, 6), dtype=np.int64)
-    ok = True
-    size = 0
-    nstr = 0
+    kk = 0
+    rows3 = 0
+    nbytes = 0
     for c in range(nc):
         if chans[c, _C_HAS_EGO] != 1:
-            ok = False
-            break
+            return _refused(_REFUSE)
         k = chans[c, _C_OBJ_N]
         o0 = chans[c, _C_OBJ]
-        pts = 0
-        if k:
-            pts = objs[o0, _O_PRED_N]
+        pts = objs[o0, _O_PRED_N] if k else 0
         for i in range(o0, o0 + k):
             # the common shape: id, x, y, a box and a prediction list of one length
             if (
@@ -965,168 +1004,253 @@ def _build(buf, vals, chans, nc, objs, no):  # pragma: no cover - compiled
                 or objs[i, _O_PRED] < 0
                 or objs[i, _O_PRED_N] != pts
             ):
-                ok = False
-                break
-            nstr += objs[i, _O_ID_END] - objs[i, _O_ID] + 1
+                return _refused(_REFUSE)
+            nbytes += objs[i, _O_ID_END] - objs[i, _O_ID] + 1
             if objs[i, _O_CLS] >= 0:
-                nstr += objs[i, _O_CLS_END] - objs[i, _O_CLS] + 1
+                nbytes += objs[i, _O_CLS_END] - objs[i, _O_CLS] + 1
             else:
-                nstr += 8  # 'unknown'
-        if not ok:
-            break
-        layout[c, 0] = size
-        size += 15
-        layout[c, 1] = size
-        layout[c, 2] = chans[c, _C_PLAN_N]
-        size += 3 * chans[c, _C_PLAN_N]
-        layout[c, 3] = size
-        layout[c, 4] = k
-        layout[c, 5] = pts
-        size += k * 15 + 3 * k * pts
-    if not ok:
-        return False, np.empty(0), layout, np.empty(0, dtype=np.uint8)
-    out = np.empty(size)
-    strings = np.empty(nstr, dtype=np.uint8)
-    if not _fill(vals, chans, nc, objs, layout, out):
-        return False, out, layout, strings
-    # every id, then every class, each followed by '"' (the last one dropped below)
-    si = 0
+                nbytes += 8  # 'unknown'
+        nbytes += chans[c, _C_NAME_END] - chans[c, _C_NAME] + 1
+        kk += k
+        rows3 += chans[c, _C_PLAN_N] + k * pts
+    nbytes = max(nbytes - 1, 0)  # no separator after the last string
+    hlen = _H_FIXED + 3 * ns + _CH_COLS * nc
+    o1 = hlen
+    oy = o1 + 1 + 7 * nc
+    o2 = oy + kk
+    o4 = o2 + 6 * kk
+    o3 = o4 + 8 * (nc + kk)
+    end = o3 + 3 * rows3
+    out = np.empty(end + (nbytes + 7) // 8)
+    if not _fill(vals, t_index, chans, nc, objs, out, o1, oy, o2, o4, o3, kk):
+        return _refused(_REFUSE)
+    head = out.view(np.int64)
+    head[_H_STATUS] = _OK
+    head[_H_LEN] = hlen
+    head[_H_NC] = nc
+    head[_H_K] = kk
+    head[_H_NS] = ns
+    head[_H_NBYTES] = nbytes
+    head[_H_R1] = o1
+    head[_H_YAW] = oy
+    head[_H_R2] = o2
+    head[_H_R4] = o4
+    head[_H_R3] = o3
+    head[_H_ROWS3] = rows3
+    head[_H_STR] = 8 * end
+    for s in range(ns):
+        for j in range(3):
+            head[_H_FIXED + 3 * s + j] = spans[s, j]
+    h = _H_FIXED + 3 * ns
+    row3 = 0
+    first = 0
+    for c in range(nc):
+        k = chans[c, _C_OBJ_N]
+        pts = objs[chans[c, _C_OBJ], _O_PRED_N] if k else 0
+        head[h + _CH_PLAN] = row3
+        head[h + _CH_N] = chans[c, _C_PLAN_N]
+        head[h + _CH_OBJ] = first
+        head[h + _CH_K] = k
+        head[h + _CH_P] = pts
+        head[h + _CH_PRED] = row3 + chans[c, _C_PLAN_N]
+        row3 += chans[c, _C_PLAN_N] + k * pts
+        first += k
+        h += _CH_COLS
+    # the strings: names, then every id, then every class, each followed by '"' (the last
+    # separator falls beyond nbytes and is not read)
+    text = out.view(np.uint8)
+    at = 8 * end
+    stop = at + nbytes
+    for c in range(nc):
+        at = _put_bytes(text, at, buf, chans[c, _C_NAME], chans[c, _C_NAME_END])
+        if at < stop:
+            text[at] = 34
+            at += 1
     for c in range(nc):
         o0 = chans[c, _C_OBJ]
-        for row in range(o0, o0 + layout[c, 4]):
-            for q in range(objs[row, _O_ID], objs[row, _O_ID_END]):
-                strings[si] = buf[q]
-                si += 1
-            strings[si] = 34
-            si += 1
+        for row in range(o0, o0 + chans[c, _C_OBJ_N]):
+            at = _put_bytes(text, at, buf, objs[row, _O_ID], objs[row, _O_ID_END])
+            if at < stop:
+                text[at] = 34
+                at += 1
     for c in range(nc):
         o0 = chans[c, _C_OBJ]
-        for row in range(o0, o0 + layout[c, 4]):
+        for row in range(o0, o0 + chans[c, _C_OBJ_N]):
             if objs[row, _O_CLS] >= 0:
-                for q in range(objs[row, _O_CLS], objs[row, _O_CLS_END]):
-                    strings[si] = buf[q]
-                    si += 1
+                at = _put_bytes(text, at, buf, objs[row, _O_CLS], objs[row, _O_CLS_END])
             else:
-                for q in range(7):
-                    strings[si] = _UNKNOWN[q]
-                    si += 1
-            strings[si] = 34
-            si += 1
-    return True, out, layout, strings[: max(nstr - 1, 0)]
+                at = _put_bytes(text, at, _UNKNOWN, 0, 7)
+            if at < stop:
+                text[at] = 34
+                at += 1
+    return _OK_I, hlen, out
 
 
 @_entry
-def _scan_build(buf, n):  # pragma: no cover - compiled
-    """Scan, then build when no number was left to orjson."""
-    status, vals, t_index, chans, nc, objs, no, hard, nh, spans, ns = _scan(buf, n)
-    out = np.empty(0)
-    layout = np.zeros((0, 6), dtype=np.int64)
-    strings = np.empty(0, dtype=np.uint8)
-    if status == _OK:
-        ok, out, layout, strings = _build(buf, vals, chans, nc, objs, no)
-        if not ok:
-            status = _FALLBACK
-    return (
-        status,
-        vals,
-        t_index,
-        np.ascontiguousarray(chans[:nc]),
-        np.ascontiguousarray(objs[:no]),
-        hard[:nh],
-        spans[:ns],
-        out,
-        layout,
-        strings,
-    )
+def _parse(buf, n):  # pragma: no cover - compiled
+    """Scan, then build when no number was left to orjson: (status, header length, out)."""
+    status, vals, t_index, chans, nc, objs, _, _, _, spans, ns = _scan(buf, n)
+    if status != _OK:
+        return _refused(status)
+    return _build(buf, vals, t_index, chans, nc, objs, spans, ns)
 
 
-def fast_frame(
-    text: str, known_channels: Iterable[str] | None = None, line: int = 0
-) -> Frame | None:
-    """The Frame `parse_frame(decode(text), known_channels, line)` gives, when the line has
-    the common shape and nothing wrong; None otherwise (the caller then takes the careful
-    route, which names the defect). Never raises a FrameDefect of its own."""
-    if orjson is None or not text.isascii():
-        return None
-    raw = text.encode("ascii")
-    buf = np.frombuffer(raw + b"\0", np.uint8)
-    status, vals, t_index, chans, objs, hard, spans, out, layout, strings = _scan_build(
-        buf, len(raw)
-    )
-    if status == _HARD:
-        for index, start, end in hard.tolist():
-            try:
-                value = orjson.loads(raw[start:end])
-            except orjson.JSONDecodeError:
-                return None  # beyond a double (1e400): the careful route names it
-            vals[index] = value
-        ok, out, layout, strings = _build(buf, vals, chans, len(chans), objs, len(objs))
-        if not ok:
-            return None
-    elif status != _OK:
-        return None
+@_entry
+def _scan_tables(buf, n):  # pragma: no cover - compiled
+    """The scan's tables, for a line with numbers left to orjson (`fast_frame` parses them and
+    builds)."""
+    status, vals, t_index, chans, nc, objs, _, hard, nh, spans, ns = _scan(buf, n)
+    return status, vals, t_index, chans, nc, objs, hard[:nh], spans, ns
+
+
+#: pred_len and convex arrays by (objects, prediction points): copied for each frame (a copy
+#: is several times cheaper than np.full/np.ones; each frame owns its arrays).
+_TEMPLATES: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
+
+
+def _templates(k: int, pts: int) -> tuple[np.ndarray, np.ndarray]:
+    """`pred_len` and `convex` for k box objects with predictions of `pts` points."""
+    pair = _TEMPLATES.get((k, pts))
+    if pair is None:
+        if len(_TEMPLATES) > 4096:  # a bound for streams of every size and length
+            _TEMPLATES.clear()
+        pair = _TEMPLATES[(k, pts)] = (
+            np.full(k, pts, dtype=np.int64),
+            np.ones(k, dtype=np.bool_) if k else np.zeros(0, dtype=bool),
+        )
+    return pair
+
+
+def _extras(raw: bytes, spans: list[int]) -> dict[str, Any] | None:
+    """The values the scan left to orjson (unknown keys, `signals`, `odd`, `world`), by name;
+    None when one is not valid JSON (the careful route names it)."""
     extras: dict[str, Any] = {}
-    for kind, start, end in spans.tolist():
+    for s in range(0, len(spans), 3):
+        kind, start, end = spans[s : s + 3]
         try:
             value = orjson.loads(raw[start:end])
         except orjson.JSONDecodeError:
             return None
         if kind:
             extras[SPAN_NAMES[kind]] = value
+    return extras
+
+
+def _checked_extras(
+    extras: dict[str, Any],
+) -> tuple[dict[str, float | None], Any, Any] | None:
+    """`parse.frame_extras(extras)`, or None for a defect. A frame with only `signals` whose
+    values are all floats or null (what orjson gives for JSON numbers with a fraction or an
+    exponent: never infinite) is taken as decoded: frame_extras would copy it unchanged."""
+    if len(extras) == 1:
+        signals = extras.get("signals")
+        if type(signals) is dict:
+            for value in signals.values():
+                if value is not None and type(value) is not float:
+                    break
+            else:
+                return signals, None, None
+    elif not extras:
+        return {}, None, None
     try:
-        signals, odd, world = frame_extras(extras)
+        return frame_extras(extras)
     except FrameDefect:
         return None
-    names = [text[s:e] for s, e in chans[:, :2].tolist()]
-    if len(set(names)) != len(names):
+
+
+def fast_frame(
+    text: str | bytes, known_channels: Iterable[str] | None = None, line: int = 0
+) -> Frame | None:
+    """The Frame `parse_frame(decode(text), known_channels, line)` gives, when the line has
+    the common shape and nothing wrong; None otherwise (the caller then takes the careful
+    route, which names the defect). Never raises a FrameDefect of its own. `text` may be the
+    line's bytes (the reader's; a line that is not ASCII is left to the careful route)."""
+    if orjson is None or not text.isascii():
+        return None
+    raw = text.encode("ascii") if isinstance(text, str) else text
+    buf = np.frombuffer(raw + b"\0", np.uint8)
+    status, hlen, out = _parse(buf, len(raw))
+    if status == _HARD:
+        status, hlen, out = _with_hard_numbers(buf, raw)
+    if status != _OK:
+        return None
+    head = out[:hlen].view(np.int64).tolist()
+    nc, kk, ns, nbytes, o1, oy, o2, o4, o3, rows3, sb = head[_H_NC:_H_FIXED]
+    if ns:
+        extras = _extras(raw, head[_H_FIXED : _H_FIXED + 3 * ns])
+        if extras is None:
+            return None
+        checked = _checked_extras(extras)
+        if checked is None:
+            return None
+        signals, odd, world = checked
+    else:
+        signals, odd, world = {}, None, None
+    items = out.view(np.uint8)[sb : sb + nbytes].tobytes().decode("ascii").split('"')
+    names = items[:nc]
+    if len(set(names)) != nc:
         return None
     if known_channels is not None:
-        known = set(known_channels)
-        if any(name not in known for name in names):
-            return None
-    rows = layout.tolist()
-    total = sum(row[4] for row in rows)
-    items = strings.tobytes().decode("ascii").split('"') if total else []
-    channels: dict[str, ChannelState] = {}
-    first = 0
-    for name, (e0, p0, npl, b, k, pts) in zip(names, rows, strict=True):
-        x, y, yaw, vx, vy, hl, hw = out[e0 : e0 + 7].tolist()
-        ego = Ego(
-            x=x,
-            y=y,
-            yaw=yaw,
-            vx=vx,
-            vy=vy,
-            footprint=out[e0 + 7 : e0 + 15].reshape(4, 2),
-            convex=True,
-            half=(hl, hw),
+        known = (
+            known_channels if isinstance(known_channels, (set, frozenset)) else set(known_channels)
         )
-        plan = out[p0 : p0 + 3 * npl].reshape(npl, 3)
+        for name in names:
+            if name not in known:
+                return None
+    r1 = out[o1 : o1 + 1 + 7 * nc].tolist()
+    yaws = out[oy : oy + kk]
+    rows2 = out[o2 : o2 + 6 * kk].reshape(3 * kk, 2)
+    boxes = out[o4 : o4 + 8 * (nc + kk)].reshape(nc + kk, 4, 2)
+    rows3_ = out[o3 : o3 + 3 * rows3].reshape(rows3, 3)
+    channels: dict[str, ChannelState] = {}
+    h = _H_FIXED + 3 * ns
+    for c in range(nc):
+        plan_row, npl, first, k, pts, pred_row = head[h : h + _CH_COLS]
+        h += _CH_COLS
+        e = 1 + 7 * c
+        ego = Ego(
+            r1[e],
+            r1[e + 1],
+            r1[e + 2],
+            r1[e + 3],
+            r1[e + 4],
+            boxes[c],
+            True,
+            (r1[e + 5], r1[e + 6]),
+        )
+        end = first + k
         if k:
-            ids = items[first : first + k]
+            ids = items[nc + first : nc + end]
             if len(set(ids)) != k:
                 return None  # duplicate-id: the careful route words it
-            objects = Objects(
-                ids=ids,
-                cls=items[total + first : total + first + k],
-                pos=out[b : b + 2 * k].reshape(k, 2),
-                yaw=out[b + 2 * k : b + 3 * k],
-                vel=out[b + 3 * k : b + 5 * k].reshape(k, 2),
-                footprints=out[b + 5 * k : b + 13 * k].reshape(k, 4, 2),
-                pred=out[b + 15 * k : b + 15 * k + 3 * k * pts].reshape(k, pts, 3),
-                pred_len=np.full(k, pts, dtype=np.int64),
-                convex=np.ones(k, dtype=np.bool_),
-                half=out[b + 13 * k : b + 15 * k].reshape(k, 2),
-            )
-            first += k
         else:
-            objects = Objects.empty()
-        channels[name] = ChannelState(ego=ego, plan=plan, objects=objects)
-    return Frame(
-        t=float(vals[t_index]),
-        channels=channels,
-        signals=signals,
-        line=line,
-        odd=odd,
-        world=world,
-    )
+            ids = []
+        pred_len, convex = _templates(k, pts)
+        objects = Objects(
+            ids,
+            items[nc + kk + first : nc + kk + end],
+            rows2[first:end],
+            yaws[first:end],
+            rows2[kk + first : kk + end],
+            boxes[nc + first : nc + end],
+            rows3_[pred_row : pred_row + k * pts].reshape(k, pts, 3),
+            pred_len.copy(),
+            convex.copy(),
+            rows2[2 * kk + first : 2 * kk + end],
+        )
+        channels[names[c]] = ChannelState(ego, rows3_[plan_row : plan_row + npl], objects)
+    return Frame(r1[0], channels, signals, line, odd, world)
+
+
+def _with_hard_numbers(buf: np.ndarray, raw: bytes) -> tuple[int, int, np.ndarray]:
+    """`_parse` for a line with numbers the scan left to orjson: parse those, then build."""
+    status, vals, t_index, chans, nc, objs, hard, spans, ns = _scan_tables(buf, len(raw))
+    if status != _HARD:  # pragma: no cover - _parse said so
+        return _FALLBACK, 0, np.empty(0)
+    for index, start, end in hard.tolist():
+        try:
+            value = orjson.loads(raw[start:end])
+        except orjson.JSONDecodeError:
+            return _FALLBACK, 0, np.empty(0)  # beyond a double (1e400): the careful route
+        vals[index] = value
+    return _build(buf, vals, t_index, chans, nc, objs, spans, ns)  # type: ignore[no-any-return]

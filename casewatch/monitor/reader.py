@@ -7,6 +7,7 @@ counted per channel; the frame is still used. `docs/streams.md` lists the defect
 
 from __future__ import annotations
 
+import codecs
 import gzip
 import io
 import json
@@ -102,31 +103,56 @@ def keep_defect(defects: list[StreamDefect], strict: bool, defect: StreamDefect)
     defects.append(defect)
 
 
-def _open_text(source: str | Path | IO) -> tuple[IO[str], str, bool]:
-    """(text stream, display name, whether we own it and must close it)."""
+def _open(source: str | Path | IO) -> tuple[IO, str, bool, bool]:
+    """(stream, display name, whether we own it and must close it, whether it is binary).
+
+    A binary stream's lines are split here (`_byte_lines`) and a text stream's by its own
+    readline; both give the same lines (see `_byte_lines`)."""
     if isinstance(source, (str, Path)):
         if str(source) == "-":
             raw = getattr(sys.stdin, "buffer", None)
             if raw is not None and hasattr(raw, "peek"):
                 # Binary stdin can be gzip too (`zcat`-free pipes); look without consuming.
                 if raw.peek(2)[:2] == b"\x1f\x8b":
-                    return (
-                        io.TextIOWrapper(gzip.open(raw, "rb"), encoding="utf-8"),
-                        "<stdin>",
-                        False,
-                    )
-                return io.TextIOWrapper(raw, encoding="utf-8"), "<stdin>", False
-            return sys.stdin, "<stdin>", False
+                    return gzip.open(raw, "rb"), "<stdin>", False, True  # type: ignore[return-value]
+                return raw, "<stdin>", False, True
+            return sys.stdin, "<stdin>", False, False
         path = Path(source)
         with open(path, "rb") as fh:
             magic = fh.read(2)
         if magic == b"\x1f\x8b":
-            return io.TextIOWrapper(gzip.open(path, "rb"), encoding="utf-8"), str(path), True
-        return open(path, encoding="utf-8"), str(path), True
+            return gzip.open(path, "rb"), str(path), True, True  # type: ignore[return-value]
+        return open(path, "rb"), str(path), True, True
     name = str(getattr(source, "name", "<stream>"))
     if isinstance(source, io.TextIOBase) or hasattr(source, "encoding"):
-        return source, name, False  # type: ignore[return-value]
-    return io.TextIOWrapper(source, encoding="utf-8"), name, False  # type: ignore[arg-type]
+        return source, name, False, False
+    return source, name, False, True
+
+
+#: How much a binary stream is asked for at a time: what `io.TextIOWrapper` asks for (its
+#: `_CHUNK_SIZE`), so a gzip stream is decompressed, and a file read and hashed, in the same
+#: pieces as when the reader read through a TextIOWrapper; a corrupt stream then fails after
+#: the same lines.
+CHUNK = 8192
+
+
+def _newlines(chunk: bytes, held_cr: bool) -> tuple[bytes, bool]:
+    """`chunk` with its line ends translated as a text stream reads them (universal newlines:
+    \\r\\n and a lone \\r become \\n), and whether its last byte was a \\r held back
+    (the next chunk may start with the \\n of the same line end)."""
+    if held_cr:
+        chunk = b"\r" + chunk
+    if b"\r" not in chunk:
+        return chunk, False
+    chunk = chunk.replace(b"\r\n", b"\n")
+    if chunk.endswith(b"\r"):
+        return chunk[:-1].replace(b"\r", b"\n"), True
+    return chunk.replace(b"\r", b"\n"), False
+
+
+def _chars(data: bytes) -> int:
+    """Characters of valid UTF-8 `data` (an incomplete last character not counted)."""
+    return len(data) if data.isascii() else len(codecs.utf_8_decode(data, "strict", False)[0])
 
 
 class StreamReader:
@@ -153,6 +179,8 @@ class StreamReader:
         self.name = "<stdin>" if str(source) == "-" else str(getattr(source, "name", source))
         self.declared: list[str] | None = list(channels) if channels is not None else None
         self.channels: list[str] | None = self.declared
+        #: `channels` as a set, for the compiled pass's check of a frame's channel names
+        self._known: frozenset[str] | None = None if channels is None else frozenset(channels)
         self.header: Header | None = None
         self.defects: list[StreamDefect] = []
         self.dropouts: dict[str, int] = {c: 0 for c in channels or []}
@@ -166,14 +194,14 @@ class StreamReader:
         if self._started:
             raise RuntimeError("a StreamReader can be iterated once")
         self._started = True
-        fh, self.name, owned = _open_text(self._source)
+        fh, self.name, owned, binary = _open(self._source)
         try:
-            yield from self._frames(fh)
+            yield from self._frames(self._byte_lines(fh) if binary else self._lines(fh))
         finally:
             if owned:
                 fh.close()
 
-    def _lines(self, fh: IO[str]) -> Iterator[tuple[int, str]]:
+    def _lines(self, fh: IO[str]) -> Iterator[tuple[int, str | bytes]]:
         """(line number, text) of every line, with two limits: a line longer than
         `max_line_chars` is an `oversized-line` defect, and a compressed stream that ends early
         or is corrupt is a `truncated-stream` defect at the line it reached; reading stops
@@ -193,25 +221,108 @@ class StreamReader:
                 self._defect(lineno, "truncated-stream", _compression_message(exc))
                 return
             if oversized:
-                self._defect(
-                    lineno,
-                    "oversized-line",
-                    f"line longer than {limit} characters; a frame is far smaller, so it was "
-                    "skipped unread",
-                )
+                self._oversized(lineno)
                 continue
             if not text:
                 return
             yield lineno, text
 
-    def _frames(self, fh: IO[str]) -> Iterator[Frame]:
+    def _oversized(self, lineno: int) -> None:
+        self._defect(
+            lineno,
+            "oversized-line",
+            f"line longer than {self.max_line_chars} characters; a frame is far smaller, so it "
+            "was skipped unread",
+        )
+
+    def _byte_lines(self, fh: IO[bytes]) -> Iterator[tuple[int, str | bytes]]:
+        """`_lines` for a binary stream, without a TextIOWrapper: the same lines, line
+        numbers and defects, each line as its bytes (its line end translated to \\n).
+
+        The stream is read in `CHUNK`s, as the text layer read it, and a chunk is read only
+        when no whole line is left, as readline does; a chunk that is not ASCII is checked as
+        UTF-8 when it is read, by the decoder the text layer used, so a stream that is not
+        UTF-8 raises the same UnicodeDecodeError after the same lines. A line is held in
+        memory only while it is within `max_line_chars`."""
+        limit = self.max_line_chars
+        read = getattr(fh, "read1", None) or fh.read
+        utf8 = codecs.getincrementaldecoder("utf-8")()
+        partial_char = False  # the decoder holds the start of a character
+        carry = b""  # its bytes
+        held_cr = False
+        parts: list[bytes] = []  # the line being read, when it started in an earlier chunk
+        size = 0
+        skipping = False  # inside an oversized line
+        lineno = 0
+        while True:
+            try:
+                chunk = read(CHUNK)
+            except _COMPRESSION_ERRORS as exc:
+                self._defect(lineno + 1, "truncated-stream", _compression_message(exc))
+                return
+            if not chunk:
+                if partial_char:
+                    utf8.decode(b"", True)  # raises: the stream ends inside a character
+                rest = b"".join(parts) + (b"\n" if held_cr else b"")
+                if skipping or (rest and _chars(rest.rstrip(b"\n")) >= limit):
+                    self._oversized(lineno + 1)
+                elif rest:
+                    yield lineno + 1, rest
+                return
+            if partial_char or not chunk.isascii():
+                utf8.decode(chunk)  # raises UnicodeDecodeError as the text layer did
+                held = utf8.getstate()[0]
+                # an incomplete last character waits for the next chunk, as in the text
+                # layer (a \r before it is then the last character and is held too)
+                chunk = carry + chunk
+                carry = held
+                if held:
+                    chunk = chunk[: -len(held)]
+                partial_char = bool(held)
+            chunk, held_cr = _newlines(chunk, held_cr)
+            end = chunk.find(b"\n")
+            if end < 0:
+                if not skipping:
+                    parts.append(chunk)
+                    size += len(chunk)
+                    if size >= limit and _chars(b"".join(parts)) >= limit:
+                        skipping = True  # oversized whatever follows: drop it as it comes
+                        parts = []
+                continue
+            if skipping:  # the oversized line ends here
+                lineno += 1
+                self._oversized(lineno)
+                skipping = False
+                chunk = chunk[end + 1 :]
+            elif parts:
+                parts.append(chunk)
+                chunk = b"".join(parts)
+            parts = []
+            lines = chunk.split(b"\n")
+            tail = lines.pop()
+            for body in lines:
+                lineno += 1
+                if len(body) >= limit and _chars(body) >= limit:
+                    self._oversized(lineno)
+                    continue
+                yield lineno, body + b"\n"
+            if tail:
+                parts.append(tail)
+            size = len(tail)
+            if size >= limit and _chars(tail) >= limit:
+                skipping = True
+                parts = []
+
+    def _frames(self, lines: Iterator[tuple[int, str | bytes]]) -> Iterator[Frame]:
         last_t: float | None = None
         first_content = True
-        for lineno, text in self._lines(fh):
+        for lineno, line in lines:
             # the common frame in one compiled pass; anything else, and anything wrong, the
             # careful route below (which names the defect)
-            frame = fast_frame(text, self.channels, lineno)
+            frame = fast_frame(line, self._known, lineno)
             if frame is None:
+                # a line's bytes are valid UTF-8 (`_byte_lines` checked them)
+                text = line.decode("utf-8") if isinstance(line, bytes) else line
                 if not text.strip():
                     continue  # blank lines carry nothing (documented in docs/streams.md)
                 try:
@@ -277,6 +388,7 @@ class StreamReader:
                 continue
             if self.channels is None:
                 self.channels = list(frame.channels)
+                self._known = frozenset(self.channels)
                 self.dropouts = {c: 0 for c in self.channels}
             for c in self.channels:
                 if c not in frame.channels:
@@ -292,6 +404,7 @@ class StreamReader:
         if self.declared is None:
             if self.header.channels:
                 self.channels = list(self.header.channels)
+                self._known = frozenset(self.channels)
                 self.dropouts = {c: 0 for c in self.channels}
             return
         extra = [c for c in self.header.channels if c not in self.declared]

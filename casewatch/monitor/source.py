@@ -125,9 +125,10 @@ class StreamSource(_Closing):
             self._binary, self._hashing, self.name = open_hashed(source, raw)
         except OSError as exc:
             raise SourceError(f"{source}: cannot read stream: {exc.strerror or exc}") from None
-        text = io.TextIOWrapper(self._binary, encoding="utf-8", errors="strict")
+        # the reader splits the binary stream's lines itself (as a strict UTF-8 text stream
+        # reads them; monitor.reader._byte_lines)
         self.reader: FrameReader = read_stream(
-            text, strict=strict, channels=channels, period=period
+            self._binary, strict=strict, channels=channels, period=period
         )
 
     def digest(self) -> str:
