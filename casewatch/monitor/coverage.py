@@ -17,12 +17,11 @@ import math
 import numpy as np
 
 from casewatch.monitor.frames import Coverage, Ego, Objects
-from casewatch.monitor.jit import kernel
 
-#: Resolution [m] of the edge tests: a point on an edge is inside whatever the rounding of
-#: arctan2 and sin in the numpy build at hand (one build put a point on the edge ray 4e-15 m
-#: outside it).
-EDGE_EPS = 1e-9
+# The compiled pass of `_view` (`coverage_flags`) and the resolution of its edge tests
+# (`EDGE_EPS`) live in `monitor.similarity`, beside the similarity family's per-tick kernel that
+# calls it (a kernel calls only kernels of its own module: `monitor.jit`).
+from casewatch.monitor.similarity import EDGE_EPS, coverage_flags
 
 
 def inside(coverage: Coverage, ego: Ego, pos: np.ndarray, margin: float) -> np.ndarray:
@@ -42,42 +41,6 @@ def inside(coverage: Coverage, ego: Ego, pos: np.ndarray, margin: float) -> np.n
     return keep
 
 
-@kernel
-def _flags(pos, views):  # pragma: no cover - compiled
-    """`inside` of every view for the outer (margin -m) and the core (margin m) test at once.
-
-    views (V, 7): ego x, y, yaw, then range_m + m + EDGE_EPS, range_m - m + EDGE_EPS, half
-    the field of view in radians (inf: all-round in angle), m. The thresholds are computed by
-    the caller in `inside`'s own order of operations, so each flag is `inside`'s, bit for bit.
-    Returns (outer, core), each (K,) bool, and the number of outer flags set."""
-    k = pos.shape[0]
-    outer = np.ones(k, dtype=np.bool_)
-    core = np.ones(k, dtype=np.bool_)
-    for v in range(views.shape[0]):
-        ex, ey, yaw = views[v, 0], views[v, 1], views[v, 2]
-        reach_out, reach_core, half_fov, m = views[v, 3], views[v, 4], views[v, 5], views[v, 6]
-        for i in range(k):
-            rx = pos[i, 0] - ex
-            ry = pos[i, 1] - ey
-            r = np.hypot(rx, ry)
-            keep_out = r <= reach_out
-            keep_core = r <= reach_core
-            if half_fov != np.inf:
-                bearing = np.arctan2(ry, rx) - yaw
-                bearing = np.abs((bearing + np.pi) % (2.0 * np.pi) - np.pi)
-                to_edge = min(max(half_fov - bearing, -np.pi / 2), np.pi / 2)
-                side = r * np.sin(to_edge)
-                keep_out = keep_out and side >= -m - EDGE_EPS
-                keep_core = keep_core and side >= m - EDGE_EPS
-            outer[i] = outer[i] and keep_out
-            core[i] = core[i] and keep_core
-    kept = 0
-    for i in range(k):
-        if outer[i]:
-            kept += 1
-    return outer, core, kept
-
-
 def _view(
     objects: Objects, views: tuple[tuple[Coverage, Ego], ...], margin: float
 ) -> tuple[Objects, np.ndarray]:
@@ -87,28 +50,46 @@ def _view(
 
 
 def _rows(views: tuple[tuple[Coverage, Ego], ...], margin: float) -> np.ndarray | None:
-    """`_flags`'s views array of the coverages that are not all-round (None: none is)."""
+    """`coverage_flags`'s views array of the coverages that are not all-round (None: none is)."""
     rows = [
-        (
-            ego.x,
-            ego.y,
-            ego.yaw,
-            cov.range_m - -margin + EDGE_EPS,
-            cov.range_m - margin + EDGE_EPS,
-            math.radians(cov.fov_deg) / 2.0 if cov.fov_deg < 360.0 else math.inf,
-            margin,
-        )
+        (ego.x, ego.y, ego.yaw, *view_limits(cov, margin))
         for cov, ego in views
         if not cov.all_round
     ]
     return np.array(rows) if rows else None
 
 
+def view_limits(cov: Coverage, margin: float) -> tuple[float, float, float, float]:
+    """The ego-independent columns of a coverage's row in `coverage_flags`'s views array:
+    range_m + margin + EDGE_EPS, range_m - margin + EDGE_EPS, half the field of view in radians
+    (inf: all-round in angle), margin; computed in `inside`'s own order of operations, so the
+    flags are `inside`'s, bit for bit."""
+    return (
+        cov.range_m - -margin + EDGE_EPS,
+        cov.range_m - margin + EDGE_EPS,
+        math.radians(cov.fov_deg) / 2.0 if cov.fov_deg < 360.0 else math.inf,
+        margin,
+    )
+
+
+def pair_views(cov_a: Coverage, cov_b: Coverage, margin: float) -> np.ndarray:
+    """A channel pair's coverages as `similarity.PairTracker` reads them: (2, 5) rows, one per
+    side, [1 if the coverage filters (not all-round) else 0, *view_limits]. Built once per
+    coverage (the family checks at every tick that the engine's coverage is still the one it
+    was built from): only the egos change from tick to tick, and the kernel reads them."""
+    out = np.zeros((2, 5))
+    for side, cov in enumerate((cov_a, cov_b)):
+        if not cov.all_round:
+            out[side, 0] = 1.0
+            out[side, 1:] = view_limits(cov, margin)
+    return out
+
+
 def _view_rows(objects: Objects, rows: np.ndarray | None) -> tuple[Objects, np.ndarray]:
     """`_view` with its views array built (`_rows`): a pair's two sides share it."""
     if rows is None or not len(objects):
         return objects, np.ones(len(objects), dtype=bool)
-    outer, core, kept = _flags(objects.pos, rows)
+    outer, core, kept = coverage_flags(objects.pos, rows)
     if kept == len(outer):
         return objects, core
     return objects.subset(outer), core[outer]

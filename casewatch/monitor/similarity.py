@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import lru_cache
+from typing import cast
 
 import numpy as np
 
@@ -21,9 +22,15 @@ from casewatch.monitor.frames import ChannelState, Objects
 from casewatch.monitor.frechet import frechet_distance
 from casewatch.monitor.history import crpps_path
 from casewatch.monitor.jit import kernel
+from casewatch.safety_case.model import MetricParams
 
 #: Pairing distance resolution [m]: closer distances are ties.
 PAIRING_EPS = 1e-9
+
+#: Resolution [m] of the coverage edge tests (`monitor.coverage`): a point on an edge is inside
+#: whatever the rounding of arctan2 and sin in the numpy build at hand (one build put a point on
+#: the edge ray 4e-15 m outside it).
+EDGE_EPS = 1e-9
 
 
 def angdiff(a: float, b: float) -> float:
@@ -686,3 +693,526 @@ def _plan_lateral_kernel(plan_a, plan_b, shift_x, shift_y, fall_x, fall_y, horiz
         if d > worst:
             worst = d
     return worst
+
+
+# --- coverage (monitor.coverage's compiled pass, here beside `_pair_tick`, which calls it) ---
+
+
+@kernel
+def coverage_flags(pos, views):  # pragma: no cover - compiled
+    """`monitor.coverage.inside` of every view for the outer (margin -m) and the core (margin
+    m) test at once.
+
+    views (V, 7): ego x, y, yaw, then range_m + m + EDGE_EPS, range_m - m + EDGE_EPS, half
+    the field of view in radians (inf: all-round in angle), m. The thresholds are computed by
+    the caller in `inside`'s own order of operations, so each flag is `inside`'s, bit for bit.
+    Returns (outer, core), each (K,) bool, and the number of outer flags set."""
+    k = pos.shape[0]
+    outer = np.ones(k, dtype=np.bool_)
+    core = np.ones(k, dtype=np.bool_)
+    for v in range(views.shape[0]):
+        ex, ey, yaw = views[v, 0], views[v, 1], views[v, 2]
+        reach_out, reach_core, half_fov, m = views[v, 3], views[v, 4], views[v, 5], views[v, 6]
+        for i in range(k):
+            rx = pos[i, 0] - ex
+            ry = pos[i, 1] - ey
+            r = np.hypot(rx, ry)
+            keep_out = r <= reach_out
+            keep_core = r <= reach_core
+            if half_fov != np.inf:
+                bearing = np.arctan2(ry, rx) - yaw
+                bearing = np.abs((bearing + np.pi) % (2.0 * np.pi) - np.pi)
+                to_edge = min(max(half_fov - bearing, -np.pi / 2), np.pi / 2)
+                side = r * np.sin(to_edge)
+                keep_out = keep_out and side >= -m - EDGE_EPS
+                keep_core = keep_core and side >= m - EDGE_EPS
+            outer[i] = outer[i] and keep_out
+            core[i] = core[i] and keep_core
+    kept = 0
+    for i in range(k):
+        if outer[i]:
+            kept += 1
+    return outer, core, kept
+
+
+# --- a channel pair's whole tick in one call (the similarity family's per-tick work) ---
+
+
+@kernel
+def _compared(pos, views):  # pragma: no cover - compiled
+    """`monitor.coverage.common_view` of one side as rows: the rows of the objects it compares
+    (inside every view grown by the margin), in order, and their core flags (inside every view
+    shrunk by it). No views (both coverages all-round) or no objects: every row, all core."""
+    k = pos.shape[0]
+    if views.shape[0] == 0 or k == 0:
+        return np.arange(k), np.ones(k, dtype=np.bool_)
+    outer, core, kept = coverage_flags(pos, views)
+    rows = np.empty(kept, dtype=np.int64)
+    flags = np.empty(kept, dtype=np.bool_)
+    j = 0
+    for i in range(k):
+        if outer[i]:
+            rows[j] = i
+            flags[j] = core[i]
+            j += 1
+    return rows, flags
+
+
+@kernel
+def _pairwise_block(x, lo, n):  # pragma: no cover - compiled
+    """numpy's pairwise summation of a block of at most 128 values x[lo : lo + n]
+    (`DOUBLE_pairwise_sum`'s leaves): one running sum from -0.0 below 8 values, else 8
+    accumulators added pairwise, then the rest one by one."""
+    if n < 8:
+        res = -0.0
+        for i in range(lo, lo + n):
+            res += x[i]
+        return res
+    r0, r1, r2, r3 = x[lo], x[lo + 1], x[lo + 2], x[lo + 3]
+    r4, r5, r6, r7 = x[lo + 4], x[lo + 5], x[lo + 6], x[lo + 7]
+    i = 8
+    stop = n - n % 8
+    while i < stop:
+        r0 += x[lo + i]
+        r1 += x[lo + i + 1]
+        r2 += x[lo + i + 2]
+        r3 += x[lo + i + 3]
+        r4 += x[lo + i + 4]
+        r5 += x[lo + i + 5]
+        r6 += x[lo + i + 6]
+        r7 += x[lo + i + 7]
+        i += 8
+    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < n:
+        res += x[lo + i]
+        i += 1
+    return res
+
+
+@kernel
+def _pairwise_sum(x):  # pragma: no cover - compiled
+    """numpy's pairwise summation of x (`DOUBLE_pairwise_sum`: blocks of at most 128 values,
+    a longer range split in two at a multiple of 8 near its middle, the halves' sums added),
+    so that `0.0 + _pairwise_sum(x)` is `np.sum(x)` (the identity plus the pairwise sum), bit
+    for bit: the tests hold it to np.sum. The recursion is unrolled onto a stack (numba's
+    cache of a self-recursive kernel crashed on loading)."""
+    n = x.shape[0]
+    if n <= 128:
+        return _pairwise_block(x, 0, n)
+    # frames (start, length, halves done), and the sums of finished halves
+    lo = np.empty(64, dtype=np.int64)
+    size = np.empty(64, dtype=np.int64)
+    done = np.empty(64, dtype=np.int64)
+    sums = np.empty(64)
+    top = 0
+    lo[0], size[0], done[0] = 0, n, 0
+    nsum = 0
+    while top >= 0:
+        m = size[top]
+        if m <= 128:
+            sums[nsum] = _pairwise_block(x, lo[top], m)
+            nsum += 1
+            top -= 1
+            continue
+        half = m // 2
+        half -= half % 8
+        if done[top] == 0:
+            done[top] = 1
+            lo[top + 1], size[top + 1], done[top + 1] = lo[top], half, 0
+            top += 1
+        elif done[top] == 1:
+            done[top] = 2
+            lo[top + 1], size[top + 1], done[top + 1] = lo[top] + half, m - half, 0
+            top += 1
+        else:
+            sums[nsum - 2] = sums[nsum - 2] + sums[nsum - 1]
+            nsum -= 1
+            top -= 1
+    return sums[0]
+
+
+@kernel
+def _doubt_sum(age, horizon):  # pragma: no cover - compiled
+    """float(np.sum(monitor.lone.benefit_of_doubt(age, horizon))) for a non-empty `age`: each
+    share np.clip(1 - age / horizon, 0, 1) (numpy's clip: max with 0 then min with 1, a NaN
+    kept), summed as np.sum does."""
+    n = age.shape[0]
+    keep = np.empty(n)
+    for i in range(n):
+        v = 1.0 - age[i] / horizon
+        if not math.isnan(v):
+            v = v if v > 0.0 else 0.0
+            v = v if v < 1.0 else 1.0
+        keep[i] = v
+    return 0.0 + _pairwise_sum(keep)
+
+
+@kernel
+def _lone_step(  # pragma: no cover - compiled
+    t, pos, vel, lone, side, counts, mem_pos, mem_vel, mem_age, mem_seen, gate, max_gap
+):
+    """`monitor.lone.LoneAges.update` of one side (0: A, 1: B) on its memory kept in the
+    tracker's arrays: rows :counts[2 + side] of mem_*[side] are the remembered objects (the
+    caller has checked that the new memory fits). Returns the ages of the unpaired objects."""
+    m = counts[2 + side]
+    new_pos, new_vel, new_age, new_seen, ages = _follow_lone(
+        t,
+        pos,
+        vel,
+        lone,
+        mem_pos[side, :m],
+        mem_vel[side, :m],
+        mem_age[side, :m],
+        mem_seen[side, :m],
+        gate,
+        max_gap,
+    )
+    k = new_age.shape[0]
+    for i in range(k):
+        mem_pos[side, i, 0] = new_pos[i, 0]
+        mem_pos[side, i, 1] = new_pos[i, 1]
+        mem_vel[side, i, 0] = new_vel[i, 0]
+        mem_vel[side, i, 1] = new_vel[i, 1]
+        mem_age[side, i] = new_age[i]
+        mem_seen[side, i] = new_seen[i]
+    counts[2 + side] = k
+    return ages
+
+
+#: Outputs of `_pair_tick` that can have no value (bit 1 << k of its return value set): ets
+#: (an empty plan, no common time), plan_lat (the same), els_var (the window not yet full).
+TICK_ETS = 10
+TICK_PLAN_LAT = 11
+TICK_ELS_VAR = 12
+#: The number of `_pair_tick` outputs (`families.similarity.METRICS`, in that order).
+TICK_OUTPUTS = 13
+
+
+@kernel
+def _pair_tick(  # pragma: no cover - compiled
+    t,
+    els,
+    eos,
+    ego_dist,
+    ego_yaw_diff,
+    ax,
+    ay,
+    ayaw,
+    bx,
+    by,
+    byaw,
+    pos_a,
+    yaw_a,
+    vel_a,
+    half_a,
+    foot_a,
+    pred_a,
+    len_a,
+    plan_a,
+    pos_b,
+    yaw_b,
+    vel_b,
+    half_b,
+    foot_b,
+    pred_b,
+    len_b,
+    plan_b,
+    prm,
+    views,
+    w,
+    counts,
+    els_hist,
+    mem_pos,
+    mem_vel,
+    mem_age,
+    mem_seen,
+    out,
+):
+    """One channel pair's similarity tick (`PairTracker.step` says what goes in): the coverage
+    filter, the object pairing and sums, both sides' lone ages, the object scores, ets,
+    plan_lat and the ELS window, by the kernels the per-call functions of this module use, in
+    their order of operations. Writes `out` (METRICS order, NaN where no value) and returns the
+    bits of the outputs with no value, or -1, having changed nothing, when the memory or the
+    weights are too short for this tick's objects and plans."""
+    gate = prm[0]
+    standing = prm[1]
+    range_scale = prm[2]
+    time_scale = prm[3]
+    ets_relative = prm[4]
+    lat_horizon = prm[5]
+    lone_horizon = prm[6]
+    max_gap = prm[7]
+    cap = mem_age.shape[1]
+    if pos_a.shape[0] + counts[2] > cap or pos_b.shape[0] + counts[3] > cap:
+        return -1
+    if w.shape[0] < max(plan_a.shape[0], plan_b.shape[0], pred_a.shape[1], pred_b.shape[1], 1):
+        return -1
+    # spi-reference "Channel coverage": the views of the coverages that are not all-round, each
+    # seen from its own channel's ego (`monitor.coverage._rows`)
+    nv = 0
+    for s in range(2):
+        if views[s, 0] > 0.0:
+            nv += 1
+    rows = np.empty((nv, 7))
+    v = 0
+    for s in range(2):
+        if views[s, 0] > 0.0:
+            rows[v, 0] = ax if s == 0 else bx
+            rows[v, 1] = ay if s == 0 else by
+            rows[v, 2] = ayaw if s == 0 else byaw
+            for c in range(4):
+                rows[v, 3 + c] = views[s, 1 + c]
+            v += 1
+    ia, core_a = _compared(pos_a, rows)
+    ib, core_b = _compared(pos_b, rows)
+    cpos_a = pos_a[ia]
+    cpos_b = pos_b[ib]
+    if range_scale > 0.0:
+        range_a = _ranges(cpos_a, ax, ay)
+        range_b = _ranges(cpos_b, bx, by)
+    else:
+        range_a = np.zeros(cpos_a.shape[0])
+        range_b = np.zeros(cpos_b.shape[0])
+    ols, oos, oas, ots, pairs, ots_pairs, lone_a, lone_b = _object_kernel(
+        cpos_a,
+        yaw_a[ia],
+        half_a[ia],
+        foot_a[ia],
+        pred_a[ia],
+        len_a[ia],
+        cpos_b,
+        yaw_b[ib],
+        half_b[ib],
+        foot_b[ib],
+        pred_b[ib],
+        len_b[ib],
+        gate,
+        w[: max(pred_a.shape[1], pred_b.shape[1], 1)],
+        core_a,
+        core_b,
+        standing,
+        range_a,
+        range_b,
+        range_scale,
+        time_scale,
+    )
+    ages_a = _lone_step(
+        t, cpos_a, vel_a[ia], lone_a, 0, counts, mem_pos, mem_vel, mem_age, mem_seen, gate, max_gap
+    )
+    ages_b = _lone_step(
+        t, cpos_b, vel_b[ib], lone_b, 1, counts, mem_pos, mem_vel, mem_age, mem_seen, gate, max_gap
+    )
+    # ObjectComparison.scores with monitor.lone.benefit_of_doubt's shares
+    n_lone_a = ages_a.shape[0]
+    n_lone_b = ages_b.shape[0]
+    keep = (_doubt_sum(ages_a, lone_horizon) if n_lone_a else 0.0) + (
+        _doubt_sum(ages_b, lone_horizon) if n_lone_b else 0.0
+    )
+    lone = n_lone_a + n_lone_b
+    out[0] = els
+    out[1] = eos
+    out[2] = ego_dist
+    out[3] = ego_yaw_diff
+    out[4] = 1.0 / (1.0 + abs(n_lone_a - n_lone_b))
+    for k in range(4):
+        total = ols if k == 0 else oos if k == 1 else oas if k == 2 else ots
+        n = pairs if k < 3 else ots_pairs
+        mean = total / n if n else 1.0
+        out[5 + k] = (total + keep * mean) / (n + lone) if n + lone else 1.0
+    # lone_age: the oldest unpaired object of either side (ndarray.max(initial=0.0))
+    top_a = 0.0
+    for i in range(n_lone_a):
+        if ages_a[i] > top_a or math.isnan(ages_a[i]):
+            top_a = ages_a[i]
+    top_b = 0.0
+    for i in range(n_lone_b):
+        if ages_b[i] > top_b or math.isnan(ages_b[i]):
+            top_b = ages_b[i]
+    out[9] = top_b if top_b > top_a else top_a
+    none = 0
+    # ets (`ets`): plan B moved by ego A minus ego B when ets_relative
+    out[10] = np.nan
+    none |= 1 << 10
+    if plan_a.shape[0] > 0 and plan_b.shape[0] > 0:
+        a0, b0, n = _common_start(plan_a, plan_b)
+        if n > 0:
+            shifted = ets_relative == 1.0
+            sx = ax - bx if shifted else 0.0
+            sy = ay - by if shifted else 0.0
+            out[10] = _ets_at(plan_a, plan_b, a0, b0, w[:n], sx, sy, shifted)
+            none &= ~(1 << 10)
+    # plan_lat (`plan_lateral`)
+    out[11] = np.nan
+    none |= 1 << 11
+    if plan_a.shape[0] > 0 and plan_b.shape[0] > 0:
+        fall_x = math.cos(ayaw) + math.cos(byaw)
+        fall_y = math.sin(ayaw) + math.sin(byaw)
+        h = np.hypot(fall_x, fall_y)
+        norm = 1e-12 if h < 1e-12 else h  # max(h, 1e-12)
+        lat = _plan_lateral_kernel(
+            plan_a, plan_b, ax - bx, ay - by, fall_x / norm, fall_y / norm, lat_horizon
+        )
+        if not math.isnan(lat):
+            out[11] = lat
+            none &= ~(1 << 11)
+    # els_var: the ELS window (`family.TimedHistory` of els_window values, restarting after a
+    # gap), els_hist[0] the time of its newest value, els_hist[1:] a ring from counts[1]
+    size = els_hist.shape[0] - 1
+    count = counts[0]
+    head = counts[1]
+    if count > 0 and t - els_hist[0] > max_gap + 1e-9:
+        count = 0
+        head = 0
+    els_hist[1 + head] = els
+    head = head + 1 if head + 1 < size else 0
+    if count < size:
+        count += 1
+    els_hist[0] = t
+    counts[0] = count
+    counts[1] = head
+    out[12] = np.nan
+    if count < size:
+        none |= 1 << 12
+    else:  # `history._sample_variance` of the window, oldest first
+        total = 0.0
+        for k in range(size):
+            total += els_hist[1 + (head + k) % size]
+        mean = total / size
+        ss = 0.0
+        for k in range(size):
+            d = els_hist[1 + (head + k) % size] - mean
+            ss += d * d
+        out[12] = ss / (size - 1)
+    return none
+
+
+class PairTracker:
+    """One channel pair's similarity history in arrays, and its whole tick in one compiled call
+    (`_pair_tick`): the ELS window (`els`: the newest value's time, then a ring of els_window
+    values; `counts[0:2]`: how many, where the next goes) and each side's unpaired-object
+    memory (`mem_*[side, :counts[2 + side]]`, what `monitor.lone.LoneAges` keeps).
+
+    Why: at a handful of objects per channel, the per-pair functions of this module (coverage,
+    pairing, lone ages, scores, ets, plan_lat, the ELS variance) cost a dozen kernel calls, a
+    subset of the objects and a dict of scores per pair and tick, most of the family's time in
+    Python glue (issue 36). The tick's values are those functions', bit for bit
+    (tests/monitor/test_similarity_fast.py holds them to each other).
+    """
+
+    def __init__(self, params: MetricParams, capacity: int = 16, width: int = 64):
+        self.decay = params.trajectory_decay
+        #: the kernel's scalar parameters (`_pair_tick` reads them by position)
+        self.prm = np.array(
+            [
+                params.pairing_gate,
+                params.standing_motion,
+                params.ols_range_scale,
+                params.ots_time_scale,
+                float(params.ets_relative),
+                params.plan_lat_horizon,
+                params.lone_horizon,
+                params.max_gap,
+            ]
+        )
+        #: the pair's coverages (`monitor.coverage.pair_views`); default: both all-round
+        self.views = np.zeros((2, 5))
+        self.counts = np.zeros(4, dtype=np.int64)
+        self.els = np.full(params.els_window + 1, np.nan)
+        self.out = np.empty(TICK_OUTPUTS)
+        self.mem_pos = np.zeros((2, 0, 2))
+        self.mem_vel = np.zeros((2, 0, 2))
+        self.mem_age = np.zeros((2, 0))
+        self.mem_seen = np.zeros((2, 0))
+        self.w = _weights(self.decay, 1)
+        self._grow(capacity, width)
+
+    def forget_objects(self) -> None:
+        """Forget both sides' unpaired objects (a channel of the pair absent: `LoneAges.reset`).
+        The ELS window stays; it restarts by itself after a gap."""
+        self.counts[2] = 0
+        self.counts[3] = 0
+
+    def _grow(self, capacity: int, width: int) -> None:
+        """Room for `capacity` remembered plus current objects per side (the memory kept) and
+        weights for `width` points (`_weights`: the same values as the per-call functions',
+        a longer vector's first n being `_weights(decay, n)`)."""
+        old = self.mem_age.shape[1]
+        if capacity > old:
+            pos, vel = np.zeros((2, capacity, 2)), np.zeros((2, capacity, 2))
+            age, seen = np.zeros((2, capacity)), np.zeros((2, capacity))
+            pos[:, :old], vel[:, :old] = self.mem_pos, self.mem_vel
+            age[:, :old], seen[:, :old] = self.mem_age, self.mem_seen
+            self.mem_pos, self.mem_vel, self.mem_age, self.mem_seen = pos, vel, age, seen
+        if width > len(self.w):
+            self.w = _weights(self.decay, width)
+
+    def step(self, t: float, a: ChannelState, b: ChannelState) -> list[float | None]:
+        """The pair's values at `t` in `families.similarity.METRICS` order (None: no value),
+        both channels present."""
+        els, eos, dist, yaw = ego_pair(a, b)
+        none = self._tick(t, els, eos, dist, yaw, a, b)
+        if none < 0:  # more objects or longer plans than ever: grow, then the same call
+            oa, ob, counts = a.objects, b.objects, self.counts
+            need = max(len(oa) + int(counts[2]), len(ob) + int(counts[3]))
+            width = max(len(a.plan), len(b.plan), oa.pred.shape[1], ob.pred.shape[1], 1)
+            self._grow(max(2 * need, 16), max(2 * width, 64))
+            none = self._tick(t, els, eos, dist, yaw, a, b)
+        values = cast("list[float | None]", self.out.tolist())
+        if none:
+            for k in (TICK_ETS, TICK_PLAN_LAT, TICK_ELS_VAR):
+                if none >> k & 1:
+                    values[k] = None
+        return values
+
+    def _tick(
+        self,
+        t: float,
+        els: float,
+        eos: float,
+        dist: float,
+        yaw: float,
+        a: ChannelState,
+        b: ChannelState,
+    ) -> int:
+        ea, eb, oa, ob = a.ego, b.ego, a.objects, b.objects
+        return int(
+            _pair_tick(
+                t,
+                els,
+                eos,
+                dist,
+                yaw,
+                ea.x,
+                ea.y,
+                ea.yaw,
+                eb.x,
+                eb.y,
+                eb.yaw,
+                oa.pos,
+                oa.yaw,
+                oa.vel,
+                oa.half,
+                oa.footprints,
+                oa.pred,
+                oa.pred_len,
+                a.plan,
+                ob.pos,
+                ob.yaw,
+                ob.vel,
+                ob.half,
+                ob.footprints,
+                ob.pred,
+                ob.pred_len,
+                b.plan,
+                self.prm,
+                self.views,
+                self.w,
+                self.counts,
+                self.els,
+                self.mem_pos,
+                self.mem_vel,
+                self.mem_age,
+                self.mem_seen,
+                self.out,
+            )
+        )

@@ -4,31 +4,23 @@ ots, ets, lone_age, plan_lat per channel pair, from one object pairing per pair 
 crpps needs a Fréchet distance: this family leaves its inputs in `crpps_inputs`, and the motion
 family computes them in one GEOS call with chpps's.
 
-The tick's loop writes straight into the output dict by precomputed names and builds no
-dict per pair (issue 36: at a handful of objects per channel, the glue around the compiled
-kernels was most of the family's time).
+A pair's tick is one compiled call (`similarity.PairTracker`: coverage, pairing, lone ages,
+scores, ets, plan_lat and the ELS window, its history kept in arrays) whose values the loop
+writes into the output dict by precomputed names (issue 36: at a handful of objects per
+channel, the glue around a dozen small kernel calls per pair was most of the family's time).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from casewatch.monitor.coverage import common_view
-from casewatch.monitor.family import Engine, MetricFamily, TimedHistory, worst
-from casewatch.monitor.frames import ChannelState
-from casewatch.monitor.history import els_var
-from casewatch.monitor.lone import LoneAges, benefit_of_doubt
-from casewatch.monitor.similarity import (
-    compare_objects,
-    crpps_inputs,
-    ego_pair,
-    ets,
-    plan_lateral,
-    ranges_from,
-)
+from casewatch.monitor.coverage import pair_views
+from casewatch.monitor.family import Engine, MetricFamily, worst
+from casewatch.monitor.frames import ChannelState, Coverage
+from casewatch.monitor.similarity import TICK_OUTPUTS, PairTracker, crpps_inputs
 from casewatch.safety_case.signals import PAIR_METRICS, WORST_IS_MAX, pair_name
 
-#: The pair metrics this family writes, in the order `_pair` returns them (crpps is the
+#: The pair metrics this family writes, in the order `PairTracker.step` returns them (crpps is the
 #: motion family's).
 METRICS = (
     "els",
@@ -45,7 +37,7 @@ METRICS = (
     "plan_lat",
     "els_var",
 )
-_NONE = (None,) * len(METRICS)
+_NONE: list[float | None] = [None] * len(METRICS)
 
 
 class SimilarityFamily(MetricFamily):
@@ -54,115 +46,47 @@ class SimilarityFamily(MetricFamily):
     def __init__(self, engine: Engine):
         super().__init__(engine)
         p = self.params
-        if set(METRICS) != set(PAIR_METRICS) - {"crpps"}:
+        if set(METRICS) != set(PAIR_METRICS) - {"crpps"} or len(METRICS) != TICK_OUTPUTS:
             raise AssertionError("SimilarityFamily.METRICS out of step with PAIR_METRICS")
-        self._els = {pr: TimedHistory(p.els_window, p.max_gap) for pr in self.pairs}
-        #: per pair, the ages of each side's unpaired objects (spi-reference "Unpaired objects")
-        self._lone = {
-            pr: (LoneAges(p.pairing_gate, p.max_gap), LoneAges(p.pairing_gate, p.max_gap))
-            for pr in self.pairs
-        }
+        #: per pair, its history (ELS window, unpaired objects) and its tick's kernel
+        self._trackers = [PairTracker(p) for _ in self.pairs]
+        #: per pair, the coverages its tracker's views were built from
+        self._seen: list[tuple[Coverage | None, Coverage | None]] = [(None, None)] * len(self.pairs)
         #: crpps Fréchet inputs per pair of the current step (None: no value)
         self.crpps_inputs: list[tuple[np.ndarray, np.ndarray] | None] = []
-        self._pair_names = {pr: {m: pair_name(m, *pr) for m in PAIR_METRICS} for pr in self.pairs}
         self._names = [tuple(pair_name(m, *pr) for m in METRICS) for pr in self.pairs]
         self._use_max = tuple(m in WORST_IS_MAX for m in METRICS)
+        #: one pair (two channels): the worst pair is that pair, both written by one update
+        self._one = self._names[0] + METRICS if len(self.pairs) == 1 else None
 
     def step(self, t: float, st: dict[str, ChannelState], out: dict[str, float | None]) -> None:
-        # crpps needs a Fréchet distance: its inputs wait for the motion family's GEOS call
-        self.crpps_inputs = []
+        coverage = self.engine.coverage
+        # crpps needs a Fréchet distance: its inputs wait for the motion family's call
+        crpps: list[tuple[np.ndarray, np.ndarray] | None] = []
+        self.crpps_inputs = crpps
         rows = []
-        for (a, b), names in zip(self.pairs, self._names, strict=True):
+        for k, (a, b) in enumerate(self.pairs):
+            tracker = self._trackers[k]
             sa, sb = st.get(a), st.get(b)
-            if sa is not None and sb is not None:
-                vals = self._pair(t, a, b, sa, sb)
-            else:
-                vals = _NONE
-                self.crpps_inputs.append(None)
-                for side in self._lone[(a, b)]:
-                    side.reset()
-            for name, v in zip(names, vals, strict=True):
-                out[name] = v
-            rows.append(vals)
-        if len(rows) == 1:  # one pair (two channels): the worst pair is that pair
-            for m, v in zip(METRICS, rows[0], strict=True):
-                out[m] = v
+            if sa is None or sb is None:
+                tracker.forget_objects()
+                crpps.append(None)
+                rows.append(_NONE)
+                continue
+            cov_a, cov_b = coverage[a], coverage[b]
+            seen = self._seen[k]
+            if cov_a is not seen[0] or cov_b is not seen[1]:
+                # spi-reference "Channel coverage": what each channel can see (the engine learns
+                # it from the stream's header after the families are built)
+                tracker.views = pair_views(cov_a, cov_b, self.params.coverage_margin)
+                self._seen[k] = (cov_a, cov_b)
+            rows.append(tracker.step(t, sa, sb))
+            crpps.append(crpps_inputs(sa.plan, sb.plan))
+        if self._one is not None:
+            vals = rows[0]
+            out.update(zip(self._one, vals + vals, strict=True))
             return
+        for names, vals in zip(self._names, rows, strict=True):
+            out.update(zip(names, vals, strict=True))
         for k, (m, use_max) in enumerate(zip(METRICS, self._use_max, strict=True)):
             out[m] = worst([vals[k] for vals in rows], use_max)
-
-    def _pair(
-        self, t: float, a: str, b: str, sa: ChannelState, sb: ChannelState
-    ) -> tuple[float | None, ...]:
-        """The METRICS of the pair (a, b) at t, both channels present."""
-        p = self.params
-        coverage = self.coverage
-        els, eos, ego_dist, ego_yaw_diff = ego_pair(sa, sb)
-        # spi-reference "Channel coverage": only objects both channels can see
-        oa, core_a, ob, core_b = common_view(
-            sa.objects,
-            sa.ego,
-            coverage[a],
-            sb.objects,
-            sb.ego,
-            coverage[b],
-            p.coverage_margin,
-        )
-        ranges: tuple[np.ndarray | None, np.ndarray | None] = (None, None)
-        if p.ols_range_scale > 0.0:
-            ranges = (
-                ranges_from(oa.pos, sa.ego.x, sa.ego.y),
-                ranges_from(ob.pos, sb.ego.x, sb.ego.y),
-            )
-        cmp = compare_objects(
-            oa,
-            ob,
-            p.pairing_gate,
-            p.trajectory_decay,
-            core_a,
-            core_b,
-            p.standing_motion,
-            *ranges,
-            p.ols_range_scale,
-            p.ots_time_scale,
-        )
-        ages_a, ages_b = self._lone[(a, b)]
-        age_a = ages_a.update(t, oa.pos, oa.vel, cmp.lone_a)
-        age_b = ages_b.update(t, ob.pos, ob.vel, cmp.lone_b)
-        scores = cmp.scores(
-            benefit_of_doubt(age_a, p.lone_horizon),
-            benefit_of_doubt(age_b, p.lone_horizon),
-        )
-        lone_age = max(
-            age_a.max(initial=0.0) if len(age_a) else 0.0,
-            age_b.max(initial=0.0) if len(age_b) else 0.0,
-        )
-        shift = (sa.ego.x - sb.ego.x, sa.ego.y - sb.ego.y)
-        ets_value = ets(
-            sa.plan, sb.plan, p.trajectory_decay, shift if p.ets_relative == 1 else None
-        )
-        plan_lat = plan_lateral(
-            sa.plan,
-            sb.plan,
-            shift,
-            (sa.ego.yaw, sb.ego.yaw),
-            p.plan_lat_horizon,
-        )
-        self.crpps_inputs.append(crpps_inputs(sa.plan, sb.plan))
-        window = self._els[(a, b)]
-        window.push(t, els)
-        return (
-            els,
-            eos,
-            ego_dist,
-            ego_yaw_diff,
-            scores["ocs"],
-            scores["ols"],
-            scores["oos"],
-            scores["oas"],
-            scores["ots"],
-            lone_age,
-            ets_value,
-            plan_lat,
-            els_var([v for _, v in window.items], p.els_window),
-        )
