@@ -21,9 +21,10 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
+from numba import njit
 
 from casewatch.monitor.frames import Ego, Objects
-from casewatch.monitor.jit import kernel
+from casewatch.monitor.jit import KERNEL_OPTIONS, kernel
 
 #: Grid points per run in the run-level prefilters (both paths use runs of this length).
 CHUNK = 5
@@ -376,24 +377,37 @@ def _score_group(
     """
     n_i = members.shape[0]
     n_j = worlds.shape[0]
+    n_k = 0
+    for jj in range(n_j):
+        n_k += meta[worlds[jj], OBJECTS]
+    longest = 0
+    for i in range(n_i):
+        if cuts[i] > cuts[longest]:
+            longest = i
+    n_t = cuts[longest]
+    n_c = (n_t + CHUNK - 1) // CHUNK
+    # Arrays of one shape share one allocation (views of it): some twenty allocations cost
+    # about as much as the egos' setup.
+    ints = np.empty(n_j + 1 + n_i, dtype=np.int64)
+    grid = np.empty(n_t + 3 * n_c + 1)
+    etrack = np.empty((4, n_i, n_t))
+    otrack = np.empty((4, n_k, n_t))
+    runs_all = np.empty((2 * n_i + n_k, n_c, 4))
+    ego_small = np.empty((3, n_i, 4))
+    obj_small = np.empty((2, n_k))
+    flags = np.zeros((2 * n_i + 1, n_k), dtype=np.bool_)
     # objects: world jj's are first[jj] .. first[jj + 1] - 1
-    first = np.empty(n_j + 1, dtype=np.int64)
+    first = ints[: n_j + 1]
     n_k = 0
     for jj in range(n_j):
         first[jj] = n_k
         n_k += meta[worlds[jj], OBJECTS]
     first[n_j] = n_k
     # the grid: the longest plan's times
-    longest = 0
-    for i in range(n_i):
-        if cuts[i] > cuts[longest]:
-            longest = i
-    n_t = cuts[longest]
     lrow = data[members[longest]]
-    times = np.empty(n_t)
+    times = grid[:n_t]
     for t in range(n_t):
         times[t] = lrow[3 * t]
-    n_c = (n_t + CHUNK - 1) // CHUNK
     ttc = res[1]
     pet = res[2]
     for i in range(n_i):
@@ -401,16 +415,16 @@ def _score_group(
             ttc[i, jj] = math.inf
             pet[i, jj] = math.inf
     # egos on their own grids: poses, run boxes, whole-sweep boxes, run lateral axes
-    plen = np.empty(n_i, dtype=np.int64)
-    ex = np.empty((n_i, n_t))
-    ey = np.empty((n_i, n_t))
-    ec = np.empty((n_i, n_t))
-    es = np.empty((n_i, n_t))
-    ehalf = np.empty((n_i, 2))
-    erad = np.empty(n_i)
-    erun = np.empty((n_i, n_c, 4))
-    eaxis = np.empty((n_i, n_c, 4))  # axis x, axis y, interval lo, hi
-    esweep = np.empty((n_i, 4))
+    plen = ints[n_j + 1 :]
+    ex = etrack[0]
+    ey = etrack[1]
+    ec = etrack[2]
+    es = etrack[3]
+    ehalf = ego_small[0]  # half length, half width (columns 0, 1)
+    erad = ego_small[1, :, 0]
+    erun = runs_all[:n_i]
+    eaxis = runs_all[n_i : 2 * n_i]  # axis x, axis y, interval lo, hi
+    esweep = ego_small[2]
     for i in range(n_i):
         m_row = members[i]
         prow = data[m_row]
@@ -452,15 +466,15 @@ def _score_group(
             eaxis[i, c, 3] = hi + SLACK
     # time gaps between runs of the grid: the smallest over run pairs at each run offset d,
     # then the smallest over offsets |d| >= e (so that the PET search may stop at e)
-    t_lo = np.empty(n_c)
-    t_hi = np.empty(n_c)
+    t_lo = grid[n_t : n_t + n_c]
+    t_hi = grid[n_t + n_c : n_t + 2 * n_c]
     for c in range(n_c):
         t_lo[c] = times[c * CHUNK]
         t_hi[c] = times[c * CHUNK]
         for t in range(c * CHUNK + 1, min(c * CHUNK + CHUNK, n_t)):
             t_lo[c] = min(t_lo[c], times[t])
             t_hi[c] = max(t_hi[c], times[t])
-    floor = np.empty(n_c + 1)
+    floor = grid[n_t + 2 * n_c :]
     for e in range(n_c + 1):
         floor[e] = math.inf
     for a in range(n_c):
@@ -470,16 +484,16 @@ def _score_group(
     for e in range(n_c - 2, -1, -1):
         floor[e] = min(floor[e], floor[e + 1])
     # objects: tracks on the grid (headings when first needed), run boxes
-    ox = np.empty((n_k, n_t))
-    oy = np.empty((n_k, n_t))
-    oc = np.empty((n_k, n_t))
-    os_ = np.empty((n_k, n_t))
-    oyaw = np.empty(n_k)
-    orad = np.empty(n_k)
-    orun = np.empty((n_k, n_c, 4))
-    headed = np.zeros(n_k, dtype=np.bool_)
-    live = np.zeros((n_i, n_k), dtype=np.bool_)
-    meets = np.zeros((n_i, n_k), dtype=np.bool_)
+    ox = otrack[0]
+    oy = otrack[1]
+    oc = otrack[2]
+    os_ = otrack[3]
+    oyaw = obj_small[0]
+    orad = obj_small[1]
+    orun = runs_all[2 * n_i :]
+    live = flags[:n_i]
+    meets = flags[n_i : 2 * n_i]
+    headed = flags[2 * n_i]
     for jj in range(n_j):
         w_row = worlds[jj]
         wrow = data[w_row]
@@ -611,7 +625,7 @@ def _score_group(
             res[0, i, jj] = _nanmin(1.0, _nanmin(ttc[i, jj] / horizon, pet[i, jj] / pet_ref))
 
 
-@kernel
+@njit(inline="always", **KERNEL_OPTIONS)
 def _pet_object(
     ex: np.ndarray,
     ey: np.ndarray,
@@ -645,10 +659,19 @@ def _pet_object(
 ) -> float:
     """`best` lowered to the smallest |t_n - t_m| < limit at which the ego (plan of n points)
     meets object k (which never meets it at equal times) in a contact that is not rear-end.
-    The object's headings are computed on first need (`headed[k]`); an object whose every
-    heading pairs with every ego heading as rear-end is done at once (`_all_rear_end`)."""
+    The object's headings are computed on first need (`headed[k]`). An object whose every
+    heading pairs with every ego heading as rear-end (`_all_rear_end`: following, or being
+    followed) is done before any run pair is visited: on the bundled drives that is nearly
+    every object that reaches this search.
+
+    Inlined into its caller (numba's IR inlining): it takes some thirty arguments, which a
+    call would pass on every (ego, object) pair."""
+    if not headed[k]:
+        _headings(ox, oy, n_t, oyaw, oc, os_)
+        headed[k] = True
+    if _all_rear_end(ec, es, oc, os_, n):
+        return best  # following: TTC's and the headways' job, never PET
     reach = erad + orad
-    coned = False
     for e in range(runs):
         bound = limit if limit < best else best
         if floor[e] >= bound:
@@ -667,13 +690,6 @@ def _pet_object(
                     or erun[a, 3] < orun[b, 2]
                 ):
                     continue
-                if not headed[k]:
-                    _headings(ox, oy, n_t, oyaw, oc, os_)
-                    headed[k] = True
-                if not coned:
-                    if _all_rear_end(ec, es, oc, os_, n):
-                        return best  # following: TTC's and the headways' job, never PET
-                    coned = True
                 # the ego run's lateral axis: the object run's interval on it
                 ax = eaxis[a, 0]
                 ay = eaxis[a, 1]
