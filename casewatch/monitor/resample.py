@@ -321,12 +321,24 @@ def _stands(plan, radius):  # pragma: no cover - compiled
 
 
 @kernel
+def _scale_of(half):  # pragma: no cover - compiled
+    """1 / half when `half` is a normal power of two, else 0: then (t - tk) / half and
+    (t - tk) * (1 / half) are the same double for every t (both the exact (t - tk) 2^-e,
+    rounded once the same way), and a multiplication is cheaper than a division."""
+    if not (half >= 1e-300 and half <= 1e300):
+        return 0.0
+    m, _ = math.frexp(half)
+    return 1.0 / half if m == 0.5 else 0.0
+
+
+@kernel
 def _smooth_plan(plan, half):  # pragma: no cover - compiled
     """Each point replaced by a least-squares quadratic in time through the points within
     `half` seconds of it, evaluated at its time (points with fewer than three neighbours,
     themselves included, are kept)."""
     n = plan.shape[0]
     out = plan.copy()
+    scale = _scale_of(half)
     lo = 0
     hi = 0
     for k in range(n):
@@ -341,27 +353,10 @@ def _smooth_plan(plan, half):  # pragma: no cover - compiled
         if m < 3:
             continue
         # normal equations of x(t) = c0 + c1 u + c2 u^2, u = (t - tk) / half
-        s0 = 0.0
-        s1 = 0.0
-        s2 = 0.0
-        s3 = 0.0
-        s4 = 0.0
-        bx0 = bx1 = bx2 = 0.0
-        by0 = by1 = by2 = 0.0
-        for j in range(lo, hi):
-            u = (plan[j, 0] - tk) / half
-            u2 = u * u
-            s0 += 1.0
-            s1 += u
-            s2 += u2
-            s3 += u2 * u
-            s4 += u2 * u2
-            bx0 += plan[j, 1]
-            bx1 += plan[j, 1] * u
-            bx2 += plan[j, 1] * u2
-            by0 += plan[j, 2]
-            by1 += plan[j, 2] * u
-            by2 += plan[j, 2] * u2
+        if scale != 0.0:
+            s0, s1, s2, s3, s4, bx0, bx1, bx2, by0, by1, by2 = _sums_scaled(plan, lo, hi, tk, scale)
+        else:
+            s0, s1, s2, s3, s4, bx0, bx1, bx2, by0, by1, by2 = _sums(plan, lo, hi, tk, half)
         # Cramer's rule for the constant term c0 of the symmetric 3x3 system
         det = s0 * (s2 * s4 - s3 * s3) - s1 * (s1 * s4 - s2 * s3) + s2 * (s1 * s3 - s2 * s2)
         if abs(det) < 1e-12:
@@ -375,6 +370,60 @@ def _smooth_plan(plan, half):  # pragma: no cover - compiled
         out[k, 1] = cx
         out[k, 2] = cy
     return out
+
+
+@kernel
+def _sums(plan, lo, hi, tk, half):  # pragma: no cover - compiled
+    """`_smooth_plan`'s sums over the points lo..hi-1, u = (t - tk) / half, in their order."""
+    s0 = 0.0
+    s1 = 0.0
+    s2 = 0.0
+    s3 = 0.0
+    s4 = 0.0
+    bx0 = bx1 = bx2 = 0.0
+    by0 = by1 = by2 = 0.0
+    for j in range(lo, hi):
+        u = (plan[j, 0] - tk) / half
+        u2 = u * u
+        s0 += 1.0
+        s1 += u
+        s2 += u2
+        s3 += u2 * u
+        s4 += u2 * u2
+        bx0 += plan[j, 1]
+        bx1 += plan[j, 1] * u
+        bx2 += plan[j, 1] * u2
+        by0 += plan[j, 2]
+        by1 += plan[j, 2] * u
+        by2 += plan[j, 2] * u2
+    return s0, s1, s2, s3, s4, bx0, bx1, bx2, by0, by1, by2
+
+
+@kernel
+def _sums_scaled(plan, lo, hi, tk, scale):  # pragma: no cover - compiled
+    """`_sums` with u = (t - tk) * scale (`_scale_of`: the same doubles)."""
+    s0 = 0.0
+    s1 = 0.0
+    s2 = 0.0
+    s3 = 0.0
+    s4 = 0.0
+    bx0 = bx1 = bx2 = 0.0
+    by0 = by1 = by2 = 0.0
+    for j in range(lo, hi):
+        u = (plan[j, 0] - tk) * scale
+        u2 = u * u
+        s0 += 1.0
+        s1 += u
+        s2 += u2
+        s3 += u2 * u
+        s4 += u2 * u2
+        bx0 += plan[j, 1]
+        bx1 += plan[j, 1] * u
+        bx2 += plan[j, 1] * u2
+        by0 += plan[j, 2]
+        by1 += plan[j, 2] * u
+        by2 += plan[j, 2] * u2
+    return s0, s1, s2, s3, s4, bx0, bx1, bx2, by0, by1, by2
 
 
 def smooth_plan(plan: np.ndarray, span: float) -> np.ndarray:

@@ -83,14 +83,21 @@ PATH_TOLERANCE = 0.1
 
 
 @kernel
-def _strays(out, m, x, y):  # pragma: no cover - compiled
+def _strays(out, m, x, y, norm):  # pragma: no cover - compiled
     """True when (x, y) lies more than PATH_TOLERANCE from the line through the last two kept
-    points out[m - 2], out[m - 1] (m >= 2)."""
+    points out[m - 2], out[m - 1] (m >= 2), whose distance apart is `norm` (`_norm`)."""
     px = out[m - 1, 0]
     py = out[m - 1, 1]
     lx = px - out[m - 2, 0]
     ly = py - out[m - 2, 1]
-    return abs(lx * (y - py) - ly * (x - px)) / math.hypot(lx, ly) > PATH_TOLERANCE + EPS
+    return abs(lx * (y - py) - ly * (x - px)) / norm > PATH_TOLERANCE + EPS
+
+
+@kernel
+def _norm(out, m):  # pragma: no cover - compiled
+    """The distance between the last two kept points out[m - 2], out[m - 1]: `_strays`'s
+    divisor, computed once per kept point instead of once per test (the same double)."""
+    return math.hypot(out[m - 1, 0] - out[m - 2, 0], out[m - 1, 1] - out[m - 2, 1])
 
 
 @kernel
@@ -113,6 +120,8 @@ def _path(x0, y0, xs, ys, reverse, heading, lookahead):  # pragma: no cover - co
     out[0, 1] = y[0]
     m = 1
     last = 0  # index of the last kept input point
+    norm_m = 0  # the m whose `_norm` is `norm`
+    norm = 0.0
     for i in range(1, n):
         if m == 1:
             if math.hypot(x[i] - out[0, 0], y[i] - out[0, 1]) >= PATH_SPACING - EPS:
@@ -121,13 +130,18 @@ def _path(x0, y0, xs, ys, reverse, heading, lookahead):  # pragma: no cover - co
                 m = 2
                 last = i
             continue
-        if _strays(out, m, x[i], y[i]) and last < i - 1:
+        if norm_m != m:
+            norm = _norm(out, m)
+            norm_m = m
+        if _strays(out, m, x[i], y[i], norm) and last < i - 1:
             # point i leaves the line: the point before it ends the straight stretch
             out[m, 0] = x[i - 1]
             out[m, 1] = y[i - 1]
             m += 1
             last = i - 1
-        if _strays(out, m, x[i], y[i]):
+            norm = _norm(out, m)
+            norm_m = m
+        if _strays(out, m, x[i], y[i], norm):
             out[m, 0] = x[i]
             out[m, 1] = y[i]
             m += 1
@@ -180,31 +194,41 @@ def _nearest(
     best_gap = np.inf
     best_ux = 0.0
     best_uy = 0.0
+    # per segment: length, unit tangent and arc length at its start, the same for every
+    # object (computed once: the same doubles as per object)
+    segs = path.shape[0] - 1
+    seg = np.empty((max(segs, 0), 4))
+    s0 = 0.0
+    for j in range(segs):
+        dx = path[j + 1, 0] - path[j, 0]
+        dy = path[j + 1, 1] - path[j, 1]
+        length = math.hypot(dx, dy)
+        seg[j, 0] = length
+        seg[j, 1] = dx / length
+        seg[j, 2] = dy / length
+        seg[j, 3] = s0
+        s0 += length
     for k in range(pos.shape[0]):
         dist = np.inf
         s_best = 0.0
         ux_best = 0.0
         uy_best = 0.0
-        s0 = 0.0
         lat_best = 0.0
-        for j in range(path.shape[0] - 1):
+        for j in range(segs):
             ax = path[j, 0]
             ay = path[j, 1]
-            dx = path[j + 1, 0] - ax
-            dy = path[j + 1, 1] - ay
-            length = math.hypot(dx, dy)
-            ux = dx / length
-            uy = dy / length
+            length = seg[j, 0]
+            ux = seg[j, 1]
+            uy = seg[j, 2]
             along = (pos[k, 0] - ax) * ux + (pos[k, 1] - ay) * uy
             along = min(max(along, 0.0), length)
             d = math.hypot(pos[k, 0] - ax - along * ux, pos[k, 1] - ay - along * uy)
             if d < dist - EPS:  # an equidistant vertex keeps the earlier segment
                 dist = d
-                s_best = s0 + along
+                s_best = seg[j, 3] + along
                 ux_best = ux
                 uy_best = uy
                 lat_best = ux * (pos[k, 1] - ay) - uy * (pos[k, 0] - ax)
-            s0 += length
         if dist > half_width + EPS or s_best <= EPS:
             continue
         drift = ux_best * vel[k, 1] - uy_best * vel[k, 0]

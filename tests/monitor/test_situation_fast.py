@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from numba import njit
 
 from casewatch.monitor import engine as engine_module
 from casewatch.monitor.comfort import _push_row, hcs, ppcs
@@ -29,15 +30,23 @@ from casewatch.monitor.family import (
 )
 from casewatch.monitor.frames import ChannelState, Coverage
 from casewatch.monitor.resample import (
+    _scale_of,
+    _smooth_plan,
     objects_on_grid,
     prepare_channel,
     prepare_plan,
     resample_objects,
 )
 from casewatch.monitor.situation import (
+    EPS,
     GAP_CAP,
+    PATH_SPACING,
+    PATH_TOLERANCE,
     TICK_METRICS,
     TIME_CAP,
+    _nearest,
+    _path,
+    _shares_lane,
     acceleration,
     ego_half_length,
     headway,
@@ -387,3 +396,272 @@ def test_signals_pass_through_as_before():
     f2.signals = {"other": 1.0}
     out = engine.step(f2)
     assert out["other"] == 1.0 and list(out)[-1] == "other"
+
+
+# -- the path and the projection, against their code at 985ff6a ---------------------------
+# (compiled here as they were: numba's hypot is the C library's, not Python's)
+
+
+@njit(cache=False, error_model="numpy")
+def _old_strays(out, m, x, y):
+    """True when (x, y) lies more than PATH_TOLERANCE from the line through the last two kept
+    points out[m - 2], out[m - 1] (m >= 2)."""
+    px = out[m - 1, 0]
+    py = out[m - 1, 1]
+    lx = px - out[m - 2, 0]
+    ly = py - out[m - 2, 1]
+    return abs(lx * (y - py) - ly * (x - px)) / math.hypot(lx, ly) > PATH_TOLERANCE + EPS
+
+
+@njit(cache=False, error_model="numpy")
+def _old_path(x0, y0, xs, ys, reverse, heading, lookahead):
+    """(P, 2) polyline from (x0, y0) through the points (xs[i], ys[i]) (in reverse order when
+    `reverse`), simplified (see PATH_SPACING, PATH_TOLERANCE; the last point is kept when it
+    moves on by more than 1 cm) and extended straight by `lookahead` metres along the last
+    segment, or along `heading` when the points do not move."""
+    n = xs.shape[0] + 1
+    x = np.empty(n)
+    y = np.empty(n)
+    x[0] = x0
+    y[0] = y0
+    for i in range(n - 1):
+        j = n - 2 - i if reverse else i
+        x[i + 1] = xs[j]
+        y[i + 1] = ys[j]
+    out = np.empty((n + 1, 2))
+    out[0, 0] = x[0]
+    out[0, 1] = y[0]
+    m = 1
+    last = 0  # index of the last kept input point
+    for i in range(1, n):
+        if m == 1:
+            if math.hypot(x[i] - out[0, 0], y[i] - out[0, 1]) >= PATH_SPACING - EPS:
+                out[1, 0] = x[i]
+                out[1, 1] = y[i]
+                m = 2
+                last = i
+            continue
+        if _old_strays(out, m, x[i], y[i]) and last < i - 1:
+            # point i leaves the line: the point before it ends the straight stretch
+            out[m, 0] = x[i - 1]
+            out[m, 1] = y[i - 1]
+            m += 1
+            last = i - 1
+        if _old_strays(out, m, x[i], y[i]):
+            out[m, 0] = x[i]
+            out[m, 1] = y[i]
+            m += 1
+            last = i
+    if last < n - 1 and math.hypot(x[n - 1] - out[m - 1, 0], y[n - 1] - out[m - 1, 1]) > 0.01:
+        out[m, 0] = x[n - 1]
+        out[m, 1] = y[n - 1]
+        m += 1
+    if m >= 2:
+        dx = out[m - 1, 0] - out[m - 2, 0]
+        dy = out[m - 1, 1] - out[m - 2, 1]
+        length = math.hypot(dx, dy)
+        ux = dx / length
+        uy = dy / length
+    else:
+        ux = math.cos(heading)
+        uy = math.sin(heading)
+    out[m, 0] = out[m - 1, 0] + lookahead * ux
+    out[m, 1] = out[m - 1, 1] + lookahead * uy
+    return out[: m + 1]
+
+
+@njit(cache=False, error_model="numpy")
+def _old_nearest(
+    path, pos, yaw, hl, hw, vel, half_width, ego_half, hold, lane_x, lane_y, lane_heading, lane
+):
+    """The object with the smallest gap among those within `half_width` of `path` at positive
+    arc length whose velocity across the path keeps it there for `hold` seconds (its signed
+    offset from the nearest segment's line plus `hold` times its velocity across it stays
+    within `half_width`) and, when `lane`, that drives in one lane with the ego at
+    (lane_x, lane_y) heading `lane_heading` (`_shares_lane`): (index or -1, gap, tangent x,
+    tangent y). See `neighbour`."""
+    best_k = -1
+    best_gap = np.inf
+    best_ux = 0.0
+    best_uy = 0.0
+    for k in range(pos.shape[0]):
+        dist = np.inf
+        s_best = 0.0
+        ux_best = 0.0
+        uy_best = 0.0
+        s0 = 0.0
+        lat_best = 0.0
+        for j in range(path.shape[0] - 1):
+            ax = path[j, 0]
+            ay = path[j, 1]
+            dx = path[j + 1, 0] - ax
+            dy = path[j + 1, 1] - ay
+            length = math.hypot(dx, dy)
+            ux = dx / length
+            uy = dy / length
+            along = (pos[k, 0] - ax) * ux + (pos[k, 1] - ay) * uy
+            along = min(max(along, 0.0), length)
+            d = math.hypot(pos[k, 0] - ax - along * ux, pos[k, 1] - ay - along * uy)
+            if d < dist - EPS:  # an equidistant vertex keeps the earlier segment
+                dist = d
+                s_best = s0 + along
+                ux_best = ux
+                uy_best = uy
+                lat_best = ux * (pos[k, 1] - ay) - uy * (pos[k, 0] - ax)
+            s0 += length
+        if dist > half_width + EPS or s_best <= EPS:
+            continue
+        drift = ux_best * vel[k, 1] - uy_best * vel[k, 0]
+        if abs(lat_best + hold * drift) > half_width + EPS:
+            continue  # crossing the corridor: passing through, not in the lane (LANE_HOLD)
+        if lane and not _shares_lane(
+            lane_x, lane_y, lane_heading, pos[k, 0], pos[k, 1], yaw[k], half_width
+        ):
+            continue  # in the planned path, but not yet in the ego's lane (LEAD_LANE)
+        # |cos| and |sin| of the heading against the tangent, the sine from the cross product:
+        # sqrt(1 - cos^2) turns a rounding error of 1e-16 in cos into 1e-8 (a rigid motion of
+        # the world moved the gap by 7.5e-9 m)
+        hx = math.cos(yaw[k])
+        hy = math.sin(yaw[k])
+        cos = abs(hx * ux_best + hy * uy_best)
+        sin = abs(hx * uy_best - hy * ux_best)
+        extent = hl[k] * cos + hw[k] * sin
+        gap = max(s_best - ego_half - extent, 0.0)
+        if gap < best_gap - EPS:
+            best_gap = gap
+            best_k = k
+            best_ux = ux_best
+            best_uy = uy_best
+    return best_k, best_gap, best_ux, best_uy
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    seed=st.integers(0, 2**31 - 1),
+    n=st.integers(0, 45),
+    reverse=st.booleans(),
+    curvy=st.sampled_from([0.0, 0.02, 0.3]),
+    spacing=st.sampled_from([0.05, 0.5, 2.0]),
+)
+def test_path_and_nearest_equal_their_old_code(seed, n, reverse, curvy, spacing):
+    rng = np.random.default_rng(seed)
+    heading = np.cumsum(rng.normal(0, curvy, n))
+    xs = np.cumsum(spacing * np.cos(heading)) + rng.normal(0, 0.02, n)
+    ys = np.cumsum(spacing * np.sin(heading)) + rng.normal(0, 0.02, n)
+    if rng.random() < 0.1:
+        xs[:] = 0.0  # standing
+        ys[:] = 0.0
+    x0, y0, yaw = float(rng.normal(0, 0.1)), float(rng.normal(0, 0.1)), float(rng.normal())
+    want = _old_path(x0, y0, xs, ys, reverse, yaw, 250.0)
+    got = _path(x0, y0, xs, ys, reverse, yaw, 250.0)
+    assert got.shape == want.shape and got.tobytes() == want.tobytes()
+    k = int(rng.integers(0, 8))
+    pos = np.column_stack([rng.uniform(-10, 60, k), rng.normal(0, 2, k)])
+    if k and rng.random() < 0.3:
+        pos[0] = want[min(1, len(want) - 1)]  # on a vertex
+    oyaw = rng.normal(0, 0.3, k)
+    hl = rng.uniform(1, 3, k)
+    hw = rng.uniform(0.5, 1.2, k)
+    vel = rng.normal(0, 3, (k, 2))
+    for lane in (True, False):
+        args = (want, pos, oyaw, hl, hw, vel, 1.75, 2.25, 1.0, x0, y0, yaw, lane)
+        assert _nearest(*args) == _old_nearest(*args)
+
+
+# -- plan smoothing, against its code at 985ff6a -------------------------------------------
+
+
+@njit(cache=False, error_model="numpy")
+def _old_smooth_plan(plan, half):
+    """Each point replaced by a least-squares quadratic in time through the points within
+    `half` seconds of it, evaluated at its time (points with fewer than three neighbours,
+    themselves included, are kept)."""
+    n = plan.shape[0]
+    out = plan.copy()
+    lo = 0
+    hi = 0
+    for k in range(n):
+        tk = plan[k, 0]
+        while lo < n and plan[lo, 0] < tk - half - 1e-9:
+            lo += 1
+        if hi < k:
+            hi = k
+        while hi < n and plan[hi, 0] <= tk + half + 1e-9:
+            hi += 1
+        m = hi - lo
+        if m < 3:
+            continue
+        # normal equations of x(t) = c0 + c1 u + c2 u^2, u = (t - tk) / half
+        s0 = 0.0
+        s1 = 0.0
+        s2 = 0.0
+        s3 = 0.0
+        s4 = 0.0
+        bx0 = bx1 = bx2 = 0.0
+        by0 = by1 = by2 = 0.0
+        for j in range(lo, hi):
+            u = (plan[j, 0] - tk) / half
+            u2 = u * u
+            s0 += 1.0
+            s1 += u
+            s2 += u2
+            s3 += u2 * u
+            s4 += u2 * u2
+            bx0 += plan[j, 1]
+            bx1 += plan[j, 1] * u
+            bx2 += plan[j, 1] * u2
+            by0 += plan[j, 2]
+            by1 += plan[j, 2] * u
+            by2 += plan[j, 2] * u2
+        # Cramer's rule for the constant term c0 of the symmetric 3x3 system
+        det = s0 * (s2 * s4 - s3 * s3) - s1 * (s1 * s4 - s2 * s3) + s2 * (s1 * s3 - s2 * s2)
+        if abs(det) < 1e-12:
+            continue
+        cx = (
+            bx0 * (s2 * s4 - s3 * s3) - s1 * (bx1 * s4 - s3 * bx2) + s2 * (bx1 * s3 - s2 * bx2)
+        ) / det
+        cy = (
+            by0 * (s2 * s4 - s3 * s3) - s1 * (by1 * s4 - s3 * by2) + s2 * (by1 * s3 - s2 * by2)
+        ) / det
+        out[k, 1] = cx
+        out[k, 2] = cy
+    return out
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    seed=st.integers(0, 2**31 - 1),
+    n=st.integers(0, 60),
+    half=st.sampled_from([1.0, 0.5, 2.0, 0.25, 0.75, 1.5, 0.1, 2.0**-30, 3.0]),
+    step=st.sampled_from([0.1, 0.05, 0.5, 0.3]),
+)
+def test_smoothing_equals_its_old_code(seed, n, half, step):
+    """The power-of-two half widths take a multiplication by 1 / half: the same doubles."""
+    rng = np.random.default_rng(seed)
+    dt = np.round(np.arange(n) * step + rng.choice([0.0, 0.03]), 6)
+    if rng.random() < 0.3:
+        dt = np.sort(rng.uniform(0, 5, n))
+    plan = np.column_stack([dt, rng.normal(0, 1e3, n).cumsum(), rng.normal(0, 1, n)])
+    want = _old_smooth_plan(plan, half)
+    got = _smooth_plan(plan, half)
+    assert got.tobytes() == want.tobytes()
+
+
+@pytest.mark.parametrize(
+    ("half", "scale"),
+    [
+        (1.0, 1.0),
+        (0.5, 2.0),
+        (4.0, 0.25),
+        (0.75, 0.0),
+        (0.1, 0.0),
+        (0.0, 0.0),
+        (-1.0, 0.0),
+        (math.inf, 0.0),
+        (math.nan, 0.0),
+        (5e-324, 0.0),
+        (2.0**1000, 0.0),
+    ],
+)
+def test_scale_of_only_for_normal_powers_of_two(half, scale):
+    assert _scale_of(half) == scale

@@ -27,13 +27,13 @@ class ComfortFamily(MetricFamily):
         names = [channel_name(m, c) for c in self.channels for m in metrics]
         self._out = KernelOutputs([*names, *metrics])
         self._absent = (False, 0.0, 0.0, _NO_PLAN)
+        self._settings = (float(p.comfort_span), float(p.max_gap), float(p.comfort_steepness))
         #: `_projection(h)` for the h the plans have needed (`comfort_tick`'s table)
         self._projs = np.zeros((1, 4, 1))
         self._have = np.zeros(1, dtype=np.bool_)
 
     def step(self, t: float, states: dict[str, ChannelState], out: dict[str, float | None]) -> None:
         """One compiled call for every channel (`comfort.comfort_tick`)."""
-        p = self.params
         absent = self._absent
         chans = []
         for c in self.channels:
@@ -46,6 +46,7 @@ class ComfortFamily(MetricFamily):
         args = tuple(chans)
         w = self.ego
         o = self._out
+        span, max_gap, steepness = self._settings
         while True:
             mask, count, live = comfort_tick(
                 t,
@@ -53,9 +54,9 @@ class ComfortFamily(MetricFamily):
                 w.buf,
                 w.start,
                 w.end,
-                float(p.comfort_span),
-                float(p.max_gap),
-                float(p.comfort_steepness),
+                span,
+                max_gap,
+                steepness,
                 self._projs,
                 self._have,
                 o.vals,
@@ -65,7 +66,8 @@ class ComfortFamily(MetricFamily):
                 break
             self._add_projection(count)
         o.write(out, mask, count)
-        w.make_room(live)
+        if live >= w.buf.shape[1]:
+            w.make_room(live)
 
     def _add_projection(self, h: int) -> None:
         """Put `_projection(h)` in the kernel's table (grown to hold it)."""

@@ -67,6 +67,7 @@ class SituationFamily(MetricFamily):
         #: per channel, rows (t, reported speed, 0) of the last second: ego_accel's slope
         self._speeds = PoseWindows(len(self.channels), 1.0, p.max_gap)
         self._comfort: ComfortFamily | None = None
+        self._settings = (float(p.lane_half_width), GAP_CAP + 50.0, float(p.max_gap))
         #: set once a tick's arrays came in mixed layouts or types: from then on they are
         #: made C-contiguous floats first (the kernel takes one type for every channel)
         self._normalise = False
@@ -89,8 +90,9 @@ class SituationFamily(MetricFamily):
                 continue
             e = s.ego
             o = s.objects
-            if e.half is not None:
-                hl, hw = e.half[0], abs(e.half[1])
+            half = e.half
+            if half is not None:
+                hl, hw = half[0], abs(half[1])
             else:
                 hl, hw = ego_half_length(e), ego_half_width(e)
             chans.append(
@@ -128,7 +130,8 @@ class SituationFamily(MetricFamily):
             ]
             mask, count, live = self._tick(t, tuple(chans), all_seeing)
         self._out.write(out, mask, count)
-        self._speeds.make_room(live)
+        if live >= self._speeds.buf.shape[1]:
+            self._speeds.make_room(live)
 
     def _tick(self, t: float, chans: tuple, all_seeing: bool) -> tuple[int, int, int]:
         comfort = self._comfort
@@ -137,6 +140,7 @@ class SituationFamily(MetricFamily):
         driven = comfort.ego
         speeds = self._speeds
         o = self._out
+        half_width, lookahead, max_gap = self._settings
         return situation_tick(  # type: ignore[no-any-return]
             t,
             chans,
@@ -146,9 +150,9 @@ class SituationFamily(MetricFamily):
             speeds.buf,
             speeds.start,
             speeds.end,
-            float(self.params.lane_half_width),
-            GAP_CAP + 50.0,
-            float(self.params.max_gap),
+            half_width,
+            lookahead,
+            max_gap,
             all_seeing,
             o.vals,
             o.nones,
