@@ -175,6 +175,7 @@ class ObjectHistory:
         "pos",
         "pred",
         "pred_len",
+        "state",
         "times",
     )
 
@@ -199,10 +200,30 @@ class ObjectHistory:
         self.pending = np.full(channels, -1, dtype=np.int64)
         self.elapsed = np.zeros(channels)
         self._ids = _IdCodes()
+        self._state()
+
+    def _state(self) -> None:
+        #: the arrays `prediction._ompv_tick` takes, in its order (rebuilt when they grow)
+        self.state = (
+            self.times,
+            self.count,
+            self.head,
+            self.n_obj,
+            self.n_pred,
+            self.pos,
+            self.pred,
+            self.pred_len,
+            self.codes,
+        )
 
     def codes_of(self, ids: list[str]) -> np.ndarray:
         """The numbers of `ids` (equal ids, equal numbers), as int64."""
         return np.array(list(map(self._ids.__getitem__, ids)), dtype=np.int64)
+
+    @property
+    def id_count(self) -> int:
+        """How many ids have a number."""
+        return len(self._ids)
 
     def forget_unused(self) -> None:
         """Drop the ids no stored observation holds once more than `ID_LIMIT` are known (call
@@ -257,6 +278,7 @@ class ObjectHistory:
         self.pred_len = moved(self.pred_len, (new_k,))
         self.codes = moved(self.codes, (new_k,))
         self.head = np.maximum(self.count - 1, 0).astype(np.int64)
+        self._state()
 
 
 #: Columns of the pair table `_cut` returns, one row per Fréchet pair of the frame: owner
@@ -612,6 +634,16 @@ def tick_rows(n_channels: int, n_pairs: int) -> dict[str, int]:
 
 
 @kernel
+def decay_weights(decay, n):  # pragma: no cover - compiled
+    """w_j = decay ** j for the ranks j < n, as `_cut` computes each (`_tick_cut` reads them
+    from this table instead of a power per pair)."""
+    out = np.empty(n)
+    for rank in range(n):
+        out[rank] = decay ** float(rank)
+    return out
+
+
+@kernel
 def _push_plan(plans, segs, lens, times, count, head, c, t, plan, max_gap):  # pragma: no cover
     """`PlanHistory.push` of channel c's plan at t (the buffer wide enough), by the same rule:
     the history restarts when t is more than max_gap (+1e-9 s) after the channel's newest
@@ -637,7 +669,7 @@ def _push_plan(plans, segs, lens, times, count, head, c, t, plan, max_gap):  # p
 @kernel
 def _tick_cut(
     t,
-    chans,
+    plans_now,
     given,
     n_given,
     plans,
@@ -647,14 +679,14 @@ def _tick_cut(
     count,
     head,
     max_gap,
-    decay,
+    weights,
     coords,
     starts,
     table,
     push,
 ):  # pragma: no cover - compiled
-    """The tick's plans pushed (when `push`: `chans[c][0]` says channel c is present, and its
-    non-empty plan `chans[c][1]` joins the history), then `_cut`'s pairs of the tick, in its
+    """The tick's plans pushed (when `push`: channel c's plan `plans_now[c]` joins its history
+    when it is not empty; an absent channel's is empty), then `_cut`'s pairs of the tick, in its
     order and with its arithmetic, written into the history's work space: line g of the
     Fréchet batch is `coords[starts[g]:starts[g + 1]]` (pair m: lines 2m and 2m + 1),
     `table[:k]` the pair table (`_cut`'s columns; OWNER n_channels + i: the i-th given pair).
@@ -667,11 +699,11 @@ def _tick_cut(
     n_ch, slots = lens.shape
     if push:
         for c in range(n_ch):  # every plan fits before any is pushed: a refusal changes nothing
-            if chans[c][0] and chans[c][1].shape[0] > plans.shape[2]:
-                return 1, 0, 0, chans[c][1].shape[0]
+            if plans_now[c].shape[0] > plans.shape[2]:
+                return 1, 0, 0, plans_now[c].shape[0]
         for c in range(n_ch):
-            if chans[c][0] and chans[c][1].shape[0] > 0:
-                _push_plan(plans, segs, lens, times, count, head, c, t, chans[c][1], max_gap)
+            if plans_now[c].shape[0] > 0:
+                _push_plan(plans, segs, lens, times, count, head, c, t, plans_now[c], max_gap)
     cap = n_given + n_ch * (slots - 1)
     # per pair: slot, start, length of its first and second sequence (slot -1: a given pair;
     # start then its index among the given pairs)
@@ -734,7 +766,7 @@ def _tick_cut(
             )
             owner[k] = c
             # Decision: j is the rank among stored plans (1 = most recent), skipped included.
-            weight[k] = decay ** float(rank)
+            weight[k] = weights[rank]  # decay ** float(rank) (`decay_weights`)
             k += 1
     n_geos = 0
     geos_points = 0

@@ -350,8 +350,8 @@ def _ompv_tick(
     """ompv of every channel at t in one call, over `history.ObjectHistory`'s arrays: what the
     motion family did per channel with a `TimedHistory` of `Objects`, by the same rules.
 
-    `chans[c]`: (present, plan, positions, predictions, prediction lengths, id numbers) of
-    channel c. A present channel whose previous observation is within max_gap (+1e-9 s) is
+    `chans[c]`: (present, positions, predictions, prediction lengths, id numbers) of channel
+    c. A present channel whose previous observation is within max_gap (+1e-9 s) is
     compared with its newest observation at least `lookback` old (spi-reference "ompv"
     Decision), into vals[row0 + c] (has: it has a value); then its observation is stored (the
     history restarting after a gap) and the observations older than the newest one at least
@@ -364,7 +364,7 @@ def _ompv_tick(
     for c in range(n_ch):
         ch = chans[c]
         if ch[0] and (
-            ch[2].shape[0] > pos.shape[2] or ch[3].shape[1] > pred.shape[3] or count[c] >= slots
+            ch[1].shape[0] > pos.shape[2] or ch[2].shape[1] > pred.shape[3] or count[c] >= slots
         ):
             return -1
     gap = max_gap + 1e-9
@@ -376,10 +376,10 @@ def _ompv_tick(
         pending[c] = -1
         if not ch[0]:
             continue
-        cur_pos = ch[2]
-        cur_pred = ch[3]
-        cur_len = ch[4]
-        cur_codes = ch[5]
+        cur_pos = ch[1]
+        cur_pred = ch[2]
+        cur_len = ch[3]
+        cur_codes = ch[4]
         k = count[c]
         h = head[c]
         if k > 0 and t - times[c, h] <= gap:
@@ -435,7 +435,7 @@ def _ompv_tick(
 def ompv_tick(
     history: ObjectHistory,
     t: float,
-    chans: tuple[tuple[bool, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray], ...],
+    chans: tuple[tuple[bool, np.ndarray, np.ndarray, np.ndarray, np.ndarray], ...],
     params: tuple[float, float, float, float, float],
     vals: np.ndarray,
     has: np.ndarray,
@@ -450,15 +450,7 @@ def ompv_tick(
         n_pending = _ompv_tick(
             t,
             chans,
-            h.times,
-            h.count,
-            h.head,
-            h.n_obj,
-            h.n_pred,
-            h.pos,
-            h.pred,
-            h.pred_len,
-            h.codes,
+            *h.state,
             lookback,
             max_gap,
             tolerance,
@@ -471,7 +463,7 @@ def ompv_tick(
         )
         if n_pending >= 0:
             break
-        h.fit(max(len(ch[2]) for ch in chans), max(ch[3].shape[1] for ch in chans))
+        h.fit(max(len(ch[1]) for ch in chans), max(ch[2].shape[1] for ch in chans))
     if n_pending:
         for c, s in enumerate(h.pending.tolist()):
             if s < 0:
@@ -485,6 +477,6 @@ def ompv_tick(
                 float(h.elapsed[c]),
             )
             vals[row0 + c] = _nearest_ompv(
-                predicted, reaches, prev_pos, chans[c][2], tolerance, gate, standing
+                predicted, reaches, prev_pos, chans[c][1], tolerance, gate, standing
             )
             has[row0 + c] = True

@@ -24,6 +24,7 @@ from casewatch.monitor.history import (
     PlanHistory,
     _finish,
     _tick_cut,
+    decay_weights,
     tick_rows,
 )
 from casewatch.monitor.prediction import ompv_tick
@@ -33,8 +34,8 @@ _NO_PLAN = np.zeros((0, 3))
 _NO_XY = np.zeros((0, 2))
 _NO_PRED = np.zeros((0, 0, 3))
 _NO_INT = np.zeros(0, dtype=np.int64)
-#: a channel absent from the tick, as `_tick_cut` and `ompv_tick` read the channels
-_ABSENT = (False, _NO_PLAN, _NO_XY, _NO_PRED, _NO_INT, _NO_INT)
+#: a channel absent from the tick, as `ompv_tick` reads the channels' objects
+_ABSENT = (False, _NO_XY, _NO_PRED, _NO_INT, _NO_INT)
 #: a pair without crpps inputs
 _NO_PAIR = (False, _NO_XY, _NO_XY)
 
@@ -72,28 +73,49 @@ class MotionPredictionFamily(MetricFamily):
             float(p.pairing_gate),
             float(p.standing_motion),
         )
+        self._weights = decay_weights(float(p.trajectory_decay), p.plan_history + 1)
+        #: each channel's ids of its last tick and their numbers: most ticks see the same
+        #: objects in the same order, and then need no lookup
+        self._last_ids: list[list[str] | None] = [None] * n_ch
+        self._last_codes = [_NO_INT] * n_ch
+        self._similarity: SimilarityFamily | None = None
 
     def step(self, t: float, states: dict[str, ChannelState], out: dict[str, float | None]) -> None:
         """The tick in four compiled calls (the module docstring)."""
         objects = self._objects
-        objects.forget_unused()
-        codes_of = objects.codes_of
-        chans = []
-        for c in self.channels:
+        if objects.id_count > objects.ID_LIMIT:
+            objects.forget_unused()
+            self._last_ids = [None] * len(self.channels)
+        last_ids = self._last_ids
+        last_codes = self._last_codes
+        plans_now = []
+        seen = []
+        for i, c in enumerate(self.channels):
             s = states.get(c)
             if s is None:
-                chans.append(_ABSENT)
+                plans_now.append(_NO_PLAN)
+                seen.append(_ABSENT)
+                continue
+            o = s.objects
+            ids = o.ids
+            if ids == last_ids[i]:
+                codes = last_codes[i]
             else:
-                o = s.objects
-                chans.append((True, s.plan, o.pos, o.pred, o.pred_len, codes_of(o.ids)))
-        ticks = tuple(chans)
+                codes = objects.codes_of(ids) if ids else _NO_INT
+                last_ids[i] = ids
+                last_codes[i] = codes
+            plans_now.append(s.plan)
+            seen.append((True, o.pos, o.pred, o.pred_len, codes))
         vals = self._out.vals
         has = self._has
-        ompv_tick(objects, t, ticks, self._ompv_params, vals, has, self._rows["ompv"])
+        ompv_tick(objects, t, tuple(seen), self._ompv_params, vals, has, self._rows["ompv"])
         # crpps: the Fréchet inputs the similarity family left, one per pair (None: no value)
-        inputs = self.engine.family(SimilarityFamily).crpps_inputs
-        given = tuple(_NO_PAIR if x is None else (True, x[0], x[1]) for x in inputs)
-        k, n_geos = self._cut(t, ticks, given or (_NO_PAIR,), len(given))
+        similarity = self._similarity
+        if similarity is None:
+            similarity = self._similarity = self.engine.family(SimilarityFamily)
+        inputs = similarity.crpps_inputs
+        given = tuple([_NO_PAIR if x is None else (True, x[0], x[1]) for x in inputs])
+        k, n_geos = self._cut(t, tuple(plans_now), given or (_NO_PAIR,), len(given))
         plans = self._plans
         if n_geos:
             pair_distances_into(plans.coords, plans.starts, n_geos, self._fd)
@@ -112,15 +134,14 @@ class MotionPredictionFamily(MetricFamily):
         if mean_left:
             self._mean(out)
 
-    def _cut(self, t: float, ticks: tuple, given: tuple, n_given: int) -> tuple[int, int]:
+    def _cut(self, t: float, plans_now: tuple, given: tuple, n_given: int) -> tuple[int, int]:
         """`_tick_cut` of the tick, its buffers grown when it asks: (pairs, Fréchet pairs)."""
         plans = self._plans
-        p = self.params
         push = True
         while True:
             status, k, n_geos, need = _tick_cut(
                 t,
-                ticks,
+                plans_now,
                 given,
                 n_given,
                 plans.plans,
@@ -129,8 +150,8 @@ class MotionPredictionFamily(MetricFamily):
                 plans.times,
                 plans.count,
                 plans.head,
-                float(p.max_gap),
-                float(p.trajectory_decay),
+                plans.max_gap,
+                self._weights,
                 plans.coords,
                 plans.starts,
                 plans.table,
