@@ -41,7 +41,8 @@ from collections.abc import Iterable
 from typing import Any
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import intrinsic
 
 from casewatch.monitor.frames import ChannelState, Ego, Frame, Objects
 from casewatch.monitor.jit import KERNEL_OPTIONS, kernel
@@ -146,6 +147,22 @@ def _entry(fn: Any) -> Any:
     first line. The kernels it calls are compiled into it (monitor.jit: a kernel calls only
     kernels of its own module)."""
     return njit(**KERNEL_OPTIONS)(fn)
+
+
+@intrinsic
+def _data_pointer(typingctx: Any, array: Any) -> Any:  # pragma: no cover - compiled
+    """A pointer to an array's first element, for the scanner to read the line through.
+
+    Why not the array: numba counts references to an array passed into a helper it inlines
+    (an incref and a decref, two calls, around every number parsed) and wraps every signed
+    index for negative values; a pointer has neither, which halves the cost of a number
+    (measured: 12.9 -> 6.9 ns). The array outlives the pointer: it is the caller's argument."""
+    signature = types.CPointer(array.dtype)(array)
+
+    def codegen(context: Any, builder: Any, sig: Any, args: Any) -> Any:
+        return context.make_array(sig.args[0])(context, builder, args[0]).data
+
+    return signature, codegen
 
 
 @kernel
@@ -737,8 +754,9 @@ def _scan_channel(buf, p, n, vals, nv, hard, nh, chans, c, objs, no, spans, ns):
 
 @kernel
 def _scan(buf, n):  # pragma: no cover - compiled
-    """Scan a frame line (buf[n] is a 0 sentinel). Returns (status, vals, t index, chans,
-    channel count, objs, object count, hard, hard count, spans, span count)."""
+    """Scan a frame line (buf[n] is a 0 sentinel; `buf` points to it, see _data_pointer).
+    Returns (status, vals, t index, chans, channel count, objs, object count, hard, hard
+    count, spans, span count)."""
     # counters start as int64, not as the literal 0: numba would first compile every kernel
     # they are passed to for the literal too (twice the compile time, never used)
     zero = np.int64(0)
@@ -1089,7 +1107,7 @@ def _build(buf, vals, t_index, chans, nc, objs, spans, ns):  # pragma: no cover 
 @_entry
 def _parse(buf, n):  # pragma: no cover - compiled
     """Scan, then build when no number was left to orjson: (status, header length, out)."""
-    status, vals, t_index, chans, nc, objs, _, _, _, spans, ns = _scan(buf, n)
+    status, vals, t_index, chans, nc, objs, _, _, _, spans, ns = _scan(_data_pointer(buf), n)
     if status != _OK:
         return _refused(status)
     return _build(buf, vals, t_index, chans, nc, objs, spans, ns)
@@ -1099,7 +1117,7 @@ def _parse(buf, n):  # pragma: no cover - compiled
 def _scan_tables(buf, n):  # pragma: no cover - compiled
     """The scan's tables, for a line with numbers left to orjson (`fast_frame` parses them and
     builds)."""
-    status, vals, t_index, chans, nc, objs, _, hard, nh, spans, ns = _scan(buf, n)
+    status, vals, t_index, chans, nc, objs, _, hard, nh, spans, ns = _scan(_data_pointer(buf), n)
     return status, vals, t_index, chans, nc, objs, hard[:nh], spans, ns
 
 
