@@ -724,15 +724,15 @@ def situation_tick(
             six[0] = GAP_CAP
             six[3] = GAP_CAP
         else:
-            hl = np.empty(k)
-            hw = np.empty(k)
-            for r in range(k):  # `_half_extents`
-                if math.isnan(half[r, 0]):
-                    hl[r] = radii[r]
-                    hw[r] = radii[r]
-                else:
-                    hl[r] = half[r, 0]
-                    hw[r] = half[r, 1]
+            ext = half  # `_half_extents`: boxes read in place, a polygon as its circle
+            if radii.shape[0] == k:
+                ext = half.copy()
+                for r in range(k):
+                    if math.isnan(half[r, 0]):
+                        ext[r, 0] = radii[r]
+                        ext[r, 1] = radii[r]
+            hl = ext[:, 0]
+            hw = ext[:, 1]
             ds = d_start[i]
             de = d_end[i] - 1
             if not behind:
