@@ -665,3 +665,26 @@ def test_smoothing_equals_its_old_code(seed, n, half, step):
 )
 def test_scale_of_only_for_normal_powers_of_two(half, scale):
     assert _scale_of(half) == scale
+
+
+def test_objects_in_mixed_layouts_are_read_as_before(monkeypatch):
+    """A channel whose object arrays are not C-contiguous (a frame built in memory): the
+    kernel takes one type for every channel, so the family makes them contiguous from then on
+    (the same values)."""
+    import dataclasses
+
+    params = MetricParams()
+    old = _old_engine(params, ["a", "b"], {}, monkeypatch)
+    new = MetricEngine(params, ["a", "b"])
+    for f in _drive(11, ["a", "b"], 30):
+        s = f.channels.get("a")
+        if s is not None and len(s.objects):
+            o = s.objects
+            o = dataclasses.replace(
+                o, pos=np.asfortranarray(o.pos), vel=np.repeat(o.vel, 2, axis=0)[::2]
+            )
+            f.channels["a"] = ChannelState(s.ego, s.plan, o)
+        got, want = new.step(f), old.step(f)
+        names = [n for n in got if n.split("__")[0] in SITUATION_METRICS]
+        assert {n: (got[n], want[n]) for n in names if not _same(got[n], want[n])} == {}
+    assert new.family(SituationFamily)._normalise
