@@ -267,29 +267,32 @@ def _load(
     need = 3 * n + 6 * k_n + 3 * k_n * p_n
     if need > data.shape[1]:
         return need
-    row = data[c]
-    for t in range(n):
-        row[3 * t] = plan[t, 0]
-        row[3 * t + 1] = plan[t, 1]
-        row[3 * t + 2] = plan[t, 2]
+    # flat copies with 2-D stores: the loops LLVM vectorises (a row view, or indexing the
+    # (K, P, 3) predictions point by point, copied at half the speed)
+    flat = np.ascontiguousarray(plan).reshape(-1)
+    for q in range(3 * n):
+        data[c, q] = flat[q]
     at = 3 * n
+    flat = np.ascontiguousarray(pos).reshape(-1)
+    for q in range(2 * k_n):
+        data[c, at + q] = flat[q]
+    at += 2 * k_n
+    for q in range(k_n):
+        data[c, at + q] = obj_yaw[q]
+    at += k_n
+    flat = np.ascontiguousarray(half).reshape(-1)
     boxes = 1
-    for q in range(k_n):
-        row[at + 2 * q] = pos[q, 0]
-        row[at + 2 * q + 1] = pos[q, 1]
-        row[at + 2 * k_n + q] = obj_yaw[q]
-        row[at + 3 * k_n + 2 * q] = half[q, 0]
-        row[at + 3 * k_n + 2 * q + 1] = half[q, 1]
-        row[at + 5 * k_n + q] = pred_len[q]
-        if math.isnan(half[q, 0]) or math.isnan(half[q, 1]):
+    for q in range(2 * k_n):
+        data[c, at + q] = flat[q]
+        if math.isnan(flat[q]):
             boxes = 0
-    at += 6 * k_n
+    at += 2 * k_n
     for q in range(k_n):
-        for r in range(p_n):
-            row[at] = pred[q, r, 0]
-            row[at + 1] = pred[q, r, 1]
-            row[at + 2] = pred[q, r, 2]
-            at += 3
+        data[c, at + q] = pred_len[q]
+    at += k_n
+    flat = np.ascontiguousarray(pred).reshape(-1)
+    for q in range(3 * k_n * p_n):
+        data[c, at + q] = flat[q]
     meta[c, PRESENT] = 1
     meta[c, POINTS] = n
     meta[c, OBJECTS] = k_n

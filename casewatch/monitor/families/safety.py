@@ -17,7 +17,7 @@ from typing import cast
 
 from casewatch.monitor.family import Engine, MetricFamily, worst
 from casewatch.monitor.frames import ChannelState
-from casewatch.monitor.safety_kernel import PYTHON_PATH, Scene, _tick
+from casewatch.monitor.safety_kernel import PYTHON_PATH, Scene, _load, _tick
 from casewatch.monitor.safety_score import arbitrate, safety_matrix
 from casewatch.safety_case.signals import SAFETY_SCORE, channel_name, pair_name
 
@@ -41,6 +41,7 @@ class SafetyFamily(MetricFamily):
 
     def step(self, t: float, states: dict[str, ChannelState], out: dict[str, float | None]) -> None:
         scene = self._scene
+        data, meta, egos = scene.data, scene.meta, scene.egos
         engine = self.engine
         code = PYTHON_PATH
         for c, name in enumerate(self.channels):
@@ -48,17 +49,26 @@ class SafetyFamily(MetricFamily):
             if state is None:
                 continue
             ego = state.ego
-            if ego.half is None:  # a polygon ego: the Python path
-                scene.meta[:, 0] = 0
+            half = ego.half
+            if half is None:  # a polygon ego: the Python path
+                meta[:, 0] = 0
                 break
-            scene.load(c, state.plan, ego.yaw, ego.half, state.objects)
+            o = state.objects
+            plan = state.plan
+            # `Scene.load` inlined: this loop runs for every channel of every tick
+            if _load(
+                data, meta, egos, c, plan, ego.yaw, *half, o.pos, o.yaw, o.half, o.pred_len, o.pred
+            ):
+                scene.load(c, plan, ego.yaw, half, o)  # grows the scene, then loads
+                data = scene.data
         else:
+            params = self.params
             code = _tick(
-                scene.data,
-                scene.meta,
-                scene.egos,
-                self.params.pet_ref,
-                self.params.plan_standstill > 0,
+                data,
+                meta,
+                egos,
+                params.pet_ref,
+                params.plan_standstill > 0,
                 self._index.get(engine.last_arbitration, -1),  # type: ignore[arg-type]
                 scene.vals,
                 scene.nones,
