@@ -1,18 +1,28 @@
 """The safety score's compiled path: every footprint (egos and objects) an oriented box.
 
-`score_boxes` computes what `monitor.safety_score.score_grid_numpy` computes (spi-reference
+`_score_group` computes what `monitor.safety_score.score_grid_numpy` computes (spi-reference
 "Safety score": TTC on equal grid times, then the grid reading of PET within
-`pet_ref * min(1, ttc / H)`, for every plan of a prefix-grid group against every world model)
-in one kernel call per group. The scene is packed into one flat float array (`_pack`), so the
-call passes two arguments. Inside, only conservative prefilters run before the exact closed-form
-separating-axis test of two oriented boxes: bounding boxes of whole sweeps and of CHUNK-point
-runs, bounding circles, time gaps, and a lateral separating axis per ego run (parallel traffic
-in the next lane). PET visits run pairs in order of time offset and stops once nothing left
-can beat the best value found. Touching counts as intersecting, as everywhere.
+`pet_ref * min(1, ttc / H)`, for every plan of a prefix-grid group against every world model).
+Only conservative prefilters run before the exact closed-form separating-axis test of two
+oriented boxes: bounding boxes of whole sweeps and of CHUNK-point runs, bounding circles, time
+gaps, a heading cone per (ego, object) pair (every pair of headings rear-end: no PET), and a
+lateral separating axis per ego run (parallel traffic in the next lane). PET visits run pairs in
+order of time offset and stops once nothing left can beat the best value found. Touching counts
+as intersecting, as everywhere.
+
+Two entries share that core:
+
+- `_tick`, the safety family's whole tick in one call: each present channel is copied once into
+  a preallocated scene (`Scene`, `_load`: one row per channel, so the call unboxes three arrays
+  whatever the channel count), then `safety_score.safety_matrix`'s grouping (world models by
+  prediction horizon, plans cut to it, prefix grids), the worst values and the arbitration;
+- `score_boxes`, one group given as plans, egos and world models (`score_grid`'s box path).
 
 Why a kernel: with a handful of objects per channel, the numpy formulation spent its time in
-the fixed cost of a few hundred small array calls (about 0.5 ms per frame); this path takes a
-tenth of that. The tests hold it equal to the numpy path and to brute-force shapely.
+the fixed cost of a few hundred small array calls (about 0.5 ms per frame), and the Python glue
+around a kernel per group (dicts, lists, a packed scene per group) three times the kernel's own
+time. The tests hold the core equal to the numpy path and to brute-force shapely, and `_tick` to
+the Python composition it replaces.
 """
 
 from __future__ import annotations
