@@ -76,22 +76,36 @@ def _pair_kernel(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Greedy global nearest matching in machine code (see `pair_objects`)."""
     na, nb = pos_a.shape[0], pos_b.shape[0]
-    dist = np.empty((na, nb))
+    reach = gate + PAIRING_EPS
+    # Squared distances above this are beyond the gate whatever sqrt's rounding (a margin of
+    # 1e-12, thousands of roundings): the row's squared distances in one vectorised pass, and
+    # sqrt and the exact test below only for the few within it (issue 36: the reference load's
+    # 40 x 40 objects). Far from the normal range (a gate whose square under- or overflows) no
+    # pair is left out before the exact test.
+    prefilter = reach * reach * (1.0 + 1e-12) if 1e-100 < reach < 1e100 else np.inf
+    dist = np.empty(na * nb)
     cand_a = np.empty(na * nb, dtype=np.int64)
     cand_b = np.empty(na * nb, dtype=np.int64)
     key = np.empty(na * nb)
+    row = np.empty(nb)
     nc = 0
     for i in range(na):
+        xa = pos_a[i, 0]
+        ya = pos_a[i, 1]
         for j in range(nb):
-            dx = pos_a[i, 0] - pos_b[j, 0]
-            dy = pos_a[i, 1] - pos_b[j, 1]
-            d = math.sqrt(dx * dx + dy * dy)
-            dist[i, j] = d
+            dx = xa - pos_b[j, 0]
+            dy = ya - pos_b[j, 1]
+            row[j] = dx * dx + dy * dy
+        for j in range(nb):
+            if row[j] > prefilter:
+                continue  # (a NaN goes on, and fails the exact test as it always did)
+            d = math.sqrt(row[j])
             # Decision: distances equal to within 1e-9 m are ties (broken by index), so that
             # float noise from a change of world frame cannot reorder the matching.
-            if d <= gate + PAIRING_EPS:
+            if d <= reach:
                 cand_a[nc] = i
                 cand_b[nc] = j
+                dist[nc] = d
                 key[nc] = np.rint(d / PAIRING_EPS)
                 nc += 1
     # candidates are generated in (index in A, index in B) order; a stable sort on the rounded
@@ -111,7 +125,7 @@ def _pair_kernel(
             used_b[j] = True
             acc_a[k] = i
             acc_b[k] = j
-            acc_d[k] = dist[i, j]
+            acc_d[k] = dist[c]
             k += 1
     return acc_a[:k], acc_b[:k], acc_d[:k]
 
@@ -347,7 +361,12 @@ def _object_kernel(
                 gap = gap / (1.0 + t_p / time_scale)
             num += w[p] * (1.0 / (1.0 + gap))
             den += w[p]
-            if p == length - 1 and (math.hypot(xa, ya) > standing or math.hypot(xb, yb) > standing):
+            # (the two motions' lengths only matter while the pair still counts as standing)
+            if (
+                p == length - 1
+                and not moving
+                and (math.hypot(xa, ya) > standing or math.hypot(xb, yb) > standing)
+            ):
                 moving = True
         if moving:
             ots += num / den
@@ -855,6 +874,15 @@ def _lone_step(  # pragma: no cover - compiled
     tracker's arrays: rows :counts[2 + side] of mem_*[side] are the remembered objects (the
     caller has checked that the new memory fits). Returns the ages of the unpaired objects."""
     m = counts[2 + side]
+    if m == 0:
+        n_lone = 0
+        for i in range(lone.shape[0]):
+            if lone[i]:
+                n_lone += 1
+        if n_lone == 0:
+            # the common tick (LoneAges.update's shortcut): nothing unpaired now and nothing
+            # remembered, so nothing to follow and the empty memory stays empty
+            return np.zeros(0)
     new_pos, new_vel, new_age, new_seen, ages = _follow_lone(
         t,
         pos,
@@ -965,8 +993,11 @@ def _pair_tick(  # pragma: no cover - compiled
             v += 1
     ia, core_a = _compared(pos_a, rows)
     ib, core_b = _compared(pos_b, rows)
-    cpos_a = pos_a[ia]
-    cpos_b = pos_b[ib]
+    # the compared objects' rows (`Objects.subset`), copied only when some are left out
+    whole_a = ia.shape[0] == pos_a.shape[0]
+    whole_b = ib.shape[0] == pos_b.shape[0]
+    cpos_a = pos_a if whole_a else pos_a[ia]
+    cpos_b = pos_b if whole_b else pos_b[ib]
     if range_scale > 0.0:
         range_a = _ranges(cpos_a, ax, ay)
         range_b = _ranges(cpos_b, bx, by)
@@ -975,17 +1006,17 @@ def _pair_tick(  # pragma: no cover - compiled
         range_b = np.zeros(cpos_b.shape[0])
     ols, oos, oas, ots, pairs, ots_pairs, lone_a, lone_b = _object_kernel(
         cpos_a,
-        yaw_a[ia],
-        half_a[ia],
-        foot_a[ia],
-        pred_a[ia],
-        len_a[ia],
+        yaw_a if whole_a else yaw_a[ia],
+        half_a if whole_a else half_a[ia],
+        foot_a if whole_a else foot_a[ia],
+        pred_a if whole_a else pred_a[ia],
+        len_a if whole_a else len_a[ia],
         cpos_b,
-        yaw_b[ib],
-        half_b[ib],
-        foot_b[ib],
-        pred_b[ib],
-        len_b[ib],
+        yaw_b if whole_b else yaw_b[ib],
+        half_b if whole_b else half_b[ib],
+        foot_b if whole_b else foot_b[ib],
+        pred_b if whole_b else pred_b[ib],
+        len_b if whole_b else len_b[ib],
         gate,
         w[: max(pred_a.shape[1], pred_b.shape[1], 1)],
         core_a,
@@ -996,11 +1027,13 @@ def _pair_tick(  # pragma: no cover - compiled
         range_scale,
         time_scale,
     )
+    cvel_a = vel_a if whole_a else vel_a[ia]
+    cvel_b = vel_b if whole_b else vel_b[ib]
     ages_a = _lone_step(
-        t, cpos_a, vel_a[ia], lone_a, 0, counts, mem_pos, mem_vel, mem_age, mem_seen, gate, max_gap
+        t, cpos_a, cvel_a, lone_a, 0, counts, mem_pos, mem_vel, mem_age, mem_seen, gate, max_gap
     )
     ages_b = _lone_step(
-        t, cpos_b, vel_b[ib], lone_b, 1, counts, mem_pos, mem_vel, mem_age, mem_seen, gate, max_gap
+        t, cpos_b, cvel_b, lone_b, 1, counts, mem_pos, mem_vel, mem_age, mem_seen, gate, max_gap
     )
     # ObjectComparison.scores with monitor.lone.benefit_of_doubt's shares
     n_lone_a = ages_a.shape[0]

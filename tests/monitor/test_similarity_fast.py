@@ -26,12 +26,14 @@ from casewatch.monitor.frames import ChannelState, Coverage
 from casewatch.monitor.history import els_var
 from casewatch.monitor.lone import LoneAges, benefit_of_doubt
 from casewatch.monitor.similarity import (
+    PAIRING_EPS,
     _doubt_sum,
     _pairwise_sum,
     compare_objects,
     crpps_inputs,
     ego_pair,
     ets,
+    pair_objects,
     plan_lateral,
     ranges_from,
 )
@@ -447,3 +449,67 @@ def test_hand_computed_tick():
     assert out["ets"] == 1.0  # the same plan in the world (ets_relative 0)
     # plan_lat moves plan B by ego A - ego B first: 1 m to the side at every point
     assert out["plan_lat"] == 1.0
+
+
+def reference_pairing(pos_a: np.ndarray, pos_b: np.ndarray, gate: float):
+    """`_pair_kernel` as it was before its squared-distance prefilter, in plain Python: every
+    distance's square root, the candidates within gate + 1e-9 in (A, B) order, a stable sort
+    on the distance in units of 1e-9 m, greedy acceptance."""
+    cands = []
+    for i, (xa, ya) in enumerate(pos_a.tolist()):
+        for j, (xb, yb) in enumerate(pos_b.tolist()):
+            dx, dy = xa - xb, ya - yb
+            d = math.sqrt(dx * dx + dy * dy)
+            if d <= gate + PAIRING_EPS:
+                cands.append((float(np.rint(d / PAIRING_EPS)), i, j, d))
+    used_a, used_b, out = set(), set(), []
+    for _, i, j, d in sorted(cands, key=lambda c: c[0]):
+        if i not in used_a and j not in used_b:
+            used_a.add(i)
+            used_b.add(j)
+            out.append((i, j, d))
+    return out
+
+
+@st.composite
+def pairing_case(draw):
+    """Objects on a coarse grid (ties), scattered widely, or at the gate's edge to within a
+    few roundings; gates from the edges of the prefilter's range."""
+    gate = draw(
+        st.sampled_from(
+            [3.0, 0.5, 0.0, -1e-9, -1.0, 1e-120, 1e-60, 1e99, 1e101, math.inf, 1.0 / 3.0]
+        )
+    )
+    seed = draw(st.integers(0, 2**32 - 1))
+    rng = np.random.default_rng(seed)
+    na, nb = int(rng.integers(0, 12)), int(rng.integers(0, 12))
+    kind = draw(st.sampled_from(["grid", "wide", "edge"]))
+    if kind == "grid":
+        pos_a = rng.integers(0, 4, (na, 2)) * 1.5
+        pos_b = rng.integers(0, 4, (nb, 2)) * 1.5
+    elif kind == "wide":
+        pos_a = rng.uniform(-1, 1, (na, 2)) * 10.0 ** rng.integers(-3, 4, (na, 1))
+        pos_b = rng.uniform(-1, 1, (nb, 2)) * 10.0 ** rng.integers(-3, 4, (nb, 1))
+    else:  # B's objects at about the gate from A's, along random directions
+        reach = gate + PAIRING_EPS if math.isfinite(gate) and gate > 0 else 1.0
+        pos_a = rng.uniform(-50, 50, (na, 2))
+        angle = rng.uniform(0, 2 * math.pi, nb)
+        near = pos_a[rng.integers(0, na, nb)] if na else np.zeros((nb, 2))
+        r = reach * (1.0 + rng.choice([-1e-15, 0.0, 1e-16, 2e-16, 1e-13, 1e-12, 1e-11], nb))
+        pos_b = near + np.column_stack([r * np.cos(angle), r * np.sin(angle)])
+    return (
+        np.ascontiguousarray(pos_a, dtype=float).reshape(-1, 2),
+        np.ascontiguousarray(pos_b, dtype=float).reshape(-1, 2),
+        gate,
+    )
+
+
+@settings(max_examples=400, deadline=None)
+@given(pairing_case())
+def test_pairing_prefilter_changes_no_pair(case):
+    """The pairing kernel with its squared-distance prefilter accepts the same pairs, in the
+    same order, at the same distances as before it."""
+    pos_a, pos_b, gate = case
+    ia, ib, dist = pair_objects(pos_a, pos_b, gate)
+    got = list(zip(ia.tolist(), ib.tolist(), dist.tolist(), strict=True))
+    assert got == reference_pairing(pos_a, pos_b, gate)

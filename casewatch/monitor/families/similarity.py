@@ -60,33 +60,37 @@ class SimilarityFamily(MetricFamily):
         self._one = self._names[0] + METRICS if len(self.pairs) == 1 else None
 
     def step(self, t: float, st: dict[str, ChannelState], out: dict[str, float | None]) -> None:
-        coverage = self.engine.coverage
         # crpps needs a Fréchet distance: its inputs wait for the motion family's call
-        crpps: list[tuple[np.ndarray, np.ndarray] | None] = []
-        self.crpps_inputs = crpps
-        rows = []
-        for k, (a, b) in enumerate(self.pairs):
-            tracker = self._trackers[k]
-            sa, sb = st.get(a), st.get(b)
-            if sa is None or sb is None:
-                tracker.forget_objects()
-                crpps.append(None)
-                rows.append(_NONE)
-                continue
-            cov_a, cov_b = coverage[a], coverage[b]
-            seen = self._seen[k]
-            if cov_a is not seen[0] or cov_b is not seen[1]:
-                # spi-reference "Channel coverage": what each channel can see (the engine learns
-                # it from the stream's header after the families are built)
-                tracker.views = pair_views(cov_a, cov_b, self.params.coverage_margin)
-                self._seen[k] = (cov_a, cov_b)
-            rows.append(tracker.step(t, sa, sb))
-            crpps.append(crpps_inputs(sa.plan, sb.plan))
-        if self._one is not None:
-            vals = rows[0]
+        if self._one is not None:  # two channels: one pair, and the worst pair is that pair
+            a, b = self.pairs[0]
+            vals, crpps = self._pair(0, t, st.get(a), st.get(b))
+            self.crpps_inputs = [crpps]
             out.update(zip(self._one, vals + vals, strict=True))
             return
-        for names, vals in zip(self._names, rows, strict=True):
-            out.update(zip(names, vals, strict=True))
+        self.crpps_inputs = []
+        rows = []
+        for k, (a, b) in enumerate(self.pairs):
+            vals, crpps = self._pair(k, t, st.get(a), st.get(b))
+            self.crpps_inputs.append(crpps)
+            out.update(zip(self._names[k], vals, strict=True))
+            rows.append(vals)
         for k, (m, use_max) in enumerate(zip(METRICS, self._use_max, strict=True)):
             out[m] = worst([vals[k] for vals in rows], use_max)
+
+    def _pair(
+        self, k: int, t: float, sa: ChannelState | None, sb: ChannelState | None
+    ) -> tuple[list[float | None], tuple[np.ndarray, np.ndarray] | None]:
+        """The k-th pair's values (METRICS order) and crpps inputs at t (None: no value)."""
+        tracker = self._trackers[k]
+        if sa is None or sb is None:
+            tracker.forget_objects()
+            return _NONE, None
+        pair = self.pairs[k]
+        cov_a, cov_b = self.engine.coverage[pair[0]], self.engine.coverage[pair[1]]
+        seen = self._seen[k]
+        if cov_a is not seen[0] or cov_b is not seen[1]:
+            # spi-reference "Channel coverage": what each channel can see (the engine learns it
+            # from the stream's header after the families are built)
+            tracker.views = pair_views(cov_a, cov_b, self.params.coverage_margin)
+            self._seen[k] = (cov_a, cov_b)
+        return tracker.step(t, sa, sb), crpps_inputs(sa.plan, sb.plan)
