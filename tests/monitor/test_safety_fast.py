@@ -237,3 +237,17 @@ def test_heading_cone_on_hand_computed_angles():
     oc[1] = math.nan
     assert not _all_rear_end(ec, es, oc, os_, 3)
     assert math.degrees(REAR_END_ANGLE - CONE_SLACK) < 30.0
+
+
+def test_a_scene_too_short_grows_and_keeps_the_rows_loaded():
+    # Rows of 4 floats hold no plan: loading a (31 plan points x 3, one object without a
+    # prediction: 6 floats) grows them to max(99, 2 x 4); b (93 floats) then fits. The tick
+    # scores as a fresh family does.
+    _, family = _reference(["a", "b"], 0.0)
+    family._scene = Scene(2, capacity=4)
+    out: dict = {}
+    family.step(0.0, _two_channels(straight_plan(0, 0, 10, 0, 31)), out)
+    assert family._scene.data.shape[1] == 3 * 31 + 6
+    want: dict = {}
+    _reference(["a", "b"], 0.0)[1].step(0.0, _two_channels(straight_plan(0, 0, 10, 0, 31)), want)
+    assert out == want and out["ss__a__a"] == pytest.approx(1 / 3)
