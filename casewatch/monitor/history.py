@@ -153,11 +153,13 @@ class ObjectHistory:
     `prediction.ompv_tick` reads and updates in one compiled call per tick.
 
     Channel c's observations sit in a ring of `slots` slots, oldest to newest ending at
-    `head[c]`, `count[c]` of them: slot s holds the frame time `times[c, s]`, `n_obj[c, s]`
-    objects with their positions `pos[c, s, :n]`, predictions `pred[c, s, :n, :n_pred[c, s]]`
-    (the frame's padding kept: ompv reads the width as `Objects.pred`'s), real prediction
-    lengths `pred_len` and ids as numbers (`codes`, from `codes_of`). `fit` grows the arrays
-    when a tick brings more objects, longer predictions or needs another slot.
+    `head[c]`, `count[c]` of them: slot s holds the frame time `times[c, s]`, `n_obj[c, s]` = n
+    objects with their positions `pos[c, s, :2 n]` (the (n, 2) array, flat), predictions
+    `pred[c, s, :3 n p]` (the (n, p, 3) `Objects.pred`, flat, p = `n_pred[c, s]`: the frame's
+    padding kept, ompv reads the width as `Objects.pred`'s), real prediction lengths
+    `pred_len` and ids as numbers (`codes`, from `codes_of`). Flat, an observation is one
+    contiguous block to copy in and to read back as its arrays. `fit` grows the arrays when a
+    tick brings more objects or prediction points, or needs another slot.
 
     `pending`, `elapsed`: the tick's channels whose ompv needs the nearest matching (no id
     carried over, `prediction.ompv_tick`): the slot compared with and its age, -1 otherwise.
@@ -183,6 +185,8 @@ class ObjectHistory:
     ID_LIMIT = 1 << 16
 
     def __init__(self, channels: int, slots: int = 8, objects: int = 8, points: int = 32):
+        """Room for `objects` objects of `points`-point predictions in each of `slots`
+        observations per channel, to begin with."""
         if channels < 1 or slots < 2 or objects < 1 or points < 1:
             raise ValueError(
                 f"ObjectHistory needs channels, objects, points >= 1 and slots >= 2 (got "
@@ -193,8 +197,8 @@ class ObjectHistory:
         self.head = np.zeros(channels, dtype=np.int64)
         self.n_obj = np.zeros((channels, slots), dtype=np.int64)
         self.n_pred = np.zeros((channels, slots), dtype=np.int64)
-        self.pos = np.zeros((channels, slots, objects, 2))
-        self.pred = np.zeros((channels, slots, objects, points, 3))
+        self.pos = np.zeros((channels, slots, 2 * objects))
+        self.pred = np.zeros((channels, slots, 3 * objects * points))
         self.pred_len = np.zeros((channels, slots, objects), dtype=np.int64)
         self.codes = np.zeros((channels, slots, objects), dtype=np.int64)
         self.pending = np.full(channels, -1, dtype=np.int64)
@@ -243,16 +247,16 @@ class ObjectHistory:
         kept.update((k, v) for k, v in self._ids.items() if v in live)
         self._ids = kept
 
-    def fit(self, objects: int, points: int) -> None:
-        """Room for a tick of `objects` objects with `points`-point predictions per channel
-        and one more observation per channel (`prediction.ompv_tick` asks for it)."""
+    def fit(self, objects: int, values: int) -> None:
+        """Room for a tick of `objects` objects whose predictions hold `values` numbers per
+        channel and one more observation per channel (`prediction.ompv_tick` asks for it)."""
         channels, slots = self.times.shape
-        k = self.pos.shape[2]
-        p = self.pred.shape[3]
+        k = self.codes.shape[2]
+        p = self.pred.shape[2]
         full = bool((self.count >= slots).any())
         new_slots = 2 * slots if full else slots
-        new_k = max(k, objects) if objects <= k else max(objects, 2 * k)
-        new_p = max(p, points) if points <= p else max(points, 2 * p)
+        new_k = k if objects <= k else max(objects, 2 * k)
+        new_p = p if values <= p else max(values, 2 * p)
         if (new_slots, new_k, new_p) == (slots, k, p):
             return
         # observations oldest first into slots 0.., so the ring may grow
@@ -273,8 +277,8 @@ class ObjectHistory:
         self.times = moved(self.times, ())
         self.n_obj = moved(self.n_obj, ())
         self.n_pred = moved(self.n_pred, ())
-        self.pos = moved(self.pos, (new_k, 2))
-        self.pred = moved(self.pred, (new_k, new_p, 3))
+        self.pos = moved(self.pos, (2 * new_k,))
+        self.pred = moved(self.pred, (new_p,))
         self.pred_len = moved(self.pred_len, (new_k,))
         self.codes = moved(self.codes, (new_k,))
         self.head = np.maximum(self.count - 1, 0).astype(np.int64)

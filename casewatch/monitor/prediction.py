@@ -364,7 +364,7 @@ def _ompv_tick(
     for c in range(n_ch):
         ch = chans[c]
         if ch[0] and (
-            ch[1].shape[0] > pos.shape[2] or ch[2].shape[1] > pred.shape[3] or count[c] >= slots
+            ch[1].shape[0] > codes.shape[2] or ch[2].size > pred.shape[2] or count[c] >= slots
         ):
             return -1
     gap = max_gap + 1e-9
@@ -387,9 +387,10 @@ def _ompv_tick(
                 s = (h - r + slots) % slots
                 if t - times[c, s] >= lookback:
                     n = n_obj[c, s]
+                    p = n_pred[c, s]
                     value, untracked = _ompv_observed(
-                        pos[c, s, :n],
-                        pred[c, s, :n, : n_pred[c, s]],
+                        pos[c, s, : 2 * n].reshape((n, 2)),
+                        pred[c, s, : 3 * n * p].reshape((n, p, 3)),
                         pred_len[c, s, :n],
                         codes[c, s, :n],
                         t - times[c, s],
@@ -412,14 +413,19 @@ def _ompv_tick(
         n = cur_pos.shape[0]
         p = cur_pred.shape[1]
         for i in range(n):
-            pos[c, s, i, 0] = cur_pos[i, 0]
-            pos[c, s, i, 1] = cur_pos[i, 1]
             pred_len[c, s, i] = cur_len[i]
             codes[c, s, i] = cur_codes[i]
+        # into the flat block in C order, whatever the layout of the frame's arrays
+        for i in range(n):
+            pos[c, s, 2 * i] = cur_pos[i, 0]
+            pos[c, s, 2 * i + 1] = cur_pos[i, 1]
+        m = 0
+        for i in range(n):
             for j in range(p):
-                pred[c, s, i, j, 0] = cur_pred[i, j, 0]
-                pred[c, s, i, j, 1] = cur_pred[i, j, 1]
-                pred[c, s, i, j, 2] = cur_pred[i, j, 2]
+                pred[c, s, m] = cur_pred[i, j, 0]
+                pred[c, s, m + 1] = cur_pred[i, j, 1]
+                pred[c, s, m + 2] = cur_pred[i, j, 2]
+                m += 3
         n_obj[c, s] = n
         n_pred[c, s] = p
         times[c, s] = t
@@ -463,16 +469,17 @@ def ompv_tick(
         )
         if n_pending >= 0:
             break
-        h.fit(max(len(ch[1]) for ch in chans), max(ch[2].shape[1] for ch in chans))
+        h.fit(max(len(ch[1]) for ch in chans), max(ch[2].size for ch in chans))
     if n_pending:
         for c, s in enumerate(h.pending.tolist()):
             if s < 0:
                 continue
             n = int(h.n_obj[c, s])
-            prev_pos = h.pos[c, s, :n].copy()
+            p = int(h.n_pred[c, s])
+            prev_pos = h.pos[c, s, : 2 * n].reshape(n, 2).copy()
             predicted, reaches = _predict(
                 prev_pos,
-                np.ascontiguousarray(h.pred[c, s, :n, : h.n_pred[c, s]]),
+                h.pred[c, s, : 3 * n * p].reshape(n, p, 3).copy(),
                 h.pred_len[c, s, :n].copy(),
                 float(h.elapsed[c]),
             )

@@ -135,6 +135,7 @@ def _objects(rng: np.random.Generator, tick: int, tracked: bool) -> Objects:
     pos = rng.uniform(-4.0, 4.0, (k, 2))
     pred = np.zeros((k, p, 3))
     pred_len = rng.integers(0, p + 1, k) if p else np.zeros(k, dtype=np.int64)
+    pred_len = pred_len.astype(np.int64)
     for i in range(k):
         n = int(pred_len[i])
         if n:
@@ -144,6 +145,10 @@ def _objects(rng: np.random.Generator, tick: int, tracked: bool) -> Objects:
             pred[i, :n, 1:] = xy
             pred[i, n:] = pred[i, n - 1]  # padding: the last point repeated
     fp = np.broadcast_to(box_footprint(4.5, 2.0), (k, 4, 2)).copy()
+    if rng.random() < 0.05:  # arrays of another kind than a reader's: the same values
+        pos, pred = np.asfortranarray(pos), np.asfortranarray(pred)
+        pred_len = pred_len.astype(np.int32)
+        pos.flags.writeable = False
     return Objects(
         ids=ids,
         cls=["car"] * k,
@@ -152,7 +157,7 @@ def _objects(rng: np.random.Generator, tick: int, tracked: bool) -> Objects:
         vel=np.zeros((k, 2)),
         footprints=fp,
         pred=pred,
-        pred_len=pred_len.astype(np.int64),
+        pred_len=pred_len,
         convex=np.ones(k, dtype=bool),
         half=np.tile([2.25, 1.0], (k, 1)),
     )
@@ -255,8 +260,8 @@ def test_object_history_grows_keeping_its_observations_in_order():
     h.count[0], h.head[0] = 2, 0  # a full ring whose newest observation is in slot 0
     h.times[0] = [2.0, 1.0]
     h.codes[0, :, 0] = [20, 10]
-    h.fit(3, 5)
-    assert h.times.shape == (1, 4) and h.pos.shape[2] == 3 and h.pred.shape[3] == 5
+    h.fit(3, 45)
+    assert h.times.shape == (1, 4) and h.pos.shape[2] == 6 and h.pred.shape[2] == 45
     assert h.times[0, :2].tolist() == [1.0, 2.0] and h.codes[0, :2, 0].tolist() == [10, 20]
     assert (h.count[0], h.head[0]) == (2, 1)
 

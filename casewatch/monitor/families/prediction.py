@@ -14,6 +14,7 @@ precomputed name list (`family.KernelOutputs`). The per-channel formulation this
 from __future__ import annotations
 
 import numpy as np
+from numba.core.errors import TypingError
 
 from casewatch.monitor.families.similarity import SimilarityFamily
 from casewatch.monitor.family import Engine, KernelOutputs, MetricFamily
@@ -38,6 +39,17 @@ _NO_INT = np.zeros(0, dtype=np.int64)
 _ABSENT = (False, _NO_XY, _NO_PRED, _NO_INT, _NO_INT)
 #: a pair without crpps inputs
 _NO_PAIR = (False, _NO_XY, _NO_XY)
+
+
+def _c64(a: np.ndarray) -> np.ndarray:
+    """`a` as the readers give arrays: C-contiguous, writeable, float64 (int64 for ints)."""
+    dtype = np.int64 if a.dtype.kind in "iub" else np.float64
+    return np.require(a, dtype, ["C", "W"])
+
+
+def _uniform(entry: tuple) -> tuple:
+    """A channel's or pair's kernel entry with every array as `_c64` makes it."""
+    return tuple(_c64(x) if isinstance(x, np.ndarray) else x for x in entry)
 
 
 class MotionPredictionFamily(MetricFamily):
@@ -79,6 +91,9 @@ class MotionPredictionFamily(MetricFamily):
         self._last_ids: list[list[str] | None] = [None] * n_ch
         self._last_codes = [_NO_INT] * n_ch
         self._similarity: SimilarityFamily | None = None
+        #: the frames' arrays made C-contiguous, writeable float64 / int64 before the kernels
+        #: see them: set once a kernel refused another kind (their tuples must be of one type)
+        self._uniform = False
 
     def step(self, t: float, states: dict[str, ChannelState], out: dict[str, float | None]) -> None:
         """The tick in four compiled calls (the module docstring)."""
@@ -108,14 +123,36 @@ class MotionPredictionFamily(MetricFamily):
             seen.append((True, o.pos, o.pred, o.pred_len, codes))
         vals = self._out.vals
         has = self._has
-        ompv_tick(objects, t, tuple(seen), self._ompv_params, vals, has, self._rows["ompv"])
+        row = self._rows["ompv"]
+        if self._uniform:
+            seen = [_uniform(x) for x in seen]
+        try:
+            ompv_tick(objects, t, tuple(seen), self._ompv_params, vals, has, row)
+        except TypingError:
+            if self._uniform:
+                raise
+            self._uniform = True  # refused before it ran: nothing changed
+            seen = [_uniform(x) for x in seen]
+            ompv_tick(objects, t, tuple(seen), self._ompv_params, vals, has, row)
         # crpps: the Fréchet inputs the similarity family left, one per pair (None: no value)
         similarity = self._similarity
         if similarity is None:
             similarity = self._similarity = self.engine.family(SimilarityFamily)
         inputs = similarity.crpps_inputs
-        given = tuple([_NO_PAIR if x is None else (True, x[0], x[1]) for x in inputs])
-        k, n_geos = self._cut(t, tuple(plans_now), given or (_NO_PAIR,), len(given))
+        given = [_NO_PAIR if x is None else (True, x[0], x[1]) for x in inputs]
+        n_given = len(given)
+        if self._uniform:
+            plans_now = [_c64(x) for x in plans_now]
+            given = [_uniform(x) for x in given]
+        try:
+            k, n_geos = self._cut(t, tuple(plans_now), tuple(given or [_NO_PAIR]), n_given)
+        except TypingError:
+            if self._uniform:
+                raise
+            self._uniform = True  # refused before it ran: nothing changed
+            plans_now = [_c64(x) for x in plans_now]
+            given = [_uniform(x) for x in given]
+            k, n_geos = self._cut(t, tuple(plans_now), tuple(given or [_NO_PAIR]), n_given)
         plans = self._plans
         if n_geos:
             pair_distances_into(plans.coords, plans.starts, n_geos, self._fd)
