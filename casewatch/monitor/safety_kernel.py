@@ -857,7 +857,10 @@ def _tick_scores(
     for j in range(n_ch):
         if meta[j, PRESENT] and meta[j, OBJECTS] > 0:
             n_worlds += 1
-    scored = np.zeros(n_ch, dtype=np.bool_)
+    # small arrays of one type share one allocation (views of it)
+    flags = np.zeros((3, n_ch), dtype=np.bool_)
+    scored = flags[0]
+    small = np.empty((2, n_ch))
     any_scored = False
     for i in range(n_ch):
         n = meta[i, POINTS]
@@ -873,8 +876,10 @@ def _tick_scores(
             any_scored = True
     if any_scored:
         # world models by prediction horizon (a dict keyed by floats: NaN never matches)
-        horizon = np.empty(n_ch)
-        head = np.full(n_ch, -1, dtype=np.int64)
+        horizon = small[0]
+        ints = np.empty((7, n_ch), dtype=np.int64)
+        head = ints[0]
+        head[:] = -1
         for j in range(n_ch):
             if not (meta[j, PRESENT] and meta[j, OBJECTS] > 0):
                 continue
@@ -890,15 +895,16 @@ def _tick_scores(
         for i in range(n_ch):
             if scored[i] and meta[i, POINTS] > n_max:
                 n_max = meta[i, POINTS]
-        hcos = np.empty((n_ch, n_max))
-        hsin = np.empty((n_ch, n_max))
-        headed = np.zeros(n_ch, dtype=np.bool_)
-        cut = np.empty(n_ch, dtype=np.int64)
-        order = np.empty(n_ch, dtype=np.int64)
-        group = np.empty(n_ch, dtype=np.int64)
-        worlds = np.empty(n_ch, dtype=np.int64)
-        members = np.empty(n_ch, dtype=np.int64)
-        cuts = np.empty(n_ch, dtype=np.int64)
+        heading = np.empty((2, n_ch, n_max))
+        hcos = heading[0]
+        hsin = heading[1]
+        headed = flags[1]
+        cut = ints[1]
+        order = ints[2]
+        group = ints[3]
+        worlds = ints[4]
+        members = ints[5]
+        cuts = ints[6]
         res = np.empty((3, n_ch, n_ch))
         for g in range(n_ch):
             if head[g] != g:
@@ -980,8 +986,8 @@ def _tick_scores(
         vals[nn + n_ch] = _python_min(vals, 0, nn, 1)
         nones[nn + n_ch] = 0
     # arbitration: argmax_i of the min over the world models present, ties keep `previous`
-    score = np.empty(n_ch)
-    has = np.zeros(n_ch, dtype=np.bool_)
+    score = small[1]
+    has = flags[2]
     best = math.nan
     first = -1
     for i in range(n_ch):
