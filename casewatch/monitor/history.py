@@ -166,11 +166,11 @@ class ObjectHistory:
     """
 
     __slots__ = (
-        "_ids",
         "codes",
         "count",
         "elapsed",
         "head",
+        "ids",
         "n_obj",
         "n_pred",
         "pending",
@@ -203,7 +203,8 @@ class ObjectHistory:
         self.codes = np.zeros((channels, slots, objects), dtype=np.int64)
         self.pending = np.full(channels, -1, dtype=np.int64)
         self.elapsed = np.zeros(channels)
-        self._ids = _IdCodes()
+        #: object id -> its number (`codes_of`)
+        self.ids = _IdCodes()
         self._state()
 
     def _state(self) -> None:
@@ -222,18 +223,14 @@ class ObjectHistory:
 
     def codes_of(self, ids: list[str]) -> np.ndarray:
         """The numbers of `ids` (equal ids, equal numbers), as int64."""
-        return np.array(list(map(self._ids.__getitem__, ids)), dtype=np.int64)
-
-    @property
-    def id_count(self) -> int:
-        """How many ids have a number."""
-        return len(self._ids)
+        return np.array(list(map(self.ids.__getitem__, ids)), dtype=np.int64)
 
     def forget_unused(self) -> None:
         """Drop the ids no stored observation holds once more than `ID_LIMIT` are known (call
         between ticks: a tick's current ids are not stored yet). An id seen again later gets a
         new number, which nothing stored can match: matching is unchanged, memory bounded."""
-        if len(self._ids) <= self.ID_LIMIT:
+        ids = self.ids
+        if len(ids) <= self.ID_LIMIT:
             return
         live: set[int] = set()
         slots = self.times.shape[1]
@@ -242,10 +239,9 @@ class ObjectHistory:
             for r in range(int(self.count[c])):
                 s = (head - r) % slots
                 live.update(self.codes[c, s, : self.n_obj[c, s]].tolist())
-        kept = _IdCodes()
-        kept.next = self._ids.next
-        kept.update((k, v) for k, v in self._ids.items() if v in live)
-        self._ids = kept
+        kept = [(k, v) for k, v in ids.items() if v in live]
+        ids.clear()  # the same dict: a family may hold it
+        ids.update(kept)
 
     def fit(self, objects: int, values: int) -> None:
         """Room for a tick of `objects` objects whose predictions hold `values` numbers per

@@ -446,30 +446,20 @@ def ompv_tick(
     vals: np.ndarray,
     has: np.ndarray,
     row0: int,
+    first: int | None = None,
 ) -> None:
     """ompv of every channel at t into vals[row0 + c] / has[row0 + c] (`_ompv_tick`), room
     made when needed, the channels that do not track by the nearest matching. `params`:
-    (lookback - 1e-9 s, max_gap, tolerance, gate, standing)."""
+    (lookback - 1e-9 s, max_gap, tolerance, gate, standing). `first`: what a call of
+    `_ompv_tick` with these arguments already returned (the motion family calls the kernel
+    itself and this only when that is not 0)."""
     lookback, max_gap, tolerance, gate, standing = params
     h = history
-    while True:
-        n_pending = _ompv_tick(
-            t,
-            chans,
-            *h.state,
-            lookback,
-            max_gap,
-            tolerance,
-            standing,
-            vals,
-            has,
-            row0,
-            h.pending,
-            h.elapsed,
-        )
-        if n_pending >= 0:
-            break
+    state = (lookback, max_gap, tolerance, standing, vals, has, row0, h.pending, h.elapsed)
+    n_pending = _ompv_tick(t, chans, *h.state, *state) if first is None else first
+    while n_pending < 0:
         h.fit(max(len(ch[1]) for ch in chans), max(ch[2].size for ch in chans))
+        n_pending = _ompv_tick(t, chans, *h.state, *state)
     if n_pending:
         for c, s in enumerate(h.pending.tolist()):
             if s < 0:

@@ -124,7 +124,10 @@ def _plan(rng: np.random.Generator) -> np.ndarray:
     xy = np.cumsum(rng.normal(0.0, 1.0, (n, 2)), axis=0) + rng.normal(0.0, 0.3, 2)
     if n and rng.random() < 0.2:
         xy[:] = xy[0]  # standing still: every point in one place
-    return np.ascontiguousarray(np.column_stack([dt, xy]))
+    plan = np.ascontiguousarray(np.column_stack([dt, xy]))
+    if rng.random() < 0.03:  # another layout than a reader's: the same values
+        plan = np.asfortranarray(plan)
+    return plan
 
 
 def _objects(rng: np.random.Generator, tick: int, tracked: bool) -> Objects:
@@ -198,10 +201,9 @@ def _run_both(
     new_engine, old_engine = _Engine(params, channels), _Engine(params, channels)
     new, old = MotionPredictionFamily(new_engine), _OldFamily(old_engine)
     if small:  # every buffer grows during the stream
-        new._objects = ObjectHistory(n_channels, slots=2, objects=1, points=1)
         plans = PlanHistory(n_channels, params.plan_history, params.max_gap, width=1)
         plans.coords = np.zeros((1, 2))
-        new._plans = plans
+        new.use(plans, ObjectHistory(n_channels, slots=2, objects=1, points=1))
     compared: Counter[str] = Counter()
     for t, states, inputs in _stream(seed, n_channels, ticks):
         new_engine.similarity.crpps_inputs = inputs

@@ -28,7 +28,7 @@ from casewatch.monitor.history import (
     decay_weights,
     tick_rows,
 )
-from casewatch.monitor.prediction import ompv_tick
+from casewatch.monitor.prediction import _ompv_tick, ompv_tick
 from casewatch.safety_case.signals import channel_name, pair_name
 
 _NO_PLAN = np.zeros((0, 3))
@@ -47,9 +47,15 @@ def _c64(a: np.ndarray) -> np.ndarray:
     return np.require(a, dtype, ["C", "W"])
 
 
-def _uniform(entry: tuple) -> tuple:
-    """A channel's or pair's kernel entry with every array as `_c64` makes it."""
-    return tuple(_c64(x) if isinstance(x, np.ndarray) else x for x in entry)
+def _uniform(entries: list) -> list:
+    """The kernel entries (arrays, or tuples of a flag and arrays) with every array as `_c64`
+    makes it."""
+    return [
+        _c64(x)
+        if isinstance(x, np.ndarray)
+        else tuple(_c64(y) if isinstance(y, np.ndarray) else y for y in x)
+        for x in entries
+    ]
 
 
 class MotionPredictionFamily(MetricFamily):
@@ -59,10 +65,6 @@ class MotionPredictionFamily(MetricFamily):
         super().__init__(engine)
         p = self.params
         n_ch = len(self.channels)
-        self._plans = PlanHistory(n_ch, p.plan_history, p.max_gap)
-        # ompv compares with the objects of `ompv_lookback` seconds ago: the history is pruned
-        # by time in the tick, whatever the frame rate
-        self._objects = ObjectHistory(n_ch)
         self._rows = tick_rows(n_ch, len(self.pairs))
         names = [
             *(channel_name("chpps", c) for c in self.channels),
@@ -75,7 +77,6 @@ class MotionPredictionFamily(MetricFamily):
         ]
         self._out = KernelOutputs(names)
         self._has = np.zeros(len(names), dtype=np.bool_)
-        self._fd = np.zeros(self._plans.table.shape[0])
         #: each pair's Fréchet distance of the tick (`_finish`), for crpps_mean
         self._pair_fd = np.zeros(max(len(self.pairs), 1))
         self._ompv_params = (
@@ -94,11 +95,37 @@ class MotionPredictionFamily(MetricFamily):
         #: the frames' arrays made C-contiguous, writeable float64 / int64 before the kernels
         #: see them: set once a kernel refused another kind (their tuples must be of one type)
         self._uniform = False
+        lookback, max_gap, tolerance, _, standing = self._ompv_params
+        self._ompv_args = (lookback, max_gap, tolerance, standing)
+        self._finish_args = (
+            n_ch,
+            len(self.pairs),
+            self._out.vals,
+            self._has,
+            self._out.nones,
+            self._pair_fd,
+        )
+        # ompv compares with the objects of `ompv_lookback` seconds ago: the history is pruned
+        # by time in the tick, whatever the frame rate
+        self.use(PlanHistory(n_ch, p.plan_history, p.max_gap), ObjectHistory(n_ch))
+
+    def use(self, plans: PlanHistory, objects: ObjectHistory) -> None:
+        """Keep the plans and the objects in these histories (new ones: the constructor's; a
+        test passes small ones, so that every buffer grows)."""
+        self._plans = plans
+        self._objects = objects
+        self._ids = objects.ids
+        self._pend = (objects.pending, objects.elapsed)
+        self._table = plans.table
+        self._fd = np.zeros(plans.table.shape[0])
+        self._last_ids = [None] * len(self.channels)
+        self._prebuild()
 
     def step(self, t: float, states: dict[str, ChannelState], out: dict[str, float | None]) -> None:
-        """The tick in four compiled calls (the module docstring)."""
+        """The tick in four compiled calls (the module docstring); every argument that does
+        not change from tick to tick is prebuilt (`_cut_args`, `_finish_args`)."""
         objects = self._objects
-        if objects.id_count > objects.ID_LIMIT:
+        if len(self._ids) > objects.ID_LIMIT:
             objects.forget_unused()
             self._last_ids = [None] * len(self.channels)
         last_ids = self._last_ids
@@ -121,86 +148,84 @@ class MotionPredictionFamily(MetricFamily):
                 last_codes[i] = codes
             plans_now.append(s.plan)
             seen.append((True, o.pos, o.pred, o.pred_len, codes))
-        vals = self._out.vals
-        has = self._has
-        row = self._rows["ompv"]
-        if self._uniform:
-            seen = [_uniform(x) for x in seen]
-        try:
-            ompv_tick(objects, t, tuple(seen), self._ompv_params, vals, has, row)
-        except TypingError:
-            if self._uniform:
-                raise
-            self._uniform = True  # refused before it ran: nothing changed
-            seen = [_uniform(x) for x in seen]
-            ompv_tick(objects, t, tuple(seen), self._ompv_params, vals, has, row)
         # crpps: the Fréchet inputs the similarity family left, one per pair (None: no value)
         similarity = self._similarity
         if similarity is None:
             similarity = self._similarity = self.engine.family(SimilarityFamily)
-        inputs = similarity.crpps_inputs
-        given = [_NO_PAIR if x is None else (True, x[0], x[1]) for x in inputs]
+        given = [_NO_PAIR if x is None else (True, x[0], x[1]) for x in similarity.crpps_inputs]
         n_given = len(given)
+        if not given:
+            given = [_NO_PAIR]
         if self._uniform:
-            plans_now = [_c64(x) for x in plans_now]
-            given = [_uniform(x) for x in given]
+            seen, plans_now, given = _uniform(seen), _uniform(plans_now), _uniform(given)
+        vals = self._out.vals
+        has = self._has
+        row = self._rows["ompv"]
+        ticks = tuple(seen)
         try:
-            k, n_geos = self._cut(t, tuple(plans_now), tuple(given or [_NO_PAIR]), n_given)
+            n = _ompv_tick(t, ticks, *objects.state, *self._ompv_args, vals, has, row, *self._pend)
+        except TypingError:
+            # a frame's arrays of another kind: refused before the kernel ran, nothing changed
+            if self._uniform:
+                raise
+            self._uniform = True
+            self.step(t, states, out)
+            return
+        if n:
+            ompv_tick(objects, t, ticks, self._ompv_params, vals, has, row, n)
+        plans_t = tuple(plans_now)
+        given_t = tuple(given)
+        try:
+            status, k, n_geos, need = _tick_cut(t, plans_t, given_t, n_given, *self._cut_args, True)
         except TypingError:
             if self._uniform:
                 raise
-            self._uniform = True  # refused before it ran: nothing changed
-            plans_now = [_c64(x) for x in plans_now]
-            given = [_uniform(x) for x in given]
-            k, n_geos = self._cut(t, tuple(plans_now), tuple(given or [_NO_PAIR]), n_given)
-        plans = self._plans
+            self._uniform = True  # refused before it ran: the plans are not pushed yet
+            plans_t = tuple(_uniform(plans_now))
+            given_t = tuple(_uniform(given))
+            status, k, n_geos, need = _tick_cut(t, plans_t, given_t, n_given, *self._cut_args, True)
+        if status:
+            k, n_geos = self._cut_again(t, plans_t, given_t, n_given, status, need)
         if n_geos:
-            pair_distances_into(plans.coords, plans.starts, n_geos, self._fd)
-        mask, count, mean_left = _finish(
-            self._fd,
-            plans.table,
-            k,
-            len(self.channels),
-            len(self.pairs),
-            vals,
-            has,
-            self._out.nones,
-            self._pair_fd,
-        )
+            pair_distances_into(self._plans.coords, self._plans.starts, n_geos, self._fd)
+        mask, count, mean_left = _finish(self._fd, self._table, k, *self._finish_args)
         self._out.write(out, mask, count)
         if mean_left:
             self._mean(out)
 
-    def _cut(self, t: float, plans_now: tuple, given: tuple, n_given: int) -> tuple[int, int]:
-        """`_tick_cut` of the tick, its buffers grown when it asks: (pairs, Fréchet pairs)."""
+    def _prebuild(self) -> None:
+        """The kernels' arguments that change only when a buffer grows."""
+        plans = self._plans
+        self._cut_args = (
+            plans.plans,
+            plans.segs,
+            plans.lens,
+            plans.times,
+            plans.count,
+            plans.head,
+            plans.max_gap,
+            self._weights,
+            plans.coords,
+            plans.starts,
+            plans.table,
+        )
+
+    def _cut_again(
+        self, t: float, plans_now: tuple, given: tuple, n_given: int, status: int, need: int
+    ) -> tuple[int, int]:
+        """`_tick_cut` after it asked for room (status 1: wider plans, nothing pushed; 2: more
+        work space, the plans pushed), until it has it: (pairs, Fréchet pairs)."""
         plans = self._plans
         push = True
-        while True:
-            status, k, n_geos, need = _tick_cut(
-                t,
-                plans_now,
-                given,
-                n_given,
-                plans.plans,
-                plans.segs,
-                plans.lens,
-                plans.times,
-                plans.count,
-                plans.head,
-                plans.max_gap,
-                self._weights,
-                plans.coords,
-                plans.starts,
-                plans.table,
-                push,
-            )
-            if status == 0:
-                return k, n_geos
+        while status:
             if status == 1:
                 plans.widen(max(need, 2 * plans.plans.shape[2]))
             else:
                 push = False  # the plans are in: only the work space was short
                 plans.coords = np.zeros((max(need, 2 * len(plans.coords)), 2))
+            self._prebuild()
+            status, k, n_geos, need = _tick_cut(t, plans_now, given, n_given, *self._cut_args, push)
+        return k, n_geos
 
     def _mean(self, out: dict[str, float | None]) -> None:
         """crpps_mean = inv(mean fd) over three pairs or more, with np.mean's pairwise sum."""
