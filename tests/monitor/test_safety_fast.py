@@ -251,3 +251,38 @@ def test_a_scene_too_short_grows_and_keeps_the_rows_loaded():
     want: dict = {}
     _reference(["a", "b"], 0.0)[1].step(0.0, _two_channels(straight_plan(0, 0, 10, 0, 31)), want)
     assert out == want and out["ss__a__a"] == pytest.approx(1 / 3)
+
+
+def test_object_arrays_of_any_layout_score_as_the_reader_s():
+    # A frame built in memory may hold Fortran-ordered, strided, int32 or read-only arrays:
+    # _load copies them whatever their kind, and the tick gives what the reader's arrays give.
+    plan = straight_plan(0, 0, 10, 0, 31)
+    pred = straight_plan(13.5, -6, 0, 6, 21)  # crossing the plan from the right at 6 m/s
+    f = frame(
+        0.0,
+        {
+            "a": channel(
+                ego(), plan=plan, objects=[obj(1, 13.5, -6, math.pi / 2, prediction=pred)]
+            ),
+            "b": channel(ego(), plan=plan, objects=[obj(2, 30, 0), obj(3, 8, 3.1)]),
+        },
+    )
+    states = dict(f.channels)
+    _, family = _reference(["a", "b"], 0.0)
+    want: dict = {}
+    family.step(0.0, states, want)
+    odd = {}
+    for name, s in states.items():
+        o = replace(s.objects)
+        o.pred = np.asfortranarray(o.pred)
+        o.pred_len = o.pred_len.astype(np.int32)
+        o.pos = np.ascontiguousarray(np.repeat(o.pos, 2, axis=0)[::2])  # same values
+        o.pos = np.hstack([o.pos, o.pos])[:, :2]  # strided view
+        o.half = o.half.copy()
+        o.half.flags.writeable = False
+        odd[name] = replace(s, plan=np.asfortranarray(s.plan), objects=o)
+    _, fresh = _reference(["a", "b"], 0.0)
+    got: dict = {}
+    fresh.step(0.0, odd, got)
+    assert got == want
+    assert want["ss__a__a"] < 1.0  # the crossing object counts
