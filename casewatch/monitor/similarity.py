@@ -816,9 +816,8 @@ def _pairwise_sum(x):  # pragma: no cover - compiled
     for bit: the tests hold it to np.sum. The recursion is unrolled onto a stack (numba's
     cache of a self-recursive kernel crashed on loading)."""
     n = x.shape[0]
-    if n <= 128:
-        return _pairwise_block(x, 0, n)
-    # frames (start, length, halves done), and the sums of finished halves
+    # frames (start, length, halves done), and the sums of finished halves (every call to the
+    # block takes variables, not a literal 0: numba would compile a variant per literal)
     lo = np.empty(64, dtype=np.int64)
     size = np.empty(64, dtype=np.int64)
     done = np.empty(64, dtype=np.int64)
@@ -905,6 +904,37 @@ def _lone_step(  # pragma: no cover - compiled
         mem_seen[side, i] = new_seen[i]
     counts[2 + side] = k
     return ages
+
+
+@kernel
+def _take1(x, rows):  # pragma: no cover - compiled
+    """x[rows] of a 1-d array (`Objects.subset`'s copy) as a plain loop: numba's fancy
+    indexing generates its general code at every use, seconds of compiling in `_pair_tick`."""
+    out = np.empty(rows.shape[0], dtype=x.dtype)
+    for k in range(rows.shape[0]):
+        out[k] = x[rows[k]]
+    return out
+
+
+@kernel
+def _take2(x, rows):  # pragma: no cover - compiled
+    """x[rows] of a 2-d array (see `_take1`)."""
+    out = np.empty((rows.shape[0], x.shape[1]), dtype=x.dtype)
+    for k in range(rows.shape[0]):
+        for j in range(x.shape[1]):
+            out[k, j] = x[rows[k], j]
+    return out
+
+
+@kernel
+def _take3(x, rows):  # pragma: no cover - compiled
+    """x[rows] of a 3-d array (see `_take1`)."""
+    out = np.empty((rows.shape[0], x.shape[1], x.shape[2]), dtype=x.dtype)
+    for k in range(rows.shape[0]):
+        for j in range(x.shape[1]):
+            for c in range(x.shape[2]):
+                out[k, j, c] = x[rows[k], j, c]
+    return out
 
 
 #: Outputs of `_pair_tick` that can have no value (bit 1 << k of its return value set): ets
@@ -996,8 +1026,8 @@ def _pair_tick(  # pragma: no cover - compiled
     # the compared objects' rows (`Objects.subset`), copied only when some are left out
     whole_a = ia.shape[0] == pos_a.shape[0]
     whole_b = ib.shape[0] == pos_b.shape[0]
-    cpos_a = pos_a if whole_a else pos_a[ia]
-    cpos_b = pos_b if whole_b else pos_b[ib]
+    cpos_a = pos_a if whole_a else _take2(pos_a, ia)
+    cpos_b = pos_b if whole_b else _take2(pos_b, ib)
     if range_scale > 0.0:
         range_a = _ranges(cpos_a, ax, ay)
         range_b = _ranges(cpos_b, bx, by)
@@ -1006,17 +1036,17 @@ def _pair_tick(  # pragma: no cover - compiled
         range_b = np.zeros(cpos_b.shape[0])
     ols, oos, oas, ots, pairs, ots_pairs, lone_a, lone_b = _object_kernel(
         cpos_a,
-        yaw_a if whole_a else yaw_a[ia],
-        half_a if whole_a else half_a[ia],
-        foot_a if whole_a else foot_a[ia],
-        pred_a if whole_a else pred_a[ia],
-        len_a if whole_a else len_a[ia],
+        yaw_a if whole_a else _take1(yaw_a, ia),
+        half_a if whole_a else _take2(half_a, ia),
+        foot_a if whole_a else _take3(foot_a, ia),
+        pred_a if whole_a else _take3(pred_a, ia),
+        len_a if whole_a else _take1(len_a, ia),
         cpos_b,
-        yaw_b if whole_b else yaw_b[ib],
-        half_b if whole_b else half_b[ib],
-        foot_b if whole_b else foot_b[ib],
-        pred_b if whole_b else pred_b[ib],
-        len_b if whole_b else len_b[ib],
+        yaw_b if whole_b else _take1(yaw_b, ib),
+        half_b if whole_b else _take2(half_b, ib),
+        foot_b if whole_b else _take3(foot_b, ib),
+        pred_b if whole_b else _take3(pred_b, ib),
+        len_b if whole_b else _take1(len_b, ib),
         gate,
         w[: max(pred_a.shape[1], pred_b.shape[1], 1)],
         core_a,
@@ -1027,14 +1057,29 @@ def _pair_tick(  # pragma: no cover - compiled
         range_scale,
         time_scale,
     )
-    cvel_a = vel_a if whole_a else vel_a[ia]
-    cvel_b = vel_b if whole_b else vel_b[ib]
-    ages_a = _lone_step(
-        t, cpos_a, cvel_a, lone_a, 0, counts, mem_pos, mem_vel, mem_age, mem_seen, gate, max_gap
-    )
-    ages_b = _lone_step(
-        t, cpos_b, cvel_b, lone_b, 1, counts, mem_pos, mem_vel, mem_age, mem_seen, gate, max_gap
-    )
+    cvel_a = vel_a if whole_a else _take2(vel_a, ia)
+    cvel_b = vel_b if whole_b else _take2(vel_b, ib)
+    ages_a = np.zeros(0)
+    ages_b = np.zeros(0)
+    for side in range(2):  # a loop, not two calls with a literal side: one compiled variant
+        ages = _lone_step(
+            t,
+            cpos_a if side == 0 else cpos_b,
+            cvel_a if side == 0 else cvel_b,
+            lone_a if side == 0 else lone_b,
+            side,
+            counts,
+            mem_pos,
+            mem_vel,
+            mem_age,
+            mem_seen,
+            gate,
+            max_gap,
+        )
+        if side == 0:
+            ages_a = ages
+        else:
+            ages_b = ages
     # ObjectComparison.scores with monitor.lone.benefit_of_doubt's shares
     n_lone_a = ages_a.shape[0]
     n_lone_b = ages_b.shape[0]
