@@ -1,15 +1,18 @@
-"""Metrics over a channel's (or pair's) recent past: els_var and chpps.
+"""Metrics over a channel's (or pair's) recent past: els_var and chpps, and the histories the
+motion family keeps (`PlanHistory` of plans, `ObjectHistory` of objects for ompv).
 
 The ELS windows live in `monitor.engine`; the stored plans live in a `PlanHistory`, packed so
 that one compiled call cuts the current plan of every channel against each of its stored plans.
 
 Why packed: a frame's chpps is ~40 plan pairs of 30-50 points. Cut with Python bisects and
 numpy slices, then compared pair by pair, the pairs cost more in glue than in arithmetic.
-`_cut` writes every cut sequence straight into one coordinate array (line after line, the
-layout `shapely.linestrings` takes), `monitor.frechet.frechet_pairs` computes every pair's
-discrete Fréchet distance in one compiled call, and `_combine` turns the distances into the
-scores: three kernel calls per frame, whatever the number of channels and stored plans. The
-crpps inputs of the frame ride in the same call.
+The motion family's tick (`families/prediction.py`): `_tick_cut` pushes the tick's plans and
+writes every cut sequence straight into the history's work space (the crpps inputs of the
+tick ride in the same call), `monitor.frechet.pair_distances_into` computes every pair's
+discrete Fréchet distance in one compiled call, and `_finish` turns the distances into the
+scores and the family's output rows: three kernel calls, whatever the number of channels and
+stored plans. `_cut`, `frame_inputs`, `chpps_frame` and `_combine` are the formulation this
+replaced (`chpps` of one plan uses it), kept as the reference the tests hold the tick to.
 """
 
 from __future__ import annotations

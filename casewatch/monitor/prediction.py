@@ -1,5 +1,10 @@
 """Object Motion Prediction Validation (ompv) and the track interpolation it shares with the
-safety score."""
+safety score.
+
+`ompv` compares one channel's objects with one earlier observation; `ompv_tick` is what the
+motion family calls: every channel's ompv of a tick in one compiled call over the stored
+observations (`history.ObjectHistory`, ids as numbers), by `ompv`'s arithmetic, with `ompv`
+kept as the reference the tests hold it to."""
 
 from __future__ import annotations
 
