@@ -300,11 +300,13 @@ def _standing_counts(predicted, reaches, prev_pos, cur_pos, pi, ci, tolerance, s
 
 @kernel
 def _ompv_observed(
-    prev_pos, pred, pred_len, prev_codes, elapsed, cur_pos, cur_codes, tolerance, standing
+    prev_pos, pred, pred_len, prev_codes, elapsed, cur_pos, cur_codes, distinct, tolerance, standing
 ):  # pragma: no cover
     """`ompv` of one channel against one stored observation, ids as numbers; (value, 0), or
     (0.0, 1) when the channel does not track (the nearest matching, `_nearest_ompv`, is
-    the caller's: it is another module's kernel)."""
+    the caller's: it is another module's kernel). `distinct`: no current id is repeated, so
+    the first current object of an id is its only one, and objects listed in the same order
+    as before are found at once."""
     n_prev = prev_pos.shape[0]
     n_cur = cur_pos.shape[0]
     if n_prev == 0 and standing > 0.0:
@@ -312,13 +314,29 @@ def _ompv_observed(
     if n_prev == 0:
         return (1.0 if n_cur == 0 else 0.0), 0  # every current object is new: a miss
     match = np.empty(n_prev, dtype=np.int64)
-    for i in range(n_prev):
-        m = -1
-        for j in range(n_cur - 1, -1, -1):  # a repeated id: its last index
-            if cur_codes[j] == prev_codes[i]:
-                m = j
-                break
-        match[i] = m
+    if distinct:
+        hint = 0  # where the previous object's successor would be, same order kept
+        for i in range(n_prev):
+            code = prev_codes[i]
+            m = -1
+            if hint < n_cur and cur_codes[hint] == code:
+                m = hint
+            else:
+                for j in range(n_cur):
+                    if cur_codes[j] == code:
+                        m = j
+                        break
+            match[i] = m
+            if m >= 0:
+                hint = m + 1
+    else:
+        for i in range(n_prev):
+            m = -1
+            for j in range(n_cur - 1, -1, -1):  # a repeated id: its last index
+                if cur_codes[j] == prev_codes[i]:
+                    m = j
+                    break
+            match[i] = m
     n1, n2, tracked, _, _ = _ompv_tracked(
         prev_pos, pred, pred_len, elapsed, cur_pos, match, tolerance, standing
     )
@@ -355,12 +373,13 @@ def _ompv_tick(
     """ompv of every channel at t in one call, over `history.ObjectHistory`'s arrays: what the
     motion family did per channel with a `TimedHistory` of `Objects`, by the same rules.
 
-    `chans[c]`: (present, positions, predictions, prediction lengths, id numbers) of channel
-    c. A present channel whose previous observation is within max_gap (+1e-9 s) is
-    compared with its newest observation at least `lookback` old (spi-reference "ompv"
-    Decision), into vals[row0 + c] (has: it has a value); then its observation is stored (the
-    history restarting after a gap) and the observations older than the newest one at least
-    `lookback` old are dropped. An absent channel has no value and stores nothing.
+    `chans[c]`: (present, positions, predictions, prediction lengths, id numbers, no id
+    repeated) of channel c. A present channel whose previous observation is within max_gap
+    (+1e-9 s) is compared with its newest observation at least `lookback` old (spi-reference
+    "ompv" Decision), into vals[row0 + c] (has: it has a value); then its observation is
+    stored (the history restarting after a gap) and the observations older than the newest
+    one at least `lookback` old are dropped. An absent channel has no value and stores
+    nothing.
 
     Returns the number of channels that do not track (`pending[c]`: the slot compared with,
     `elapsed[c]` its age: the caller computes their value), or -1 with nothing changed when
@@ -385,6 +404,7 @@ def _ompv_tick(
         cur_pred = ch[2]
         cur_len = ch[3]
         cur_codes = ch[4]
+        distinct = ch[5]
         k = count[c]
         h = head[c]
         if k > 0 and t - times[c, h] <= gap:
@@ -401,6 +421,7 @@ def _ompv_tick(
                         t - times[c, s],
                         cur_pos,
                         cur_codes,
+                        distinct,
                         tolerance,
                         standing,
                     )
@@ -446,7 +467,7 @@ def _ompv_tick(
 def ompv_tick(
     history: ObjectHistory,
     t: float,
-    chans: tuple[tuple[bool, np.ndarray, np.ndarray, np.ndarray, np.ndarray], ...],
+    chans: tuple[tuple[bool, np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool], ...],
     params: tuple[float, float, float, float, float],
     vals: np.ndarray,
     has: np.ndarray,

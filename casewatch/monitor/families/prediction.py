@@ -36,7 +36,7 @@ _NO_XY = np.zeros((0, 2))
 _NO_PRED = np.zeros((0, 0, 3))
 _NO_INT = np.zeros(0, dtype=np.int64)
 #: a channel absent from the tick, as `ompv_tick` reads the channels' objects
-_ABSENT = (False, _NO_XY, _NO_PRED, _NO_INT, _NO_INT)
+_ABSENT = (False, _NO_XY, _NO_PRED, _NO_INT, _NO_INT, False)
 #: a pair without crpps inputs
 _NO_PAIR = (False, _NO_XY, _NO_XY)
 
@@ -87,10 +87,10 @@ class MotionPredictionFamily(MetricFamily):
             float(p.standing_motion),
         )
         self._weights = decay_weights(float(p.trajectory_decay), p.plan_history + 1)
-        #: each channel's ids of its last tick and their numbers: most ticks see the same
-        #: objects in the same order, and then need no lookup
+        #: each channel's ids of its last tick, their numbers and whether none is repeated:
+        #: most ticks see the same objects in the same order, and then need no lookup
         self._last_ids: list[list[str] | None] = [None] * n_ch
-        self._last_codes = [_NO_INT] * n_ch
+        self._last_codes = [(_NO_INT, True)] * n_ch
         self._similarity: SimilarityFamily | None = None
         #: the frames' arrays made C-contiguous, writeable float64 / int64 before the kernels
         #: see them: set once a kernel refused another kind (their tuples must be of one type)
@@ -141,13 +141,14 @@ class MotionPredictionFamily(MetricFamily):
             o = s.objects
             ids = o.ids
             if ids == last_ids[i]:
-                codes = last_codes[i]
+                codes, distinct = last_codes[i]
             else:
                 codes = objects.codes_of(ids) if ids else _NO_INT
+                distinct = len(set(ids)) == len(ids)
                 last_ids[i] = ids
-                last_codes[i] = codes
+                last_codes[i] = (codes, distinct)
             plans_now.append(s.plan)
-            seen.append((True, o.pos, o.pred, o.pred_len, codes))
+            seen.append((True, o.pos, o.pred, o.pred_len, codes, distinct))
         # crpps: the Fréchet inputs the similarity family left, one per pair (None: no value)
         similarity = self._similarity
         if similarity is None:
