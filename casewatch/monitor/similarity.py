@@ -7,6 +7,13 @@ A pair's object similarities (pairing included), its ets and its crpps inputs ar
 kernel call each (`monitor.jit`): with a handful of objects and 30-50-point plans, the numpy
 formulation spent its time in the fixed cost of many tiny array calls. The tests keep plain
 references to compare the kernels with.
+
+The similarity family does not call them one by one: `PairTracker` runs a pair's whole tick
+(coverage, pairing, lone ages, scores, ets, plan_lat, the ELS window) in one call of
+`_pair_tick`, which calls the same kernels in the same order, its history kept in arrays
+(issue 36: the Python glue around a dozen kernel calls per pair and tick was most of the
+family's time). The per-call functions stay: they define the values (the tick is held to them,
+bit for bit, in tests/monitor/test_similarity_fast.py) and other modules call them.
 """
 
 from __future__ import annotations
@@ -937,6 +944,25 @@ def _take3(x, rows):  # pragma: no cover - compiled
     return out
 
 
+@kernel
+def _view_objects(pos, yaw, vel, half, foot, pred, lens, views):  # pragma: no cover - compiled
+    """One side's `monitor.coverage._view_rows` on its arrays: the compared objects' pos,
+    yaw, vel, half, footprints, pred, pred_len (`Objects.subset`'s rows, copied only when the
+    coverage leaves some out) and their core flags."""
+    rows, core = _compared(pos, views)
+    whole = rows.shape[0] == pos.shape[0]
+    return (
+        pos if whole else _take2(pos, rows),
+        yaw if whole else _take1(yaw, rows),
+        vel if whole else _take2(vel, rows),
+        half if whole else _take2(half, rows),
+        foot if whole else _take3(foot, rows),
+        pred if whole else _take3(pred, rows),
+        lens if whole else _take1(lens, rows),
+        core,
+    )
+
+
 #: Outputs of `_pair_tick` that can have no value (bit 1 << k of its return value set): ets
 #: (an empty plan, no common time), plan_lat (the same), els_var (the window not yet full).
 TICK_ETS = 10
@@ -1021,13 +1047,12 @@ def _pair_tick(  # pragma: no cover - compiled
             for c in range(4):
                 rows[v, 3 + c] = views[s, 1 + c]
             v += 1
-    ia, core_a = _compared(pos_a, rows)
-    ib, core_b = _compared(pos_b, rows)
-    # the compared objects' rows (`Objects.subset`), copied only when some are left out
-    whole_a = ia.shape[0] == pos_a.shape[0]
-    whole_b = ib.shape[0] == pos_b.shape[0]
-    cpos_a = pos_a if whole_a else _take2(pos_a, ia)
-    cpos_b = pos_b if whole_b else _take2(pos_b, ib)
+    cpos_a, cyaw_a, cvel_a, chalf_a, cfoot_a, cpred_a, clen_a, core_a = _view_objects(
+        pos_a, yaw_a, vel_a, half_a, foot_a, pred_a, len_a, rows
+    )
+    cpos_b, cyaw_b, cvel_b, chalf_b, cfoot_b, cpred_b, clen_b, core_b = _view_objects(
+        pos_b, yaw_b, vel_b, half_b, foot_b, pred_b, len_b, rows
+    )
     if range_scale > 0.0:
         range_a = _ranges(cpos_a, ax, ay)
         range_b = _ranges(cpos_b, bx, by)
@@ -1036,17 +1061,17 @@ def _pair_tick(  # pragma: no cover - compiled
         range_b = np.zeros(cpos_b.shape[0])
     ols, oos, oas, ots, pairs, ots_pairs, lone_a, lone_b = _object_kernel(
         cpos_a,
-        yaw_a if whole_a else _take1(yaw_a, ia),
-        half_a if whole_a else _take2(half_a, ia),
-        foot_a if whole_a else _take3(foot_a, ia),
-        pred_a if whole_a else _take3(pred_a, ia),
-        len_a if whole_a else _take1(len_a, ia),
+        cyaw_a,
+        chalf_a,
+        cfoot_a,
+        cpred_a,
+        clen_a,
         cpos_b,
-        yaw_b if whole_b else _take1(yaw_b, ib),
-        half_b if whole_b else _take2(half_b, ib),
-        foot_b if whole_b else _take3(foot_b, ib),
-        pred_b if whole_b else _take3(pred_b, ib),
-        len_b if whole_b else _take1(len_b, ib),
+        cyaw_b,
+        chalf_b,
+        cfoot_b,
+        cpred_b,
+        clen_b,
         gate,
         w[: max(pred_a.shape[1], pred_b.shape[1], 1)],
         core_a,
@@ -1057,8 +1082,6 @@ def _pair_tick(  # pragma: no cover - compiled
         range_scale,
         time_scale,
     )
-    cvel_a = vel_a if whole_a else _take2(vel_a, ia)
-    cvel_b = vel_b if whole_b else _take2(vel_b, ib)
     ages_a = np.zeros(0)
     ages_b = np.zeros(0)
     for side in range(2):  # a loop, not two calls with a literal side: one compiled variant
