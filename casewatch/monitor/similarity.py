@@ -1251,6 +1251,7 @@ class PairTracker:
         """The pair's values at `t` in `families.similarity.METRICS` order (None: no value),
         both channels present."""
         els, eos, dist, yaw = ego_pair(a, b)
+        t = float(t)  # an int time (a frame built in memory) would compile another variant
         none = self._tick(t, els, eos, dist, yaw, a, b)
         if none < 0:  # more objects or longer plans than ever: grow, then the same call
             oa, ob, counts = a.objects, b.objects, self.counts
