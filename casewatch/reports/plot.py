@@ -268,7 +268,10 @@ def status_strip(
     Intervals narrower than a pixel are folded into their column by taking the worst status
     in it, so a short violation stays visible however long the run.
     """
-    if not timeline or width <= 0:
+    # a damaged result (NaN or infinite times) has no place on the axis: its intervals are
+    # left out rather than cast to arbitrary columns
+    timeline = [iv for iv in timeline if math.isfinite(iv.start) and math.isfinite(iv.end)]
+    if not timeline or width <= 0 or not all(map(math.isfinite, (t0, t1, period))):
         return []
     if t1 <= t0:
         t1 = t0 + period

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import math
+import warnings
+
 from casewatch.evaluator.result import Series, StatusInterval
 from casewatch.reports.plot import MAX_BUCKETS, nice_ticks, plot_series, status_strip
 
@@ -46,6 +49,24 @@ def test_status_strip_keeps_a_short_violation_visible() -> None:
     violated = [r for r in rects if r.status == "violated"]
     assert len(violated) == 1 and violated[0].x == 50.0 and violated[0].w == 1.0
     assert sum(r.w for r in rects) == 100.0
+
+
+def test_status_strip_leaves_out_times_that_are_not_finite() -> None:
+    # a damaged result (the fuzz tests mutate run folders): a NaN interval is left out, the
+    # others keep their columns; a run span that is not finite draws nothing
+    timeline = [
+        StatusInterval(status="satisfied", start=0.0, end=49.9, ticks=500),
+        StatusInterval(status="violated", start=math.nan, end=60.0, ticks=1),
+        StatusInterval(status="violated", start=50.0, end=99.9, ticks=500),
+    ]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no "invalid value encountered in cast"
+        rects = status_strip(timeline, 0.0, 100.0, 0.1, 10)
+        assert [(r.x, r.w, r.status) for r in rects] == [
+            (0.0, 5.0, "satisfied"),
+            (5.0, 5.0, "violated"),
+        ]
+        assert status_strip(timeline, 0.0, math.inf, 0.1, 10) == []
 
 
 def robustness(values: list[float]) -> Series:
