@@ -16,14 +16,17 @@ Settings, and why:
 - `nogil=True`: a kernel does not hold the interpreter lock (harmless for one thread, and lets
   an embedding application score channels from threads).
 
-Compiling every kernel (a machine's first run: about 40 s of CPU on the project's machine,
-2026-11-26) is mostly numba's own typing and lowering, in Python: a lower NUMBA_OPT, numba's
+Compiling every kernel (a machine's first run: about 60 s on the project's machine since the
+families' per-tick kernels, 2026-11-26) is mostly numba's own typing and lowering, in Python: a lower NUMBA_OPT, numba's
 `no_cfunc_wrapper` and typing calls between kernels without literals changed it by no more than
 the noise (measured, issue 36). `casewatch warm-up`, the install step, pays it once instead.
 
 Rule: a kernel calls only kernels of its own module. numba's cache checks the source file of
 the kernel it loads, not of the kernels compiled into it, so a kernel from another module would
 silently keep its old code after that module changes. Across modules, call from Python.
+So a small kernel two modules' tick kernels both need is written in each (the window push
+of `comfort._push_row` and `situation.push_row`), and a test holds every copy to the one
+Python reference (`family.PoseWindow`).
 
 Setting the environment variable `NUMBA_DISABLE_JIT=1` runs the kernels as plain Python, which
 is slow but lets a debugger step through them.
