@@ -17,9 +17,10 @@ Settings, and why:
   an embedding application score channels from threads).
 
 Compiling every kernel (a machine's first run: about 60 s on the project's machine since the
-families' per-tick kernels, 2026-11-26) is mostly numba's own typing and lowering, in Python: a lower NUMBA_OPT, numba's
-`no_cfunc_wrapper` and typing calls between kernels without literals changed it by no more than
-the noise (measured, issue 36). `casewatch warm-up`, the install step, pays it once instead.
+families' per-tick kernels, 2026-11-26) is mostly numba's own typing and lowering, in Python:
+a lower NUMBA_OPT, numba's `no_cfunc_wrapper` and typing calls between kernels without
+literals changed it by no more than the noise (measured, issue 36). `casewatch warm-up`, the
+install step, pays it once instead.
 
 Rule: a kernel calls only kernels of its own module. numba's cache checks the source file of
 the kernel it loads, not of the kernels compiled into it, so a kernel from another module would
