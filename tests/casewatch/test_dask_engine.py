@@ -43,6 +43,11 @@ def test_a_killed_worker_is_retried_and_a_bad_log_fails_alone(tmp_path):
         "highway-close-realstack",
     ]
     folder = logs(tmp_path, names)
+    # each drive three times more, so that the workers are still busy when one is killed
+    # (the six drives alone are judged in about two seconds since issue 36)
+    for name in names:
+        for copy in range(2, 5):
+            shutil.copy(DATA / f"{name}.jsonl.gz", folder / f"{name}-{copy}.jsonl.gz")
     # a log that cannot be judged: its header declares a 0.2 s period, the case 0.1 s
     header = {
         "header": {
@@ -110,7 +115,7 @@ def test_a_killed_worker_is_retried_and_a_bad_log_fails_alone(tmp_path):
     assert (out / "summary.json").is_file(), f"exit {code}, killed {killed}; stderr:\n{err}"
     summary = json.loads((out / "summary.json").read_text())
     assert code == 2  # the bad log is unusable input; every other log was judged
-    assert summary["logs"] == 7 and summary["logs_failed"] == 1
+    assert summary["logs"] == 4 * len(names) + 1 and summary["logs_failed"] == 1
     failed = [log for log in summary["per_log"] if not log["ok"]]
     assert [Path(log["stream"]).name for log in failed] == ["bad-period.jsonl"]
     assert "period" in failed[0]["error"]
