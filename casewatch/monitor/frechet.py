@@ -255,25 +255,26 @@ def _pair_distance(coords, sp, n_p, sq, n_q, row):  # pragma: no cover - compile
 
 
 @kernel
+def _line_starts(index, n_lines):  # pragma: no cover - compiled
+    """Where each line starts in `coords` when point k belongs to line `index[k]` (`index`
+    non-decreasing): starts[g] .. starts[g + 1] are line g's points, the layout
+    `pair_distances_into` reads."""
+    starts = np.zeros(n_lines + 1, dtype=np.int64)
+    for k in range(len(index)):
+        starts[index[k] + 1] += 1
+    for k in range(n_lines):
+        starts[k + 1] += starts[k]
+    return starts
+
+
+@kernel
 def _pair_distances(coords, index, n_lines):  # pragma: no cover - compiled
     """fd of lines (0, 1), (2, 3), ...: line k is the points of `coords` whose `index` is k
     (`index` non-decreasing, every line non-empty). Each pair: the bounds first, the distance
     without a programme when they meet, else the programme over the cells they leave
     (`_banded_cost`), the full one for a coordinate that is not finite."""
-    starts = np.zeros(n_lines + 1, dtype=np.int64)
-    for k in range(len(index)):
-        starts[index[k] + 1] += 1
-    widest = 0
-    for k in range(n_lines):
-        widest = max(widest, starts[k + 1])
-        starts[k + 1] += starts[k]
-    row = np.empty(widest)
     out = np.empty(n_lines // 2)
-    for pair in range(n_lines // 2):
-        p, q = 2 * pair, 2 * pair + 1
-        sp, n_p = starts[p], starts[p + 1] - starts[p]
-        sq, n_q = starts[q], starts[q + 1] - starts[q]
-        out[pair] = _pair_distance(coords, sp, n_p, sq, n_q, row)
+    pair_distances_into(coords, _line_starts(index, n_lines), n_lines // 2, out)
     return out
 
 
@@ -297,13 +298,10 @@ def pair_distances_into(coords, starts, n_pairs, out):  # pragma: no cover - com
 def _full_pair_distances(coords, index, n_lines):  # pragma: no cover - compiled
     """`_pair_distances` by the full programme for every pair (`_coupling_cost`): the
     reference the tests hold the shortcuts to."""
-    starts = np.zeros(n_lines + 1, dtype=np.int64)
-    for k in range(len(index)):
-        starts[index[k] + 1] += 1
+    starts = _line_starts(index, n_lines)
     widest = 0
     for k in range(n_lines):
-        widest = max(widest, starts[k + 1])
-        starts[k + 1] += starts[k]
+        widest = max(widest, starts[k + 1] - starts[k])
     row = np.empty(widest)
     out = np.empty(n_lines // 2)
     for pair in range(n_lines // 2):

@@ -353,10 +353,7 @@ def _smooth_plan(plan, half):  # pragma: no cover - compiled
         if m < 3:
             continue
         # normal equations of x(t) = c0 + c1 u + c2 u^2, u = (t - tk) / half
-        if scale != 0.0:
-            s0, s1, s2, s3, s4, bx0, bx1, bx2, by0, by1, by2 = _sums_scaled(plan, lo, hi, tk, scale)
-        else:
-            s0, s1, s2, s3, s4, bx0, bx1, bx2, by0, by1, by2 = _sums(plan, lo, hi, tk, half)
+        s0, s1, s2, s3, s4, bx0, bx1, bx2, by0, by1, by2 = _sums(plan, lo, hi, tk, half, scale)
         # Cramer's rule for the constant term c0 of the symmetric 3x3 system
         det = s0 * (s2 * s4 - s3 * s3) - s1 * (s1 * s4 - s2 * s3) + s2 * (s1 * s3 - s2 * s2)
         if abs(det) < 1e-12:
@@ -373,8 +370,9 @@ def _smooth_plan(plan, half):  # pragma: no cover - compiled
 
 
 @kernel
-def _sums(plan, lo, hi, tk, half):  # pragma: no cover - compiled
-    """`_smooth_plan`'s sums over the points lo..hi-1, u = (t - tk) / half, in their order."""
+def _sums(plan, lo, hi, tk, half, scale):  # pragma: no cover - compiled
+    """`_smooth_plan`'s sums over the points lo..hi-1, in their order, of u = (t - tk) / half,
+    computed as (t - tk) * scale where `_scale_of` gave a scale (the same doubles)."""
     s0 = 0.0
     s1 = 0.0
     s2 = 0.0
@@ -383,34 +381,8 @@ def _sums(plan, lo, hi, tk, half):  # pragma: no cover - compiled
     bx0 = bx1 = bx2 = 0.0
     by0 = by1 = by2 = 0.0
     for j in range(lo, hi):
-        u = (plan[j, 0] - tk) / half
-        u2 = u * u
-        s0 += 1.0
-        s1 += u
-        s2 += u2
-        s3 += u2 * u
-        s4 += u2 * u2
-        bx0 += plan[j, 1]
-        bx1 += plan[j, 1] * u
-        bx2 += plan[j, 1] * u2
-        by0 += plan[j, 2]
-        by1 += plan[j, 2] * u
-        by2 += plan[j, 2] * u2
-    return s0, s1, s2, s3, s4, bx0, bx1, bx2, by0, by1, by2
-
-
-@kernel
-def _sums_scaled(plan, lo, hi, tk, scale):  # pragma: no cover - compiled
-    """`_sums` with u = (t - tk) * scale (`_scale_of`: the same doubles)."""
-    s0 = 0.0
-    s1 = 0.0
-    s2 = 0.0
-    s3 = 0.0
-    s4 = 0.0
-    bx0 = bx1 = bx2 = 0.0
-    by0 = by1 = by2 = 0.0
-    for j in range(lo, hi):
-        u = (plan[j, 0] - tk) * scale
+        d = plan[j, 0] - tk
+        u = d * scale if scale != 0.0 else d / half
         u2 = u * u
         s0 += 1.0
         s1 += u
