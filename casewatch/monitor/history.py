@@ -152,8 +152,9 @@ class _IdCodes(dict):
 
 class ObjectHistory:
     """Each channel's recent observations of its objects, for ompv's lookback (spi-reference
-    "ompv"): what `family.TimedHistory` of `Objects` held, in preallocated arrays that
-    `prediction.ompv_tick` reads and updates in one compiled call per tick.
+    "ompv"): what a `TimedHistory` of `Objects` held (the reference in
+    tests/monitor/reference_windows.py), in preallocated arrays that `prediction.ompv_tick`
+    reads and updates in one compiled call per tick.
 
     Channel c's observations sit in a ring of `slots` slots, oldest to newest ending at
     `head[c]`, `count[c]` of them: slot s holds the frame time `times[c, s]`, `n_obj[c, s]` = n

@@ -27,7 +27,7 @@ the kernel it loads, not of the kernels compiled into it, so a kernel from anoth
 silently keep its old code after that module changes. Across modules, call from Python.
 So a small kernel two modules' tick kernels both need is written in each (the window push
 of `comfort._push_row` and `situation.push_row`), and a test holds every copy to the one
-Python reference (`family.PoseWindow`).
+Python reference (`PoseWindow`, tests/monitor/reference_windows.py).
 
 Setting the environment variable `NUMBA_DISABLE_JIT=1` runs the kernels as plain Python, which
 is slow but lets a debugger step through them.

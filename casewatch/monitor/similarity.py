@@ -1156,8 +1156,9 @@ def _pair_tick(  # pragma: no cover - compiled
         if not math.isnan(lat):
             out[11] = lat
             none &= ~(1 << 11)
-    # els_var: the ELS window (`family.TimedHistory` of els_window values, restarting after a
-    # gap), els_hist[0] the time of its newest value, els_hist[1:] a ring from counts[1]
+    # els_var: the ELS window (what a `TimedHistory` of els_window values held, the reference
+    # in tests/monitor/reference_windows.py, restarting after a gap), els_hist[0] the time of
+    # its newest value, els_hist[1:] a ring from counts[1]
     size = els_hist.shape[0] - 1
     count = counts[0]
     head = counts[1]

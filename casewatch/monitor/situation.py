@@ -611,8 +611,9 @@ _ROWS = len(TICK_METRICS)
 
 @kernel
 def push_row(buf, start, end, i, t, a, b, span, max_gap):  # pragma: no cover - compiled
-    """`family.PoseWindow.push(t, a, b)` on window i of `family.PoseWindows` (rows
-    buf[i, start[i]:end[i]]): the same rows kept, the same tests. The caller keeps a free row
+    """`PoseWindow.push(t, a, b)` (the reference in tests/monitor/reference_windows.py) on
+    window i of `family.PoseWindows` (rows buf[i, start[i]:end[i]]): the same rows kept, the
+    same tests. The caller keeps a free row
     (`PoseWindows.make_room`); returns the window's rows after the push."""
     s = start[i]
     e = end[i]

@@ -15,13 +15,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from casewatch.monitor.families.prediction import MotionPredictionFamily
-from casewatch.monitor.family import TimedHistory, worst
+from casewatch.monitor.family import worst
 from casewatch.monitor.frames import ChannelState, Ego, Objects, box_footprint
 from casewatch.monitor.history import ObjectHistory, PlanHistory, chpps_frame, tick_rows
 from casewatch.monitor.prediction import ompv
 from casewatch.monitor.similarity import crpps_inputs
 from casewatch.safety_case.model import MetricParams
 from casewatch.safety_case.signals import channel_name, pair_name
+from tests.monitor.reference_windows import TimedHistory
 
 
 class _Similarity:

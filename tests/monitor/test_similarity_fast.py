@@ -21,7 +21,7 @@ from hypothesis import strategies as st
 from casewatch.monitor.coverage import common_view
 from casewatch.monitor.engine import MetricEngine
 from casewatch.monitor.families.similarity import METRICS, SimilarityFamily
-from casewatch.monitor.family import MetricFamily, TimedHistory, worst
+from casewatch.monitor.family import MetricFamily, worst
 from casewatch.monitor.frames import ChannelState, Coverage
 from casewatch.monitor.history import els_var
 from casewatch.monitor.lone import LoneAges, benefit_of_doubt
@@ -40,6 +40,7 @@ from casewatch.monitor.similarity import (
 from casewatch.safety_case.model import MetricParams
 from casewatch.safety_case.signals import WORST_IS_MAX, pair_name
 from tests.monitor.builders import channel, ego, frame, obj
+from tests.monitor.reference_windows import TimedHistory
 
 
 class ReferenceSimilarity(MetricFamily):

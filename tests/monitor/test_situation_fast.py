@@ -24,7 +24,6 @@ from casewatch.monitor.family import (
     Engine,
     KernelOutputs,
     MetricFamily,
-    PoseWindow,
     PoseWindows,
     worst,
 )
@@ -61,6 +60,7 @@ from casewatch.safety_case.signals import (
     channel_name,
 )
 from tests.monitor.builders import channel, ego, frame, obj
+from tests.monitor.reference_windows import PoseWindow
 
 
 class OldComfort(MetricFamily):
