@@ -20,7 +20,7 @@ import numpy as np
 from casewatch.monitor.family import MetricFamily
 from casewatch.monitor.frames import ChannelState, Coverage, Frame
 from casewatch.monitor.registry import FAMILIES as REGISTERED
-from casewatch.monitor.resample import objects_on_grid, prepare_channel
+from casewatch.monitor.resample import objects_on_grid, plan_settings, prepare_channel
 from casewatch.monitor.world import WORLD_SIGNALS
 from casewatch.safety_case.model import MetricParams
 from casewatch.safety_case.signals import builtin_signals
@@ -67,13 +67,8 @@ class MetricEngine:
         self._by_type: dict[type[MetricFamily], MetricFamily] = {type(f): f for f in self.families}
         self._steps = [(f.step, f.name) for f in self.families]
         p = params
-        #: `resample.prepare_channel`'s settings, as `prepare_plan` derives them
-        self._grid = (
-            0.5 * float(p.plan_smoothing),
-            not p.plan_smoothing <= 0.0,
-            float(p.resample_step),
-            float(p.plan_standstill),
-        )
+        #: `resample.prepare_channel`'s settings
+        self._grid = plan_settings(p.plan_smoothing, p.resample_step, p.plan_standstill)
 
     def family(self, kind: type[F]) -> F:
         """The engine's instance of a registered family (a family reads another's state)."""

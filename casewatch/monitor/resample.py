@@ -448,12 +448,18 @@ def objects_on_grid(objects: Objects, start: int, step: float) -> Objects:
     return with_predictions(objects, pred, lens)
 
 
+def plan_settings(span: float, step: float, radius: float) -> tuple[float, bool, float, float]:
+    """The compiled plan preparation's settings (`_prepare_plan`, `prepare_channel`) from the
+    metric options: half the smoothing span, whether to smooth at all (`smooth_plan`'s test,
+    NaN included), the grid step and the standstill radius."""
+    return 0.5 * float(span), not span <= 0.0, float(step), float(radius)
+
+
 def prepare_plan(plan: np.ndarray, span: float, step: float, radius: float) -> np.ndarray:
     """A plan as every metric reads it: smoothed (`smooth_plan`), on the canonical grid
     (`resample_plan`), a standing one standing (`hold_standing`); one compiled call for the
     usual C-contiguous float plan (the engine's per-channel step, issue 36), else the three
     functions in turn."""
     if plan.dtype == np.float64 and plan.flags.c_contiguous and plan.ndim == 2:
-        smooth = not span <= 0.0  # smooth_plan's test, NaN included
-        return _prepare_plan(plan, 0.5 * float(span), smooth, float(step), float(radius))
+        return _prepare_plan(plan, *plan_settings(span, step, radius))
     return hold_standing(resample_plan(smooth_plan(plan, span), step), radius)
