@@ -66,7 +66,7 @@ _NUMBER_TYPES = frozenset({float, int})
 
 #: Largest magnitude of a position, velocity, size or trajectory value (metres, m/s, s): map
 #: coordinates (UTM eastings are about 10^6 m) stay far below; 1e308 would overflow the
-#: geometry of the metrics (a GEOS error in the Frechet distance of plans).
+#: geometry of the metrics (the squared point distances of the plans' Fréchet distance).
 MAX_MAGNITUDE = 1e9
 
 #: How deep the header's `meta` may nest (objects and lists); result.json carries it.

@@ -2,7 +2,7 @@
 ots, ets, lone_age, plan_lat per channel pair, from one object pairing per pair and tick.
 
 crpps needs a Fréchet distance: this family leaves its inputs in `crpps_inputs`, and the motion
-family computes them in one GEOS call with chpps's.
+family computes them in one compiled call with chpps's (`monitor.frechet`).
 
 A pair's tick is one compiled call (`similarity.PairTracker`: coverage, pairing, lone ages,
 scores, ets, plan_lat and the ELS window, its history kept in arrays) whose values the loop
