@@ -21,6 +21,7 @@ from typing import IO
 from casewatch.errors import CasewatchError
 from casewatch.monitor.fastparse import fast_frame
 from casewatch.monitor.frames import Frame, Header
+from casewatch.monitor.inflate import GzipStream, hashed
 from casewatch.monitor.parse import FrameDefect, parse_frame, parse_header
 
 try:  # optional: about five times faster on large frames; same results (see _decode)
@@ -120,8 +121,11 @@ def _open(source: str | Path | IO) -> tuple[IO, str, bool, bool]:
         path = Path(source)
         with open(path, "rb") as fh:
             magic = fh.read(2)
-        if magic == b"\x1f\x8b":
-            return gzip.open(path, "rb"), str(path), True, True  # type: ignore[return-value]
+        if magic == b"\x1f\x8b":  # inflated by ISA-L, read as the standard library reads it
+            hashing, buffered = hashed(open(path, "rb"), str(path))  # noqa: SIM115 - closed by us
+            reopen = lambda: open(path, "rb")  # noqa: E731, SIM115 - closed by the gzip reader
+            stream = GzipStream(hashing, buffered, reopen)
+            return stream, str(path), True, True  # type: ignore[return-value]
         return open(path, "rb"), str(path), True, True
     name = str(getattr(source, "name", "<stream>"))
     if isinstance(source, io.TextIOBase) or hasattr(source, "encoding"):

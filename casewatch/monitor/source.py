@@ -13,17 +13,17 @@ buffered to be hashed; a bag's digest is that of its files (`path_digest`).
 
 from __future__ import annotations
 
-import gzip
 import hashlib
 import io
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from types import TracebackType
 from typing import IO, Literal, Protocol
 
 from casewatch.errors import CasewatchError
 from casewatch.monitor.frames import Frame, Header
+from casewatch.monitor.inflate import GzipStream, hashed
 
 #: The name of standard input as a source.
 STDIN = "-"
@@ -122,7 +122,7 @@ class StreamSource(_Closing):
         self.kind = "stdin" if self.path == STDIN and payload is None else "stream"
         try:
             raw: IO[bytes] | None = io.BytesIO(payload) if payload is not None else None
-            self._binary, self._hashing, self.name = open_hashed(source, raw)
+            self._binary, self._digest, self.name = open_hashed(source, raw)
         except OSError as exc:
             raise SourceError(f"{source}: cannot read stream: {exc.strerror or exc}") from None
         # the reader splits the binary stream's lines itself (as a strict UTF-8 text stream
@@ -132,14 +132,13 @@ class StreamSource(_Closing):
         )
 
     def digest(self) -> str:
-        return self._hashing.sha256.hexdigest()
+        return self._digest()
 
     def topic_report(self) -> dict[str, dict[str, int]]:
         return {}
 
     def close(self) -> None:
         self._binary.close()
-        self._hashing.close()
 
 
 class BagSource(_Closing):
@@ -203,53 +202,36 @@ def open_source(
     return StreamSource(source, strict, channels, period, payload)
 
 
-class HashingReader(io.RawIOBase):
-    """A raw binary stream that feeds every byte it returns into a sha256."""
-
-    def __init__(self, raw: IO[bytes], name: str):
-        self._raw = raw
-        self.name = name  # readers above (buffer, gzip, text) report this name in messages
-        self.sha256 = hashlib.sha256()
-
-    def readable(self) -> bool:
-        return True
-
-    def readinto(self, buffer) -> int:  # type: ignore[override]
-        read1 = getattr(self._raw, "read1", None)
-        data = read1(len(buffer)) if read1 else self._raw.read(len(buffer))
-        n = len(data)
-        buffer[:n] = data
-        self.sha256.update(data)
-        return n
-
-    def close(self) -> None:
-        if self._raw is not sys.stdin.buffer:
-            self._raw.close()
-        super().close()
-
-
 def open_hashed(
     source: str | Path, raw: IO[bytes] | None = None
-) -> tuple[IO[bytes], HashingReader, str]:
+) -> tuple[IO[bytes], Callable[[], str], str]:
     """Open a path or `-` (stdin), or read `raw` under `source`'s name, for reading frames;
-    gzip is detected by its magic bytes.
+    gzip is detected by its magic bytes and inflated by `monitor.inflate` (ISA-L, read as the
+    standard library reads it).
 
-    Returns the binary stream to parse, the hashing layer (read `.sha256` at the end) and the
-    name to show in messages. Raises OSError when the file cannot be opened.
+    Returns the binary stream to parse, a function giving the sha256 (hex) of the bytes read
+    so far, and the name to show in messages. Raises OSError when the file cannot be opened.
     """
+    reopen: Callable[[], IO[bytes]] | None
     if raw is not None:
         name = str(source)
+        payload = raw.getvalue() if isinstance(raw, io.BytesIO) else None
+        reopen = (lambda: io.BytesIO(payload)) if payload is not None else None
     elif str(source) == STDIN:
         raw = sys.stdin.buffer
         name = "<stdin>"
+        reopen = None  # read once: the standard library's route from the first byte
     else:
-        raw = open(Path(source), "rb")  # noqa: SIM115 - closed through the returned stream
+        path = Path(source)
+        raw = open(path, "rb")  # noqa: SIM115 - closed through the returned stream
         name = str(source)
-    hashing = HashingReader(raw, name)
-    buffered = io.BufferedReader(hashing, buffer_size=1 << 16)
+        reopen = lambda: open(path, "rb")  # noqa: E731, SIM115 - the gzip reader closes it
+    hashing, buffered = hashed(raw, name)
     if buffered.peek(2)[:2] == b"\x1f\x8b":  # gzip, from a file or piped in
-        return gzip.GzipFile(fileobj=buffered, mode="rb"), hashing, name  # type: ignore[return-value]
-    return buffered, hashing, name
+        stream = GzipStream(hashing, buffered, reopen)
+        # the hashing layer the gzip reader reads through now (another after a replay)
+        return stream, lambda: stream.hashing.sha256.hexdigest(), name  # type: ignore[return-value]
+    return buffered, lambda: hashing.sha256.hexdigest(), name
 
 
 def file_digest(path: Path | str) -> str:
