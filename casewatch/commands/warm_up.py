@@ -12,6 +12,12 @@ writable, else numba's per-user cache folder, or `NUMBA_CACHE_DIR` when set. num
 entry against its source file's time stamp, so reinstalling or editing casewatch makes it
 compile again, once: run this again after an upgrade. Running it with a filled cache only loads
 (about a second) and says so.
+
+It also writes the package's Python bytecode (`__pycache__/*.pyc`, `compileall`). Python does
+that itself on a first import, except where it may not: a read-only install, or
+`PYTHONDONTWRITEBYTECODE` set (common in containers and CI images). There every process
+compiled the package's modules from source again, about a quarter of a second before the
+first frame (measured, issue 36).
 """
 
 from __future__ import annotations
@@ -49,6 +55,7 @@ def main(args: argparse.Namespace) -> int:
     counter = _CompileCounter()
     with event.install_listener("numba:compile", counter):
         warm_up_all()
+    write_bytecode()
     seconds = time.perf_counter() - start
     if not args.quiet:
         loaded, folders = _cache_use()
@@ -72,6 +79,18 @@ def warm_up_all() -> None:
     warm_up_metrics()
     warm_up_decoder()
     warm_up_stl()
+
+
+def write_bytecode() -> bool:
+    """Write the bytecode of every casewatch module (the module docstring says why); False
+    where some could not be written (a read-only install keeps compiling from source)."""
+    import compileall
+    from pathlib import Path
+
+    import casewatch
+
+    package = Path(casewatch.__file__).parent
+    return bool(compileall.compile_dir(package, quiet=2, workers=1))
 
 
 def warm_up_stl() -> None:
