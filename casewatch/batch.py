@@ -248,29 +248,32 @@ Runner = Callable[[list[Job], Callable[[int, LogSummary], None]], "str | None"]
 #: (about 0.14 s a time for the reference case) by `_prepared_once`, before its workers fork.
 #: Only the local runner fills it, for the time of one run: a Dask worker lives on between
 #: runs, so it prepares the case for every job, as before.
-_PREPARED: dict[str, tuple[Case, CompiledSpec]] = {}
+Prepared = dict[str, tuple[Case, CompiledSpec]]
+_PREPARED: Prepared = {}
 
 
 @contextmanager
-def _prepared_once(work: list[Job]) -> Iterator[None]:
-    """`_PREPARED` filled with each case of `work` that prepares without error (one that does
-    not is left to `run_job`, which reports it per log), and emptied after."""
+def _prepared_once(work: list[Job], prepared: Prepared) -> Iterator[None]:
+    """`_PREPARED` filled with each case of `work` (from `prepared` when there, else prepared
+    here, when it prepares without error: one that does not is left to `run_job`, which
+    reports it per log), and emptied after."""
     from casewatch import api
 
     try:
         for path in {job.case_path for job in work}:
             with suppress(CaseError, OSError):
-                _PREPARED[path] = api.prepare(path)
+                _PREPARED[path] = prepared.get(path) or api.prepare(path)
         yield
     finally:
         _PREPARED.clear()
 
 
-def local_runner(jobs: int = 1) -> Runner:
-    """Jobs in this process (`jobs` 1) or in `jobs` forked worker processes."""
+def local_runner(jobs: int = 1, prepared: Prepared | None = None) -> Runner:
+    """Jobs in this process (`jobs` 1) or in `jobs` forked worker processes. `prepared`:
+    cases the caller has already loaded and compiled, by absolute path (what `Job` holds)."""
 
     def run(work: list[Job], finished: Callable[[int, LogSummary], None]) -> str | None:
-        with _prepared_once(work):
+        with _prepared_once(work, prepared or {}):
             if jobs <= 1:
                 for k, job in enumerate(work):
                     finished(k, run_job(job))

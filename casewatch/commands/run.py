@@ -48,6 +48,8 @@ from casewatch.monitor.source import source_kind
 from casewatch.monitor.warmup import warm_up
 from casewatch.progress import FleetProgress, StreamProgress
 from casewatch.reports.render import FORMATS, parse_formats
+from casewatch.safety_case.model import Case
+from casewatch.spec.model import CompiledSpec
 from casewatch.stream_hints import RefusalHints, channel_hint, refusal_lines
 
 
@@ -290,7 +292,7 @@ def main(args: argparse.Namespace) -> int:
         return 2
     if single:
         return _run_single(args, case, spec, formats, options)
-    return _run_many(args, case, formats, options)
+    return _run_many(args, (case, spec), formats, options)
 
 
 def _run_single(args, case, spec, formats: tuple[str, ...], options: RunOptions) -> int:
@@ -399,7 +401,10 @@ def _print_summary(result: RunResult, path: Path, written: dict[str, Path]) -> N
         print(f"  {fmt}: {report}")
 
 
-def _run_many(args, case, formats: tuple[str, ...], options: RunOptions) -> int:
+def _run_many(
+    args, prepared: tuple[Case, CompiledSpec], formats: tuple[str, ...], options: RunOptions
+) -> int:
+    case = prepared[0]
     streams: list[Path] = []
     try:
         for pattern in args.streams:
@@ -446,7 +451,7 @@ def _run_many(args, case, formats: tuple[str, ...], options: RunOptions) -> int:
     runner = (
         dask_runner(args.jobs, args.scheduler, args.ship_logs)
         if args.engine == "dask"
-        else batch.local_runner(args.jobs)
+        else batch.local_runner(args.jobs, {str(Path(args.case).absolute()): prepared})
     )
     try:
         with bar:

@@ -51,3 +51,14 @@ def test_a_broken_case_is_still_reported_for_every_log(tmp_path) -> None:
     batch.local_runner(1)(work, done.__setitem__)
     assert [log.ok for log in done.values()] == [False, False]
     assert all("case.yaml" in (log.error or "") for log in done.values())
+
+
+def test_a_case_the_caller_prepared_is_not_prepared_again(tmp_path, monkeypatch) -> None:
+    case = write_case(tmp_path / "case.yaml")
+    work = _jobs(tmp_path, case, ["a", "b"])
+    prepared = {str(case.absolute()): api.prepare(case)}
+    calls: list[str] = []
+    monkeypatch.setattr(api, "prepare", lambda path, *a, **k: calls.append(str(path)))
+    done: dict[int, batch.LogSummary] = {}
+    batch.local_runner(1, prepared)(work, done.__setitem__)
+    assert calls == [] and [log.ok for log in done.values()] == [True, True]
