@@ -8,6 +8,8 @@ signals per tick. This keeps them as float arrays: a few floats a tick.
 from __future__ import annotations
 
 import math
+from itertools import chain
+from typing import Any
 
 import numpy as np
 
@@ -21,57 +23,90 @@ TRACK_POINTS = 2000
 
 class DriveLog:
     """Per tick, where the ego was (the trusted channel's estimate, or the first channel
-    present) and the few signals the scores read: preallocated float arrays (doubled when
-    full), a few floats a tick, one row written per tick."""
+    present) and the few signals the scores read: float arrays (doubled when full), a few
+    floats a tick. A tick waits as one tuple (t, x, y, the signals) and every `BLOCK` ticks
+    they go into the arrays in one `np.fromiter` (as `signal_store.Columns` does, and why);
+    every reader flushes first."""
+
+    #: Ticks that wait as tuples before one conversion (see `signal_store.Columns.BLOCK`).
+    BLOCK = 64
 
     def __init__(self) -> None:
         self.n = 0
+        #: per tick its time (its own array: `place` searches it), and x, y, then the
+        #: TICK_SIGNALS values (NaN: none); `_stored` rows filled
         self._t = np.empty(1024)
-        self._xy = np.empty((1024, 2))
-        self._values = np.empty((1024, len(TICK_SIGNALS)))
+        self._data = np.empty((1024, 2 + len(TICK_SIGNALS)))
+        self._stored = 0
+        self._rows: list[tuple[Any, ...]] = []
 
     def add(self, frame: Frame, trusted: str | None, values: dict) -> None:
-        n = self.n
-        if n == len(self._t):
-            self._t = np.concatenate([self._t, np.empty(n)])
-            self._xy = np.concatenate([self._xy, np.empty_like(self._xy)])
-            self._values = np.concatenate([self._values, np.empty_like(self._values)])
-        state = frame.channels.get(trusted) if trusted else None
-        if state is None and frame.channels:
-            state = next(iter(frame.channels.values()))
-        self._t[n] = frame.t
-        self._xy[n] = (state.ego.x, state.ego.y) if state is not None else _NO_POSITION
-        # None is stored as NaN, every other value as float()
-        self._values[n] = list(map(values.get, TICK_SIGNALS))
-        self.n = n + 1
+        channels = frame.channels
+        state = channels.get(trusted) if trusted else None
+        if state is None and channels:
+            state = next(iter(channels.values()))
+        if state is not None:
+            ego = state.ego
+            row = (frame.t, ego.x, ego.y, *map(values.get, TICK_SIGNALS))
+        else:
+            row = (frame.t, math.nan, math.nan, *map(values.get, TICK_SIGNALS))
+        rows = self._rows
+        rows.append(row)
+        self.n += 1
+        if len(rows) >= self.BLOCK:
+            self._flush()
+
+    def _flush(self) -> None:
+        """The waiting ticks into the array, in one conversion (None as NaN, every other
+        value as float(), as a row assignment converts them)."""
+        rows = self._rows
+        if not rows:
+            return
+        k = len(rows)
+        start = self._stored
+        stop = start + k
+        while stop > len(self._t):
+            self._t = np.concatenate([self._t, np.empty_like(self._t)])
+            self._data = np.concatenate([self._data, np.empty_like(self._data)])
+        m = 1 + self._data.shape[1]
+        block = np.fromiter(chain.from_iterable(rows), np.float64, count=k * m).reshape(k, m)
+        self._t[start:stop] = block[:, 0]
+        self._data[start:stop] = block[:, 1:]
+        self._stored = stop
+        self._rows = []
+
+    def _filled(self) -> tuple[np.ndarray, np.ndarray]:
+        """Every tick's time and row (x, y, the signals), the waiting ones flushed."""
+        self._flush()
+        return self._t[: self.n], self._data[: self.n]
 
     @property
     def t(self) -> list[float]:
-        return self._t[: self.n].tolist()
+        return self._filled()[0].tolist()
 
     @property
     def x(self) -> list[float]:
-        return self._xy[: self.n, 0].tolist()
+        return self._filled()[1][:, 0].tolist()
 
     @property
     def y(self) -> list[float]:
-        return self._xy[: self.n, 1].tolist()
+        return self._filled()[1][:, 1].tolist()
 
     def times(self) -> np.ndarray:
-        return self._t[: self.n].copy()
+        return self._filled()[0].copy()
 
     def columns(self) -> dict[str, np.ndarray]:
-        values = self._values[: self.n]
+        values = self._filled()[1][:, 2:]
         return {name: values[:, j].copy() for j, name in enumerate(TICK_SIGNALS)}
 
     def place(self, episodes: list[Episode]) -> None:
         """Each episode's position: the ego's at its first tick."""
         if not self.n:
             return
-        t = self._t[: self.n]
+        t, data = self._filled()
         for e in episodes:
             k = min(int(np.searchsorted(t, e.start - 1e-9)), self.n - 1)
-            x, y = self._xy[k].tolist()
+            x, y = data[k, :2].tolist()
             if math.isfinite(x):
                 e.x, e.y = round(x, 3), round(y, 3)
 
@@ -83,6 +118,3 @@ class DriveLog:
         if keep and picked[-1] != keep[-1]:
             picked.append(keep[-1])
         return [[round(t[k], 6), round(x[k], 3), round(y[k], 3)] for k in picked]
-
-
-_NO_POSITION = (math.nan, math.nan)
