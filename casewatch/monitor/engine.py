@@ -104,7 +104,9 @@ class MetricEngine:
         if frame.world is not None:
             out.update(frame.world)
         signals = frame.signals
-        if signals.keys().isdisjoint(out):
+        # out's view first: `isdisjoint` then walks the frame's few signals and looks each up
+        # in out; the other way round it walks all of out's names (about 1 us a tick)
+        if out.keys().isdisjoint(signals):
             out.update(signals)  # the loop below, when no key is already there
         else:
             for key, val in signals.items():

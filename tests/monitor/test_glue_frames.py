@@ -127,3 +127,22 @@ def test_every_bundled_line_as_the_careful_route_reads_it():
             got = fast_frame(line.encode(), frozenset(CHANNELS), number)
             assert got is not None and isinstance(want, Frame)
             assert_same_frame(got, want)
+
+
+def test_the_engine_passes_a_frames_signals_through_as_before():
+    """`MetricEngine.step` tests whether any of the frame's signals is already a name of the
+    tick (`out.keys().isdisjoint(signals)`, the cheap way round): when none is, all are
+    copied; when one is, a metric keeps its value and a world input without one takes it."""
+    from casewatch.monitor.engine import MetricEngine
+    from casewatch.safety_case.model import MetricParams
+
+    def step(signals: dict[str, float | None]) -> dict[str, float | None]:
+        frame = fast_frame(_line(signals=signals), None, 1)
+        assert frame is not None
+        return MetricEngine(MetricParams(), CHANNELS).step(frame)
+
+    out = step({"gap": 2.5, "s": None})
+    assert out["gap"] == 2.5 and out["s"] is None
+    out = step({"gap": 2.5, "els": 7.0, "speed_limit": 13.9})
+    assert out["gap"] == 2.5 and out["els"] != 7.0  # a metric's own value stands
+    assert out["speed_limit"] == 13.9  # a world input the frame's `world` left without value
