@@ -29,7 +29,7 @@ class DriveLog:
     every reader flushes first."""
 
     #: Ticks that wait as tuples before one conversion (see `signal_store.Columns.BLOCK`).
-    BLOCK = 64
+    BLOCK = 32
 
     def __init__(self) -> None:
         self.n = 0
