@@ -97,10 +97,11 @@ class Columns:
         self._stored = 0
         self._rows: list[tuple[Any, ...]] = []
         self._times: list[float] = []
-        #: the tick's values as a tuple in `names` order; None once a tick lacked a name
-        #: (from then on `values.get` picks them, None for a missing one)
-        self._pick: Callable[[Mapping[str, float | None]], tuple[Any, ...]] | None = _picker(
-            self.names
+        #: the tick's values as a tuple in `names` order (`itemgetter` of one name gives no
+        #: tuple: then, and once a tick lacked a name, `values.get` picks them, None for a
+        #: missing one)
+        self._pick: Callable[[Mapping[str, float | None]], tuple[Any, ...]] | None = (
+            itemgetter(*self.names) if len(self.names) > 1 else None
         )
 
     def add(self, t: float, values: Mapping[str, float | None]) -> None:
@@ -158,16 +159,6 @@ class Columns:
     def row(self, i: int) -> RowView:
         self._flush()
         return RowView(self, i)
-
-
-def _picker(names: list[str]) -> Callable[[Mapping[str, Any]], tuple[Any, ...]]:
-    """`values[name]` for every name, as a tuple (KeyError for a missing one)."""
-    if len(names) > 1:
-        return itemgetter(*names)  # type: ignore[no-any-return]
-    if names:
-        only = names[0]
-        return lambda values: (values[only],)
-    return lambda values: ()
 
 
 class RowView(Mapping[str, float | None]):
