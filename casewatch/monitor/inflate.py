@@ -102,14 +102,19 @@ def _fast_route_possible(gz: gzip.GzipFile) -> bool:
     reader = getattr(getattr(gz, "_buffer", None), "raw", None)
     return (
         isal_zlib is not None
-        and type(reader) is gzip._GzipReader  # type: ignore[attr-defined]
-        and "_add_read_data" in vars(gzip._GzipReader)  # type: ignore[attr-defined]
+        and _STDLIB_READER is not None
+        and type(reader) is _STDLIB_READER
+        and "_add_read_data" in vars(_STDLIB_READER)
         and getattr(reader, "_decomp_factory", None) is zlib.decompressobj
         and isinstance(getattr(reader, "_decompressor", None), type(zlib.decompressobj()))
     )
 
 
-class _IsalCrcReader(gzip._GzipReader):  # type: ignore[name-defined,misc]
+#: The standard library's gzip reader class (private: checked before the fast route is taken).
+_STDLIB_READER: type | None = getattr(gzip, "_GzipReader", None)
+
+
+class _IsalCrcReader(_STDLIB_READER or object):  # type: ignore[misc]
     """The standard library's gzip reader with ISA-L's CRC-32 of what it inflated (the same
     standard CRC, the same value: about 8 times faster here, 0.26 against 2.1 us per 8 KiB)."""
 

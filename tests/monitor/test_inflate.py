@@ -161,3 +161,14 @@ def test_a_cut_log_through_the_frame_reader_reports_the_line_the_old_route_reach
     kinds = [(d.line, d.kind) for d in source.reader.defects]
     assert kinds == [(d.line, d.kind) for d in old.defects]
     assert kinds[-1] == (lines[-1] + 1, "truncated-stream")
+
+
+def test_a_gzip_reader_of_another_make_keeps_the_standard_library(monkeypatch) -> None:
+    """Where this Python's gzip reader is not the one the fast route wraps (Python 3.12
+    changed it), every stream is read by the standard library alone, unchanged."""
+    import casewatch.monitor.inflate as inflate
+
+    monkeypatch.setattr(inflate, "_STDLIB_READER", None)
+    blob = gzip.compress(_log(random.Random(6), 2000, 0), mtime=0)
+    old, new, fast = _both(blob)
+    assert fast.route == "zlib" and new == old and old[1] is None
