@@ -8,13 +8,13 @@ signals per tick. This keeps them as float arrays: a few floats a tick.
 from __future__ import annotations
 
 import math
-from itertools import chain
 from typing import Any
 
 import numpy as np
 
 from casewatch.evaluator.result import Episode
 from casewatch.evaluator.scoring import TICK_SIGNALS
+from casewatch.evaluator.signal_store import float_rows, room_for
 from casewatch.monitor.frames import Frame
 
 #: The most points of `RunResult.track` (a long drive's path is decimated evenly).
@@ -62,14 +62,11 @@ class DriveLog:
         rows = self._rows
         if not rows:
             return
-        k = len(rows)
         start = self._stored
-        stop = start + k
-        while stop > len(self._t):
-            self._t = np.concatenate([self._t, np.empty_like(self._t)])
-            self._data = np.concatenate([self._data, np.empty_like(self._data)])
-        m = 1 + self._data.shape[1]
-        block = np.fromiter(chain.from_iterable(rows), np.float64, count=k * m).reshape(k, m)
+        stop = start + len(rows)
+        self._t = room_for(self._t, stop)
+        self._data = room_for(self._data, stop)
+        block = float_rows(rows, 1 + self._data.shape[1])
         self._t[start:stop] = block[:, 0]
         self._data[start:stop] = block[:, 1:]
         self._stored = stop

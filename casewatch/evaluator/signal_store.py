@@ -71,6 +71,20 @@ class SavedSignals:
         return ticks * self.period / 3600.0
 
 
+def float_rows(rows: list[tuple[Any, ...]], width: int) -> np.ndarray:
+    """(len(rows), width) floats of rows of `width` values, converted in one `np.fromiter` as
+    a row assignment converts them: None as NaN, every other value as float()."""
+    flat = np.fromiter(chain.from_iterable(rows), np.float64, count=len(rows) * width)
+    return flat.reshape(len(rows), width)
+
+
+def room_for(array: np.ndarray, rows: int) -> np.ndarray:
+    """`array`, or a copy doubled as often as needed to hold `rows` rows."""
+    while rows > len(array):
+        array = np.concatenate([array, np.empty_like(array)])
+    return array
+
+
 class Columns:
     """Per-tick values of some signals, appended tick by tick (NaN: no value); memory grows
     by 8 bytes per signal and tick.
@@ -129,13 +143,9 @@ class Columns:
         k = len(rows)
         start = self._stored
         stop = start + k
-        while stop > len(self._t):
-            self._t = np.concatenate([self._t, np.empty(len(self._t))])
-            self._values = np.concatenate([self._values, np.empty_like(self._values)])
-        m = len(self.names)
-        self._values[start:stop] = np.fromiter(
-            chain.from_iterable(rows), np.float64, count=k * m
-        ).reshape(k, m)
+        self._t = room_for(self._t, stop)
+        self._values = room_for(self._values, stop)
+        self._values[start:stop] = float_rows(rows, len(self.names))
         self._t[start:stop] = np.fromiter(self._times, np.float64, count=k)
         self._stored = stop
         self._rows = []

@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from typing import Any
+from typing import Any, TypeGuard
 
 import numpy as np
 from numba import njit, types
@@ -1167,13 +1167,17 @@ def _signals_only(
         signals = orjson.loads(raw[start:end])
     except orjson.JSONDecodeError:
         return None
-    if type(signals) is dict:
-        for value in signals.values():
-            if value is not None and type(value) is not float:
-                break
-        else:
-            return signals, None, None
+    if _decoded(signals):
+        return signals, None, None
     return _checked_extras({"signals": signals})
+
+
+def _decoded(signals: Any) -> TypeGuard[dict[str, float | None]]:
+    """Whether `signals` is a dict of floats or nulls (what orjson gives for JSON numbers with
+    a fraction or an exponent: never infinite), which `frame_extras` would copy unchanged."""
+    if type(signals) is not dict:
+        return False
+    return all(value is None or type(value) is float for value in signals.values())
 
 
 def _checked_extras(
@@ -1184,12 +1188,8 @@ def _checked_extras(
     exponent: never infinite) is taken as decoded: frame_extras would copy it unchanged."""
     if len(extras) == 1:
         signals = extras.get("signals")
-        if type(signals) is dict:
-            for value in signals.values():
-                if value is not None and type(value) is not float:
-                    break
-            else:
-                return signals, None, None
+        if _decoded(signals):
+            return signals, None, None
     elif not extras:
         return {}, None, None
     try:
