@@ -106,7 +106,6 @@ def _fast_route_possible(gz: gzip.GzipFile) -> bool:
         and type(reader) is _STDLIB_READER
         and "_add_read_data" in vars(_STDLIB_READER)
         and getattr(reader, "_decomp_factory", None) is zlib.decompressobj
-        and isinstance(getattr(reader, "_decompressor", None), type(zlib.decompressobj()))
     )
 
 

@@ -21,8 +21,8 @@ from typing import IO
 from casewatch.errors import CasewatchError
 from casewatch.monitor.fastparse import fast_frame
 from casewatch.monitor.frames import Frame, Header
-from casewatch.monitor.inflate import GzipStream, hashed
 from casewatch.monitor.parse import FrameDefect, parse_frame, parse_header
+from casewatch.monitor.source import open_hashed
 
 try:  # optional: about five times faster on large frames; same results (see _decode)
     import orjson
@@ -118,15 +118,9 @@ def _open(source: str | Path | IO) -> tuple[IO, str, bool, bool]:
                     return gzip.open(raw, "rb"), "<stdin>", False, True  # type: ignore[return-value]
                 return raw, "<stdin>", False, True
             return sys.stdin, "<stdin>", False, False
-        path = Path(source)
-        with open(path, "rb") as fh:
-            magic = fh.read(2)
-        if magic == b"\x1f\x8b":  # inflated by ISA-L, read as the standard library reads it
-            hashing, buffered = hashed(open(path, "rb"), str(path))  # noqa: SIM115 - closed by us
-            reopen = lambda: open(path, "rb")  # noqa: E731, SIM115 - closed by the gzip reader
-            stream = GzipStream(hashing, buffered, reopen)
-            return stream, str(path), True, True  # type: ignore[return-value]
-        return open(path, "rb"), str(path), True, True
+        # a file as a run's source opens it (gzip by its magic bytes, through `monitor.inflate`)
+        stream, _, name = open_hashed(source)
+        return stream, name, True, True
     name = str(getattr(source, "name", "<stream>"))
     if isinstance(source, io.TextIOBase) or hasattr(source, "encoding"):
         return source, name, False, False
