@@ -1,8 +1,9 @@
-"""`HashingReader`: a raw binary stream that hashes every byte it passes on.
+"""`HashingReader`: a raw binary stream that hashes every byte it passes on, and `hashed`,
+the layers every stream is read through.
 
 A stream's digest is taken in the same single pass that reads it (a live stream is never
-buffered to be hashed): `monitor.source` and the gzip reader (`monitor.inflate`) put this layer
-under their buffers.
+buffered to be hashed): `monitor.byte_stream` and the gzip reader (`monitor.inflate`) put this
+layer under their buffers.
 """
 
 from __future__ import annotations
@@ -36,3 +37,13 @@ class HashingReader(io.RawIOBase):
         if self._raw is not sys.stdin.buffer:
             self._raw.close()
         super().close()
+
+
+#: The buffer over the hashing layer (the gzip reader's input, or a plain stream's lines).
+BUFFER = 1 << 16
+
+
+def hashed(raw: IO[bytes], name: str) -> tuple[HashingReader, io.BufferedReader]:
+    """`raw` read through a hashing layer and a `BUFFER`-sized buffer: how a stream is read."""
+    hashing = HashingReader(raw, name)
+    return hashing, io.BufferedReader(hashing, buffer_size=BUFFER)

@@ -46,21 +46,12 @@ import zlib
 from collections.abc import Callable
 from typing import IO, Any
 
-from casewatch.monitor.hashing import HashingReader
+from casewatch.monitor.hashing import HashingReader, hashed
 
 try:  # a declared dependency; without it every stream takes the standard library's route
     from isal import isal_zlib
 except ImportError:  # pragma: no cover - the dependency is declared
     isal_zlib = None  # type: ignore[assignment]
-
-#: The buffered layer under the gzip reader, as `source.open_hashed` always had it.
-BUFFER = 1 << 16
-
-
-def hashed(raw: IO[bytes], name: str) -> tuple[HashingReader, io.BufferedReader]:
-    """`raw` read through a hashing layer and a `BUFFER`-sized buffer: how a stream is read."""
-    hashing = HashingReader(raw, name)
-    return hashing, io.BufferedReader(hashing, buffer_size=BUFFER)
 
 
 class _Diverged(Exception):
@@ -195,7 +186,7 @@ class GzipStream:
         self._fast = False
         self.close()
         self.hashing, buffered = hashed(self._reopen(), self.name)
-        buffered.peek(2)  # as `source.open_hashed` looked for the magic bytes
+        buffered.peek(2)  # as `byte_stream.open_hashed` looked for the magic bytes
         self._gz = gzip.GzipFile(fileobj=buffered, mode="rb")
         # an error while replaying: zlib failed before where ISA-L reached (the module
         # docstring's one inexact case); the reader reports it at the line it has reached

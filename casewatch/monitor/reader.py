@@ -19,10 +19,10 @@ from pathlib import Path
 from typing import IO
 
 from casewatch.errors import CasewatchError
+from casewatch.monitor.byte_stream import open_hashed
 from casewatch.monitor.fastparse import fast_frame
 from casewatch.monitor.frames import Frame, Header
 from casewatch.monitor.parse import FrameDefect, parse_frame, parse_header
-from casewatch.monitor.source import open_hashed
 
 try:  # optional: about five times faster on large frames; same results (see _decode)
     import orjson
